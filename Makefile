@@ -1,0 +1,43 @@
+# Two commands a newcomer needs (see README): `make reproduce` and `make test`.
+# Both set everything up first, idempotently: Debian's OSMesa, a virtual environment, the package with its extras.
+
+PYTHON ?= $(shell command -v python3.11 || command -v python3)
+VENV   ?= .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.installed
+SUDO   := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+
+.PHONY: setup system-deps reproduce test test-all clean
+
+setup: system-deps $(STAMP)
+
+# Off-screen OpenGL for pyrender; installed only when missing.
+system-deps:
+	@if ! ldconfig -p | grep -q libOSMesa.so; then \
+		echo "installing Debian's libosmesa6 (off-screen OpenGL)"; \
+		$(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libosmesa6; \
+	fi
+
+$(STAMP): pyproject.toml
+	@$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 11), sys.version' \
+		|| { echo "Python 3.11 is required (found $(PYTHON))"; exit 1; }
+	@[ -x $(PY) ] || $(PYTHON) -m venv $(VENV) || { \
+		echo "python venv is missing: installing Debian's python3-venv"; \
+		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq python3-venv && $(PYTHON) -m venv $(VENV); }
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e '.[dev]'
+	@touch $(STAMP)
+
+# The main job: the paper-1 arm scene rendered from 3 views and recorded.
+reproduce: setup
+	$(PY) -m experiments.reproduce
+
+# Fast tests (slow ones are marked; `make test-all` runs them too).
+test: setup
+	$(PY) -m pytest -q
+
+test-all: setup
+	$(PY) -m pytest -q -m ''
+
+clean:
+	rm -rf runs multirun outputs reports .cache .pytest_cache

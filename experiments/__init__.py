@@ -1,0 +1,1 @@
+"""Entry points: Hydra wiring (config schemas, the run job), the Rerun recording, reproduction and benchmarks."""

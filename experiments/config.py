@@ -1,0 +1,254 @@
+"""Config schemas (registered in Hydra's ConfigStore) and their validation.
+
+Every group option in ``conf/<group>/<option>.yaml`` starts from one of these schemas (its defaults list names
+``schema_<option>``), so a mistyped key or a value of the wrong type fails at composition. Numeric ranges are
+field metadata (``allowed=Range``) checked by `check_ranges` with the full key path in the message. ``_target_``
+names the core factory that `hydra.utils.instantiate` calls with plain values (``_convert_="all"``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from hydra.core.config_store import ConfigStore
+from omegaconf import MISSING, DictConfig, ListConfig, OmegaConf, open_dict
+
+from tracker.models.dsq import DSQShape, PARAM_RANGES, SHAPE_NAMES
+from tracker.ranges import ANY, NON_NEGATIVE, POSITIVE, Range, check_in_range
+
+PLANNED_TARGET = "experiments.config.planned"
+
+
+def allowed(values: Range, *, each: bool = False, length: int | None = None, default: Any = MISSING, **kw) -> Any:
+    """A dataclass field whose value (or, with ``each``, every element) must lie in ``values``."""
+    metadata = {"allowed": values, "each": each, "length": length}
+    if isinstance(default, list):
+        return field(default_factory=lambda: list(default), metadata=metadata, **kw)
+    return field(default=default, metadata=metadata, **kw)
+
+
+def _list(default: list) -> Any:
+    return field(default_factory=lambda: list(default))
+
+
+BYTE = Range(0, 255)
+IMAGE_SIDE = Range(16, 4096)
+COUNT = Range(1, math.inf)
+
+# One field per DSQ shape parameter, with the default and the allowed range the core defines (eq 1-2).
+DSQShapeSchema = dataclasses.make_dataclass(
+    "DSQShapeSchema",
+    [(name, float, allowed(PARAM_RANGES[name], default=getattr(DSQShape(), name))) for name in SHAPE_NAMES],
+)
+
+
+@dataclass
+class ResolutionSchema:
+    n_eta: int = allowed(Range(3, 1024), default=16)
+    n_omega: int = allowed(Range(3, 1024), default=24)
+
+
+@dataclass
+class ArmPartSchema:
+    name: str = MISSING
+    shape: DSQShapeSchema = field(default_factory=DSQShapeSchema)
+    tint: list[int] = allowed(BYTE, each=True, length=3, default=[220, 220, 220])
+    texture_cells: list[int] = allowed(Range(1, 256), each=True, length=2, default=[12, 12])
+
+
+@dataclass
+class DSQArmSchema:
+    _target_: str = "tracker.models.dsq_arm.build_arm"
+    parts: list[ArmPartSchema] = MISSING
+    mesh: ResolutionSchema = field(default_factory=lambda: ResolutionSchema(40, 48))
+    samples: ResolutionSchema = field(default_factory=lambda: ResolutionSchema(16, 24))
+
+
+@dataclass
+class ArmSwingSchema:
+    _target_: str = "tracker.motion.arm_swing.ArmSwing"
+    period_frames: float = allowed(POSITIVE, default=48.0)
+    elbow_swing: float = allowed(Range(-math.pi, math.pi), default=1.2)
+    bend_amplitude: float = allowed(ANY, default=0.04)
+    bend_period_frames: float = allowed(POSITIVE, default=64.0)
+    wrist_rock: float = allowed(Range(-math.pi, math.pi), default=0.35)
+    shoulder_sway: float = allowed(Range(-math.pi, math.pi), default=0.06)
+    shoulder: list[float] = allowed(ANY, each=True, length=3, default=[0.0, 0.0, 0.0])
+
+
+@dataclass
+class Orthogonal3Schema:
+    _target_: str = "tracker.geometry.rigs.orthogonal3"
+    target: list[float] = allowed(ANY, each=True, length=3, default=[0.0, 0.0, 0.0])
+    front_distance: float = allowed(POSITIVE, default=2.0)
+    left_distance: float = allowed(POSITIVE, default=2.0)
+    top_distance: float = allowed(POSITIVE, default=2.0)
+    focal_px: float = allowed(POSITIVE, default=400.0)
+    width: int = allowed(IMAGE_SIDE, default=320)
+    height: int = allowed(IMAGE_SIDE, default=240)
+
+
+@dataclass
+class MonoSchema:
+    _target_: str = "tracker.geometry.rigs.mono"
+    position: list[float] = allowed(ANY, each=True, length=3, default=[0.0, -3.0, 1.0])
+    target: list[float] = allowed(ANY, each=True, length=3, default=[0.0, 0.0, 1.0])
+    up: list[float] = allowed(ANY, each=True, length=3, default=[0.0, 0.0, 1.0])
+    focal_px: float = allowed(POSITIVE, default=400.0)
+    width: int = allowed(IMAGE_SIDE, default=320)
+    height: int = allowed(IMAGE_SIDE, default=240)
+    name: str = "main"
+
+
+@dataclass
+class RenderOnlySchema:
+    """No estimation: the run renders and records the scene (what every tracker will observe)."""
+
+    _target_: str = "tracker.sequence.RenderOnly"
+
+
+@dataclass
+class PlannedSchema:
+    """A group option whose capability a later issue builds; it composes (its values are checked) but cannot run."""
+
+    _target_: str = PLANNED_TARGET
+    planned_in: str = MISSING
+    what: str = MISSING
+
+
+@dataclass
+class CostSchema(PlannedSchema):
+    """Silhouette distance (paper 2, eq 6-10). ``w``: wXOR outside weight; ``likelihood_sigma``: eq 10's sigma."""
+
+    kind: str = MISSING
+    w: float = allowed(NON_NEGATIVE, default=1.0)
+    likelihood_sigma: float = allowed(POSITIVE, default=0.05)
+
+
+@dataclass
+class MotionModelSchema(PlannedSchema):
+    """Random-walk motion (paper 2, eq 4-5). ``sigma``: per-joint step (radians); ``m``: DM2's occluded factor."""
+
+    kind: str = MISSING
+    sigma: float = allowed(POSITIVE, default=0.1)
+    m: float = allowed(Range(1.0, math.inf), default=1.0)
+    occlusion_area_px: float = allowed(NON_NEGATIVE, default=50.0)
+
+
+@dataclass
+class RecordSchema:
+    images: bool = True
+    jpeg_quality: int = allowed(Range(0, 100), default=90)  # 0 stores RGB losslessly
+
+
+@dataclass
+class RenderSchema:
+    background_rgb: list[int] = allowed(BYTE, each=True, length=3, default=[40, 40, 48])
+    ambient: float = allowed(Range(0.0, 1.0), default=0.35)
+
+
+@dataclass
+class RunSchema:
+    model: Any = MISSING
+    scene: Any = MISSING
+    rig: Any = MISSING
+    tracker: Any = MISSING
+    cost: Any = None
+    motion: Any = None
+    frames: int = allowed(COUNT, default=60)
+    seed: int = allowed(Range(0, 2**32 - 1), default=0)
+    render: RenderSchema = field(default_factory=RenderSchema)
+    record: RecordSchema = field(default_factory=RecordSchema)
+
+
+GROUP_SCHEMAS: dict[str, dict[str, type]] = {
+    "model": {"dsq_arm": DSQArmSchema, "body_mesh": PlannedSchema},
+    "scene": {"arm_swing": ArmSwingSchema},
+    "rig": {"orthogonal3": Orthogonal3Schema, "mono": MonoSchema},
+    "tracker": {"render_only": RenderOnlySchema, "abis": PlannedSchema, "tbf": PlannedSchema},
+    "cost": {"xor": CostSchema, "wxor": CostSchema, "nwxor": CostSchema},
+    "motion": {"dm1": MotionModelSchema, "dm2": MotionModelSchema},
+}
+
+
+def register_schemas() -> None:
+    """Store the run schema as ``schema_run`` and each group option's schema as ``<group>/schema_<option>``."""
+    store = ConfigStore.instance()
+    store.store(name="schema_run", node=RunSchema)
+    for group, options in GROUP_SCHEMAS.items():
+        for option, schema in options.items():
+            store.store(group=group, name=f"schema_{option}", node=schema)
+
+
+class ConfigError(ValueError):
+    """An invalid configuration; the message is one line naming the key, the value and what is allowed."""
+
+
+def check_ranges(node: Any, path: str = "") -> None:
+    """Check every field with ``allowed`` metadata in a tree of schema dataclasses; raise `ConfigError`."""
+    if not dataclasses.is_dataclass(node):
+        return
+    for spec in dataclasses.fields(node):
+        value = getattr(node, spec.name)
+        key = f"{path}.{spec.name}" if path else spec.name
+        if "allowed" in spec.metadata:
+            _check_field(key, value, spec.metadata)
+        if isinstance(value, list):
+            for index, item in enumerate(value):
+                check_ranges(item, f"{key}[{index}]")
+        else:
+            check_ranges(value, key)
+
+
+def _check_field(key: str, value: Any, metadata: dict) -> None:
+    length = metadata["length"]
+    if length is not None and len(value) != length:
+        raise ConfigError(f"{key}={list(value)!r} has {len(value)} values: allowed exactly {length}")
+    try:
+        if metadata["each"]:
+            for index, item in enumerate(value):
+                check_in_range(f"{key}[{index}]", item, metadata["allowed"])
+        else:
+            check_in_range(key, value, metadata["allowed"])
+    except ValueError as error:
+        raise ConfigError(str(error)) from None
+
+
+def check_config(cfg: DictConfig, choices: dict[str, str]) -> None:
+    """What composition cannot check: numeric ranges, and group options whose capability is not built yet."""
+    for group in GROUP_SCHEMAS:
+        node = cfg.get(group)
+        if isinstance(node, DictConfig) and node.get("_target_") == PLANNED_TARGET:
+            raise ConfigError(
+                f"{group}={choices.get(group, '?')} is planned ({node.planned_in}: {node.what}) and cannot run yet"
+            )
+    run_cfg = cfg.copy()  # keeps the schema type (a masked copy would not)
+    with open_dict(run_cfg):
+        run_cfg.pop("hydra", None)
+    check_known_keys(run_cfg)
+    check_ranges(OmegaConf.to_object(run_cfg))
+
+
+def check_known_keys(node: Any, path: str = "") -> None:
+    """Reject keys a schema does not have (Hydra lets ``+key=value`` append them to a schema-backed node)."""
+    if isinstance(node, DictConfig):
+        schema = OmegaConf.get_type(node)
+        if dataclasses.is_dataclass(schema):
+            known = [f.name for f in dataclasses.fields(schema)]
+            for key in node:
+                if key not in known:
+                    allowed_keys = ", ".join(name for name in known if not name.startswith("_"))
+                    raise ConfigError(f"{path}{key}: unknown key, allowed keys here: {allowed_keys}")
+        for key in node:
+            check_known_keys(node._get_node(key), f"{path}{key}.")
+    elif isinstance(node, ListConfig):
+        for index in range(len(node)):
+            check_known_keys(node._get_node(index), f"{path[:-1]}[{index}].")
+
+
+def planned(**_: Any) -> None:
+    """The `_target_` of planned options; `check_config` rejects them before anything is instantiated."""
+    raise ConfigError("this option is planned and cannot be instantiated yet")

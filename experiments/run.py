@@ -1,0 +1,53 @@
+"""The Hydra entry point: ``python -m experiments.run [group=option ...] [key=value ...] [-m]``.
+
+Before Hydra creates any output directory, the command line is composed with Hydra's Compose API and checked
+(every value of a sweep included): a bad override exits with status 2 and one line on stderr naming the key, the
+value and what is allowed, and leaves no files behind. Then `hydra.main` runs the job(s).
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+from pathlib import Path
+
+import hydra
+from hydra.core.hydra_config import HydraConfig
+from hydra.types import RunMode
+from omegaconf import DictConfig
+
+from experiments.config import ConfigError, register_schemas
+from experiments.job import run_job
+from experiments.validate import validate_command_line
+
+CONFIG_DIR = Path(__file__).resolve().parent.parent / "conf"
+CONFIG_NAME = "config"
+
+log = logging.getLogger(__name__)
+register_schemas()
+
+
+@hydra.main(version_base="1.3", config_path=str(CONFIG_DIR), config_name=CONFIG_NAME)
+def hydra_main(cfg: DictConfig) -> dict:
+    hydra_cfg = HydraConfig.get()
+    choices = {k: v for k, v in hydra_cfg.runtime.choices.items() if not k.startswith("hydra") and v is not None}
+    output_dir = Path(hydra_cfg.runtime.output_dir)
+    metrics = run_job(cfg, output_dir, choices)
+    log.info("run %s: %s", metrics["status"], output_dir)
+    if metrics["status"] != "ok" and hydra_cfg.mode == RunMode.RUN:
+        sys.exit(1)  # a single run reports failure by its exit code; a sweep goes on to its next job
+    return metrics
+
+
+def main(argv: list[str] | None = None) -> None:
+    argv = sys.argv[1:] if argv is None else argv
+    try:
+        validate_command_line(argv, CONFIG_DIR, CONFIG_NAME)
+    except ConfigError as error:
+        print(f"error: {error}", file=sys.stderr)
+        sys.exit(2)
+    hydra_main()
+
+
+if __name__ == "__main__":
+    main()

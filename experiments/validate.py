@@ -1,0 +1,92 @@
+"""Check a command line before Hydra runs it: compose every combination a sweep names, check ranges.
+
+Each failure becomes a `ConfigError` whose message is one line: the key, the value and what is allowed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+from hydra import compose, initialize_config_dir
+from hydra.core.override_parser.overrides_parser import OverridesParser
+from hydra.errors import HydraException, MissingConfigException, OverrideParseException
+from omegaconf.errors import OmegaConfBaseException
+
+from experiments.config import ConfigError, GROUP_SCHEMAS, check_config
+
+# Flags after which Hydra runs nothing (help, printing the config, shell completion): nothing to validate.
+_INFORMATIONAL_FLAGS = {"--help", "-h", "--hydra-help", "--cfg", "-c", "--info", "-i", "--version",
+                        "--shell-completion", "-sc", "--resolve", "--package", "-p"}  # fmt: skip
+_MULTIRUN_FLAGS = {"--multirun", "-m"}
+_SCHEMA_PREFIX = "schema_"
+
+
+def validate_command_line(argv: list[str], config_dir: Path, config_name: str) -> None:
+    """Raise `ConfigError` unless every job the command line describes composes and passes `check_config`."""
+    flags = {arg.split("=", 1)[0] for arg in argv if arg.startswith("-")}
+    if flags & _INFORMATIONAL_FLAGS or flags - _MULTIRUN_FLAGS:
+        return  # Hydra handles these itself (and unknown flags with its own usage message)
+    overrides = [arg for arg in argv if not arg.startswith("-")]
+    for combination in sweep_combinations(overrides):
+        cfg = _compose(config_dir, config_name, combination)
+        choices = {k: v for k, v in cfg.hydra.runtime.choices.items() if not k.startswith("hydra") and v is not None}
+        for group, option in choices.items():
+            if option.startswith(_SCHEMA_PREFIX):
+                raise ConfigError(f"{group}={option} is a schema, not an option: allowed {', '.join(_options(group))}")
+        try:
+            check_config(cfg, choices)
+        except OmegaConfBaseException as error:
+            raise ConfigError(_describe(error)) from None
+
+
+def sweep_combinations(overrides: list[str]) -> list[list[str]]:
+    """Enough jobs to try every value of every swept key: all first values, then each other value in turn."""
+    try:
+        parsed = OverridesParser.create().parse_overrides(overrides)
+    except OverrideParseException as error:
+        raise ConfigError(f"cannot parse the overrides {' '.join(overrides)!r}: {_first_line(error)}") from None
+    choices = []
+    for override, text in zip(parsed, overrides):
+        key = text.split("=", 1)[0]
+        values = list(override.sweep_string_iterator()) if override.is_sweep_override() else None
+        choices.append([f"{key}={value}" for value in values] if values else [text])
+    combinations = [[options[0] for options in choices]]
+    for index, options in enumerate(choices):
+        for option in options[1:]:
+            combination = list(combinations[0])
+            combination[index] = option
+            combinations.append(combination)
+    return combinations
+
+
+def _compose(config_dir: Path, config_name: str, overrides: list[str]):
+    try:
+        with initialize_config_dir(config_dir=str(config_dir), version_base="1.3"):
+            return compose(config_name, overrides=overrides, return_hydra_config=True)
+    except MissingConfigException as error:
+        group, _, option = (error.missing_cfg_file or "").rpartition("/")
+        options = [o for o in (error.options or []) if not o.startswith(_SCHEMA_PREFIX)]
+        raise ConfigError(f"{group}={option}: no such option, allowed {', '.join(options)}") from None
+    except HydraException as error:
+        cause = error.__cause__
+        message = _describe(cause) if isinstance(cause, OmegaConfBaseException) else _first_line(error)
+        raise ConfigError(message) from None
+
+
+def _describe(error: OmegaConfBaseException) -> str:
+    key = getattr(error, "full_key", None) or getattr(error, "key", None) or "?"
+    schema = getattr(error, "object_type", None)
+    if "not in" in str(error) and dataclasses.is_dataclass(schema):  # an unknown key in a schema-backed node
+        known = [f.name for f in dataclasses.fields(schema) if not f.name.startswith("_")]
+        return f"{key}: unknown key, allowed keys here: {', '.join(known)}"
+    message = getattr(error, "msg", None) or str(error)
+    return f"{key}: {message.strip().splitlines()[0] if message.strip() else type(error).__name__}"
+
+
+def _options(group: str) -> list[str]:
+    return sorted(GROUP_SCHEMAS.get(group, {}))
+
+
+def _first_line(error: BaseException) -> str:
+    return str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__

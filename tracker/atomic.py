@@ -1,0 +1,60 @@
+"""Atomic file output: write to a temporary file beside the target, then rename over it.
+
+A reader (or a resumed sweep) therefore sees either the complete previous file, the complete new file, or none.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+
+class AtomicFile:
+    """A temporary file beside ``target`` that becomes ``target`` on `commit` (or disappears on `discard`)."""
+
+    def __init__(self, target: str | Path) -> None:
+        self.target = Path(target)
+        self.target.parent.mkdir(parents=True, exist_ok=True)
+        handle, temporary = tempfile.mkstemp(prefix=f".{self.target.name}.", suffix=".tmp", dir=self.target.parent)
+        os.close(handle)
+        self.temporary = Path(temporary)
+        os.chmod(self.temporary, 0o666 & ~_current_umask())  # mkstemp makes 0600; outputs are ordinary files
+
+    def commit(self) -> None:
+        os.replace(self.temporary, self.target)
+
+    def discard(self) -> None:
+        self.temporary.unlink(missing_ok=True)
+
+
+def _current_umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+@contextmanager
+def atomic_path(target: str | Path) -> Iterator[Path]:
+    """Yield a temporary path beside ``target``; on success rename it to ``target``, on error delete it."""
+    file = AtomicFile(target)
+    try:
+        yield file.temporary
+        file.commit()
+    finally:
+        file.discard()
+
+
+def write_json(target: str | Path, data: Any) -> None:
+    with atomic_path(target) as temporary:
+        temporary.write_text(json.dumps(data, indent=2, sort_keys=True, allow_nan=False) + "\n")
+
+
+def write_parquet(target: str | Path, frame) -> None:
+    """Write a pandas DataFrame as parquet, atomically."""
+    with atomic_path(target) as temporary:
+        frame.to_parquet(temporary, index=False)

@@ -1,0 +1,1 @@
+"""Geometry: rotations, rigid transforms, pinhole cameras and camera rigs."""

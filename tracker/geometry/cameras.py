@@ -1,0 +1,122 @@
+"""Pinhole cameras: world -> camera (DESIGN eq 5), projection (eq 6), and the one conversion to OpenGL.
+
+Convention:
+    Camera frame is OpenCV's: x right, y down, z forward (the viewing direction); metres.
+    A camera holds ``rotation`` = R_v, the camera axes expressed in the world (camera -> world, columns x, y, z),
+    and ``position`` = T_v, the optical centre in the world. World -> camera: ``p_v = R_v^T (p_world - T_v)``.
+    Pixels: ``u = fx x/z + cx``, ``v = fy y/z + cy``; u grows right, v grows down, and the centre of pixel
+    (row j, column i) is at ``(u, v) = (i, j)`` (OpenCV's convention; image arrays are indexed ``[v, u]``).
+    The paper's eq 6 is the special case ``fx = fy = f``, ``cx = cy = 0``.
+    pyrender uses OpenGL's camera frame (x right, y up, z backward) and puts pixel centres at half-integers;
+    `opengl_camera` is the only place that converts.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from tracker.tol import MIN_DEPTH_M
+
+# OpenCV camera axes expressed in OpenGL camera axes (and back: the matrix is its own inverse).
+_CV_TO_GL_AXES = np.diag([1.0, -1.0, -1.0])
+
+
+@dataclass(frozen=True, eq=False)
+class Camera:
+    """A calibrated pinhole camera. ``rotation`` (3, 3) camera -> world; ``position`` (3,) metres."""
+
+    name: str
+    width: int
+    height: int
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    rotation: np.ndarray
+    position: np.ndarray
+
+    @property
+    def intrinsic_matrix(self) -> np.ndarray:
+        """The ``(3, 3)`` matrix K with ``[u, v, 1]^T ~ K p_camera``."""
+        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
+
+    def world_to_camera(self, points: np.ndarray) -> np.ndarray:
+        """``(n, 3)`` world points -> ``(n, 3)`` camera-frame points (eq 5)."""
+        return (np.asarray(points, dtype=np.float64) - self.position) @ self.rotation
+
+    def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(n, 3)`` world points -> ``(n, 2)`` pixels ``(u, v)`` and ``(n,)`` depth z (eq 6).
+
+        Points with ``z <= MIN_DEPTH_M`` (behind or on the camera) get NaN pixels.
+        """
+        p = self.world_to_camera(points)
+        z = p[:, 2]
+        in_front = z > MIN_DEPTH_M
+        safe_z = np.where(in_front, z, 1.0)
+        uv = np.stack([self.fx * p[:, 0] / safe_z + self.cx, self.fy * p[:, 1] / safe_z + self.cy], axis=1)
+        uv[~in_front] = np.nan
+        return uv, z
+
+
+def look_at(
+    name: str,
+    position: np.ndarray,
+    target: np.ndarray,
+    up: np.ndarray,
+    *,
+    width: int,
+    height: int,
+    focal_px: float,
+) -> Camera:
+    """A camera at ``position`` looking at ``target``; ``up`` (world) appears upwards in the image.
+
+    The principal point is the image centre ``((width - 1) / 2, (height - 1) / 2)``.
+    """
+    position = np.asarray(position, dtype=np.float64)
+    forward = np.asarray(target, dtype=np.float64) - position
+    if np.linalg.norm(forward) < MIN_DEPTH_M:
+        raise ValueError(f"camera {name!r}: position and target coincide ({position.tolist()})")
+    z_axis = forward / np.linalg.norm(forward)
+    x_axis = np.cross(z_axis, np.asarray(up, dtype=np.float64))  # image y (down) ~ -up, so x = y cross z = z cross up
+    if np.linalg.norm(x_axis) < 1e-9:
+        raise ValueError(f"camera {name!r}: 'up' {np.asarray(up).tolist()} is parallel to the viewing direction")
+    x_axis /= np.linalg.norm(x_axis)
+    y_axis = np.cross(z_axis, x_axis)  # right-handed: z cross x = y
+    rotation = np.stack([x_axis, y_axis, z_axis], axis=1)
+    return Camera(
+        name=name,
+        width=int(width),
+        height=int(height),
+        fx=float(focal_px),
+        fy=float(focal_px),
+        cx=(width - 1) / 2.0,
+        cy=(height - 1) / 2.0,
+        rotation=rotation,
+        position=position,
+    )
+
+
+@dataclass(frozen=True)
+class OpenGLCamera:
+    """What pyrender's ``IntrinsicsCamera`` and camera node need: intrinsics in its pixel convention and a pose."""
+
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    pose: np.ndarray  # (4, 4) OpenGL camera frame -> world
+
+
+def opengl_camera(camera: Camera) -> OpenGLCamera:
+    """Convert an OpenCV-convention camera to pyrender's OpenGL convention (the only conversion in the code).
+
+    Axes: OpenGL's camera frame is OpenCV's with y and z negated. Pixels: OpenGL samples pixel centres at
+    half-integers (window coordinate ``i + 0.5`` for column i) and pyrender maps ``cx`` to the window coordinate
+    directly, so OpenCV's ``cx`` becomes ``cx + 0.5`` (likewise ``cy``; pyrender flips rows to top-down).
+    """
+    pose = np.eye(4)
+    pose[:3, :3] = camera.rotation @ _CV_TO_GL_AXES
+    pose[:3, 3] = camera.position
+    return OpenGLCamera(fx=camera.fx, fy=camera.fy, cx=camera.cx + 0.5, cy=camera.cy + 0.5, pose=pose)

@@ -1,0 +1,61 @@
+"""Rotations and rigid transforms.
+
+Convention:
+    Euler angles ``r = (r1, r2, r3)`` (radians) rotate about the x, y and z axes of the *parent* frame, in that
+    order: ``R = Rz(r3) @ Ry(r2) @ Rx(r1)`` (SciPy's extrinsic ``"xyz"``). ``R`` maps child-frame vectors to the
+    parent frame. A rigid transform is a ``(4, 4)`` float64 matrix ``T = [[R, t], [0, 1]]`` mapping child-frame
+    points to the parent frame: ``p_parent = R @ p_child + t`` (DESIGN eq 3). Point sets are ``(n, 3)`` float64.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def rotation_x(angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def rotation_y(angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def rotation_z(angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def euler_to_matrix(r: np.ndarray) -> np.ndarray:
+    """``(3,)`` Euler angles -> ``(3, 3)`` rotation ``Rz(r3) @ Ry(r2) @ Rx(r1)``."""
+    r1, r2, r3 = np.asarray(r, dtype=np.float64)
+    return rotation_z(r3) @ rotation_y(r2) @ rotation_x(r1)
+
+
+def matrix_to_euler(rotation: np.ndarray) -> np.ndarray:
+    """Inverse of `euler_to_matrix`, with ``r2`` in ``[-pi/2, pi/2]``; at ``|r2| = pi/2`` (gimbal lock) ``r1 = 0``."""
+    m = np.asarray(rotation, dtype=np.float64)
+    r2 = np.arcsin(np.clip(-m[2, 0], -1.0, 1.0))
+    if np.hypot(m[2, 1], m[2, 2]) < 1e-12:  # cos(r2) == 0: only r3 - r1 (or r3 + r1) is defined
+        return np.array([0.0, r2, np.arctan2(-m[0, 1], m[1, 1])])
+    return np.array([np.arctan2(m[2, 1], m[2, 2]), r2, np.arctan2(m[1, 0], m[0, 0])])
+
+
+def rigid_transform(rotation: np.ndarray, translation: np.ndarray) -> np.ndarray:
+    """``(3, 3)`` rotation and ``(3,)`` translation -> ``(4, 4)`` transform."""
+    transform = np.eye(4)
+    transform[:3, :3] = rotation
+    transform[:3, 3] = translation
+    return transform
+
+
+def invert_rigid(transform: np.ndarray) -> np.ndarray:
+    """Inverse of a rigid ``(4, 4)`` transform (exact: transpose of the rotation)."""
+    rotation_t = transform[:3, :3].T
+    return rigid_transform(rotation_t, -rotation_t @ transform[:3, 3])
+
+
+def transform_points(transform: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Apply a ``(4, 4)`` transform to ``(n, 3)`` points."""
+    return points @ transform[:3, :3].T + transform[:3, 3]

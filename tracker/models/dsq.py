@@ -1,0 +1,190 @@
+"""Deformable superquadrics (DSQ): paper 1, eq 1 (superquadric), eq 2 (tapering and bending), eq 4 (parameters).
+
+Convention:
+    A part's 17 parameters are a ``(17,)`` float64 vector ``q`` ordered as `PARAM_NAMES` (eq 4):
+    ``(a, a1, a2, a3, eps1, eps2, t1, t2, b1, b2, b3, c1, c2, c3, r1, r2, r3)``. Lengths (a, b1, b2, c) are metres,
+    angles r radians (`tracker.geometry.rotations` convention); c and r place the part in its parent's frame.
+    Surface coordinates: latitude ``eta`` in [-pi/2, pi/2] (the part's z axis runs from eta = -pi/2 to +pi/2) and
+    longitude ``omega`` in [-pi, pi). Points are ``(n, 3)`` in the part's local frame.
+    The DESIGN text's ``e3/(a a3)`` and ``(e3 + b2)/(a a3)`` are used literally: ``b2`` is added to e3 unscaled.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from tracker.ranges import ANY, POSITIVE, NON_NEGATIVE, Range
+from tracker.tol import TRIG_SNAP
+
+PARAM_NAMES = ("a", "a1", "a2", "a3", "eps1", "eps2", "t1", "t2", "b1", "b2", "b3",
+               "c1", "c2", "c3", "r1", "r2", "r3")  # fmt: skip
+PARAM_INDEX = {name: i for i, name in enumerate(PARAM_NAMES)}
+SHAPE_NAMES = PARAM_NAMES[:11]
+ANGLE_NAMES = ("r1", "r2", "r3")
+
+# Ranges of eq 1-2. The paper allows a >= 0 and a1..a3 in [0, 1]; zero is excluded here because a = 0 or a3 = 0
+# divides by zero in eq 2 and a1 = 0 or a2 = 0 collapses the part to a sheet that can be neither seen nor fitted.
+PARAM_RANGES: dict[str, Range] = {
+    "a": POSITIVE,
+    "a1": Range(0.0, 1.0, low_open=True),
+    "a2": Range(0.0, 1.0, low_open=True),
+    "a3": Range(0.0, 1.0, low_open=True),
+    "eps1": NON_NEGATIVE,
+    "eps2": NON_NEGATIVE,
+    "t1": Range(-1.0, 1.0),
+    "t2": Range(-1.0, 1.0),
+    "b1": ANY,
+    "b2": Range(-1.0, 1.0),
+    "b3": Range(0.0, 1.0, low_open=True),
+    **{name: ANY for name in ("c1", "c2", "c3", "r1", "r2", "r3")},
+}
+
+
+@dataclass(frozen=True)
+class DSQShape:
+    """The 11 shape parameters of a part (eq 1-2); the default is a unit sphere of radius ``a``."""
+
+    a: float = 0.1
+    a1: float = 1.0
+    a2: float = 1.0
+    a3: float = 1.0
+    eps1: float = 1.0
+    eps2: float = 1.0
+    t1: float = 0.0
+    t2: float = 0.0
+    b1: float = 0.0
+    b2: float = 0.0
+    b3: float = 1.0
+
+    def to_params(self, translation=(0.0, 0.0, 0.0), rotation=(0.0, 0.0, 0.0)) -> np.ndarray:
+        """The full ``(17,)`` parameter vector with pose ``c = translation``, ``r = rotation``."""
+        shape = [getattr(self, name) for name in SHAPE_NAMES]
+        return np.array([*shape, *translation, *rotation], dtype=np.float64)
+
+
+def _snap(x: np.ndarray) -> np.ndarray:
+    return np.where(np.abs(x) < TRIG_SNAP, 0.0, x)
+
+
+def signed_power(x: np.ndarray, eps: float) -> np.ndarray:
+    """``sign(x) |x|^eps``, with ``0^0 = 0`` so that eps -> 0 gives a box, never NaN."""
+    return np.sign(x) * np.abs(x) ** eps
+
+
+def superquadric_points(q: np.ndarray, eta: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    """Eq 1: ``(n,)`` surface coordinates -> ``(n, 3)`` points of the undeformed superquadric."""
+    a, a1, a2, a3, eps1, eps2 = q[:6]
+    c_eta = signed_power(_snap(np.cos(eta)), eps1)
+    s_eta = signed_power(_snap(np.sin(eta)), eps1)
+    c_omega = signed_power(_snap(np.cos(omega)), eps2)
+    s_omega = signed_power(_snap(np.sin(omega)), eps2)
+    return a * np.stack([a1 * c_eta * c_omega, a2 * c_eta * s_omega, a3 * s_eta], axis=1)
+
+
+def deform(q: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """Eq 2: tapering (t1, t2) along z and bending (b1, b2, b3) in x, applied to ``(n, 3)`` superquadric points."""
+    a, a3 = q[0], q[3]
+    t1, t2, b1, b2, b3 = q[6:11]
+    half_length = a * a3
+    z = e[:, 2]
+    s1 = (t1 * z / half_length + 1.0) * e[:, 0] + b1 * np.cos((z + b2) / half_length * math.pi * b3)
+    s2 = (t2 * z / half_length + 1.0) * e[:, 1]
+    return np.stack([s1, s2, z], axis=1)
+
+
+def dsq_points(q: np.ndarray, eta: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    """Eq 1-2: surface coordinates -> ``(n, 3)`` DSQ points in the part's local frame."""
+    q = np.asarray(q, dtype=np.float64)
+    return deform(q, superquadric_points(q, np.asarray(eta, np.float64), np.asarray(omega, np.float64)))
+
+
+def pole_point(q: np.ndarray, top: bool) -> np.ndarray:
+    """The deformed pole at eta = +pi/2 (``top``) or -pi/2: where a part meets its child or parent."""
+    eta = np.array([math.pi / 2 if top else -math.pi / 2])
+    return dsq_points(q, eta, np.zeros(1))[0]
+
+
+@dataclass(frozen=True, eq=False)
+class SampleGrid:
+    """Model samples at fixed (eta, omega): ``ids[k]`` names sample k for every parameter value, forever.
+
+    ``ids = i * n_omega + j`` for latitude row i (eta at the row midpoint, bottom to top) and longitude column j.
+    """
+
+    n_eta: int
+    n_omega: int
+    eta: np.ndarray
+    omega: np.ndarray
+    ids: np.ndarray
+
+
+@lru_cache(maxsize=8)
+def sample_grid(n_eta: int, n_omega: int) -> SampleGrid:
+    """The (eta, omega) sample grid: row midpoints in eta (no pole duplicates), ``n_omega`` longitudes."""
+    if n_eta < 1 or n_omega < 3:
+        raise ValueError(f"sample grid {n_eta} x {n_omega}: need n_eta >= 1 and n_omega >= 3")
+    eta = -math.pi / 2 + (np.arange(n_eta) + 0.5) * math.pi / n_eta
+    omega = -math.pi + np.arange(n_omega) * 2 * math.pi / n_omega
+    eta_grid, omega_grid = np.meshgrid(eta, omega, indexing="ij")
+    ids = np.arange(n_eta * n_omega)
+    for array in (eta_grid, omega_grid, ids):
+        array.flags.writeable = False
+    return SampleGrid(n_eta, n_omega, eta_grid.ravel(), omega_grid.ravel(), ids)
+
+
+@dataclass(frozen=True, eq=False)
+class MeshTopology:
+    """A DSQ triangle mesh's fixed part: where each vertex sits in (eta, omega), faces and texture coordinates.
+
+    Vertices form an ``n_eta x (n_omega + 1)`` grid with eta from -pi/2 to pi/2 inclusive and omega from -pi to pi
+    inclusive, so the pole rows and the omega seam repeat vertices: that lets texture coordinates stay continuous.
+    ``weld[k]`` is the canonical vertex of vertex k's position; faces re-indexed through ``weld`` form a closed,
+    watertight, outward-wound surface. ``uv = ((omega + pi) / 2pi, (eta + pi/2) / pi)``.
+    """
+
+    eta: np.ndarray
+    omega: np.ndarray
+    faces: np.ndarray
+    uv: np.ndarray
+    weld: np.ndarray
+
+
+@lru_cache(maxsize=8)
+def mesh_topology(n_eta: int, n_omega: int) -> MeshTopology:
+    if n_eta < 3 or n_omega < 3:
+        raise ValueError(f"mesh {n_eta} x {n_omega}: need at least 3 x 3")
+    eta = np.linspace(-math.pi / 2, math.pi / 2, n_eta)
+    omega = np.linspace(-math.pi, math.pi, n_omega + 1)
+    eta_grid, omega_grid = np.meshgrid(eta, omega, indexing="ij")
+    cols = n_omega + 1
+    index = np.arange(n_eta * cols).reshape(n_eta, cols)
+
+    v00, v01 = index[:-1, :-1], index[:-1, 1:]
+    v10, v11 = index[1:, :-1], index[1:, 1:]
+    # Counter-clockwise seen from outside: d/domega x d/deta points outwards.
+    lower = np.stack([v00, v01, v11], axis=-1)[1:]  # degenerate in the bottom row (v00, v01 are the pole)
+    upper = np.stack([v00, v11, v10], axis=-1)[:-1]  # degenerate in the top row (v10, v11 are the pole)
+    faces = np.concatenate([lower.reshape(-1, 3), upper.reshape(-1, 3)])
+
+    weld = index.copy()
+    weld[0, :] = index[0, 0]
+    weld[-1, :] = index[-1, 0]
+    weld[:, -1] = weld[:, 0]
+    uv = np.stack([(omega_grid + math.pi) / (2 * math.pi), (eta_grid + math.pi / 2) / math.pi], axis=-1)
+    return MeshTopology(eta_grid.ravel(), omega_grid.ravel(), faces, uv.reshape(-1, 2), weld.ravel())
+
+
+def vertex_normals(vertices: np.ndarray, topology: MeshTopology) -> np.ndarray:
+    """Area-weighted unit vertex normals, shared across the welded seam and poles so shading has no seam."""
+    tri = vertices[topology.faces]
+    face_normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    accumulated = np.zeros_like(vertices)
+    for corner in range(3):
+        np.add.at(accumulated, topology.weld[topology.faces[:, corner]], face_normals)
+    normals = accumulated[topology.weld]
+    length = np.linalg.norm(normals, axis=1, keepdims=True)
+    return normals / np.where(length > 0, length, 1.0)

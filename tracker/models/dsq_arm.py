@@ -1,0 +1,155 @@
+"""The paper-1 object: a chain of DSQ parts, each joined at its bottom pole to its parent's top pole.
+
+Part k (0-based index) has label k + 1 in label images; part names come from the config. The root's c and r place
+it in the world; a child's r is its rotation relative to the parent and its c is *derived* from the joint
+constraint (the child's bottom pole sits on the parent's top pole, eq 3 with the paper's single-point joints),
+so joints stay connected for any shape or rotation.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from tracker.geometry.rotations import euler_to_matrix, transform_points
+from tracker.models.articulated import KinematicTree, forward_kinematics, jointed_translation, local_transforms
+from tracker.models.dsq import (
+    PARAM_INDEX,
+    DSQShape,
+    MeshTopology,
+    dsq_points,
+    mesh_topology,
+    pole_point,
+    sample_grid,
+    SampleGrid,
+    vertex_normals,
+)
+from tracker.models.textures import block_noise_texture
+from tracker.render.mesh import SurfaceMesh
+
+_C = slice(PARAM_INDEX["c1"], PARAM_INDEX["c3"] + 1)
+_R = slice(PARAM_INDEX["r1"], PARAM_INDEX["r3"] + 1)
+
+
+@dataclass(frozen=True)
+class ArmPart:
+    """A part of the arm: its rest shape, the colour its texture is tinted with and the texture's block count."""
+
+    name: str
+    shape: DSQShape
+    tint: tuple[int, int, int] = (220, 220, 220)
+    texture_cells: tuple[int, int] = (12, 12)  # blocks along (eta, omega)
+
+
+@dataclass(frozen=True)
+class Resolution:
+    """Grid sizes over (eta, omega)."""
+
+    n_eta: int
+    n_omega: int
+
+
+@dataclass(eq=False)
+class DSQArm:
+    """A chain of DSQ parts (root first). ``seed`` draws the textures."""
+
+    parts: Sequence[ArmPart]
+    mesh: Resolution = field(default_factory=lambda: Resolution(40, 48))
+    samples: Resolution = field(default_factory=lambda: Resolution(16, 24))
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if len(self.parts) < 1:
+            raise ValueError("an arm needs at least one part")
+        names = [part.name for part in self.parts]
+        if len(set(names)) != len(names):
+            raise ValueError(f"arm part names must be unique, got {names}")
+        self.tree = KinematicTree(tuple(names), (None, *range(len(self.parts) - 1)))
+        self.topology: MeshTopology = mesh_topology(self.mesh.n_eta, self.mesh.n_omega)
+        self.sample_grid: SampleGrid = sample_grid(self.samples.n_eta, self.samples.n_omega)
+        part_rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(self.seed).spawn(len(self.parts))]
+        self.textures = [
+            block_noise_texture(rng, part.texture_cells, part.tint) for rng, part in zip(part_rngs, self.parts)
+        ]
+
+    @property
+    def part_names(self) -> tuple[str, ...]:
+        return self.tree.names
+
+    def rest_params(self) -> np.ndarray:
+        """``(n_parts, 17)``: every part's rest shape with zero rotation, joints connected."""
+        return self.connect(np.stack([part.shape.to_params() for part in self.parts]))
+
+    def connect(self, params: np.ndarray) -> np.ndarray:
+        """Set each child's c from the joint constraint; the root's c is kept. Returns a new array."""
+        params = np.array(params, dtype=np.float64)
+        for child, parent in enumerate(self.tree.parents):
+            if parent is None:
+                continue
+            rotation = euler_to_matrix(params[child, _R])
+            params[child, _C] = jointed_translation(
+                rotation, pole_point(params[parent], top=True), pole_point(params[child], top=False)
+            )
+        return params
+
+    def world_transforms(self, params: np.ndarray) -> np.ndarray:
+        """``(n_parts, 4, 4)`` part -> world transforms (eq 3)."""
+        return forward_kinematics(self.tree, local_transforms(params))
+
+    def joint_positions(self, params: np.ndarray) -> np.ndarray:
+        """``(n_parts - 1, 3)`` world positions of the joints, seen from the parent side (its top pole)."""
+        world = self.world_transforms(params)
+        joints = [
+            transform_points(world[parent], pole_point(params[parent], top=True)[None])[0]
+            for parent in self.tree.parents
+            if parent is not None
+        ]
+        return np.array(joints).reshape(-1, 3)
+
+    def surface_meshes(self, params: np.ndarray) -> list[SurfaceMesh]:
+        """The parts' textured meshes in the world, labels 1..n."""
+        world = self.world_transforms(params)
+        meshes = []
+        for k, part in enumerate(self.parts):
+            local = dsq_points(params[k], self.topology.eta, self.topology.omega)
+            vertices = transform_points(world[k], local)
+            meshes.append(
+                SurfaceMesh(
+                    key=part.name,
+                    label=k + 1,
+                    vertices=vertices,
+                    faces=self.topology.faces,
+                    normals=vertex_normals(vertices, self.topology),
+                    color=part.tint,
+                    uv=self.topology.uv,
+                    texture=self.textures[k],
+                )
+            )
+        return meshes
+
+
+def build_arm(
+    parts: Sequence[Mapping[str, Any]],
+    mesh: Mapping[str, int],
+    samples: Mapping[str, int],
+    seed: int = 0,
+) -> DSQArm:
+    """A `DSQArm` from plain values (as a config gives them): parts are ``{name, shape: {a, a1, ...}, tint,
+    texture_cells}``; mesh and samples are ``{n_eta, n_omega}``."""
+    return DSQArm(
+        parts=[
+            ArmPart(
+                name=part["name"],
+                shape=DSQShape(**part["shape"]),
+                tint=tuple(part["tint"]),
+                texture_cells=tuple(part["texture_cells"]),
+            )
+            for part in parts
+        ],
+        mesh=Resolution(**mesh),
+        samples=Resolution(**samples),
+        seed=seed,
+    )

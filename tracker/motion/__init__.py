@@ -1,0 +1,1 @@
+"""Truth motion: procedural generators (and, for the body, motion capture)."""

@@ -1,0 +1,50 @@
+"""Allowed ranges of numeric parameters, checked at the boundary with a message that names key, value and range."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Range:
+    """An interval; each end closed unless marked open. Infinite ends are allowed."""
+
+    low: float = -math.inf
+    high: float = math.inf
+    low_open: bool = False
+    high_open: bool = False
+
+    def contains(self, value: float) -> bool:
+        if not math.isfinite(value):  # NaN and infinities are never a valid parameter
+            return False
+        above = value > self.low if self.low_open else value >= self.low
+        below = value < self.high if self.high_open else value <= self.high
+        return above and below
+
+    def describe(self) -> str:
+        low, high = _number(self.low), _number(self.high)
+        if self.high == math.inf and self.low == -math.inf:
+            return "a finite number"
+        if self.high == math.inf:
+            return f"{'>' if self.low_open else '>='} {low}"
+        if self.low == -math.inf:
+            return f"{'<' if self.high_open else '<='} {high}"
+        return f"in {'(' if self.low_open else '['}{low}, {high}{')' if self.high_open else ']'}"
+
+
+def _number(value: float) -> str:
+    """Integers exactly (``4294967295``, not ``4.29497e+09``), other numbers compactly."""
+    return str(int(value)) if math.isfinite(value) and float(value).is_integer() else f"{value:g}"
+
+
+def check_in_range(name: str, value: float, allowed: Range) -> None:
+    """Raise ``ValueError`` naming ``name``, ``value`` and the range unless ``value`` lies in it."""
+    if not allowed.contains(float(value)):
+        raise ValueError(f"{name}={value!r} is out of range: allowed {allowed.describe()}")
+
+
+ANY = Range()
+POSITIVE = Range(0.0, math.inf, low_open=True)
+NON_NEGATIVE = Range(0.0, math.inf)
+UNIT_INTERVAL = Range(0.0, 1.0)

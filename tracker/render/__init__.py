@@ -1,0 +1,1 @@
+"""Off-screen rendering of the synthetic scenes (pyrender through OSMesa). pyrender is imported lazily."""

@@ -1,0 +1,27 @@
+"""What the renderer draws: a triangle mesh in world coordinates with an optional texture and a part label."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True, eq=False)
+class SurfaceMesh:
+    """One part's mesh, world frame.
+
+    vertices, normals: ``(n, 3)`` float64; faces: ``(m, 3)`` int, counter-clockwise seen from outside;
+    uv: ``(n, 2)`` texture coordinates in [0, 1] (or None); texture: ``(h, w, 3)`` uint8 (or None);
+    color: ``(3,)`` uint8 base colour used when there is no texture; label: the value this part takes in the
+    label image (1..255). ``key`` names the part across frames so the renderer uploads its texture once.
+    """
+
+    key: str
+    label: int
+    vertices: np.ndarray
+    faces: np.ndarray
+    normals: np.ndarray
+    color: tuple[int, int, int]
+    uv: np.ndarray | None = None
+    texture: np.ndarray | None = None

@@ -1,0 +1,141 @@
+"""Off-screen renderer: per camera an RGB image, metric depth and a part-label image.
+
+Outputs per view (arrays indexed ``[v, u]``, OpenCV pixel convention of `tracker.geometry.cameras`):
+    rgb    ``(h, w, 3)`` uint8, lit and textured, background ``background_rgb``;
+    depth  ``(h, w)`` float32, camera-frame z of the nearest surface in metres, ``inf`` where there is none;
+    labels ``(h, w)`` uint8, 0 for background and each mesh's ``label`` where it is the nearest surface.
+One GL context serves every frame and camera of a run; textures are uploaded once per mesh ``key``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from tracker.geometry.cameras import Camera, opengl_camera
+from tracker.render.gl import RenderBackendError, load_pyrender
+from tracker.render.mesh import SurfaceMesh
+
+
+@dataclass(frozen=True, eq=False)
+class RenderedView:
+    rgb: np.ndarray
+    depth: np.ndarray
+    labels: np.ndarray
+
+
+@dataclass(frozen=True)
+class Lighting:
+    """Ambient level and directional lights ``(direction the light travels, intensity)``, fixed in the world."""
+
+    ambient: float = 0.35
+    lights: tuple[tuple[tuple[float, float, float], float], ...] = (((0.4, 0.6, -1.0), 2.5), ((-0.6, 0.3, -0.2), 1.5))
+
+
+class SceneRenderer:
+    """Renders `SurfaceMesh` lists from cameras of one image size. Close it (or use ``with``) to free the context."""
+
+    def __init__(
+        self,
+        width: int,
+        height: int,
+        *,
+        background_rgb: tuple[int, int, int] = (40, 40, 48),
+        lighting: Lighting = Lighting(),
+        znear: float = 0.05,
+        zfar: float = 100.0,
+    ) -> None:
+        self._pyrender = load_pyrender()
+        self.width, self.height = int(width), int(height)
+        self.znear, self.zfar = znear, zfar
+        pr = self._pyrender
+        self._scene = pr.Scene(bg_color=[*(c / 255.0 for c in background_rgb), 1.0], ambient_light=[lighting.ambient] * 3)
+        for direction, intensity in lighting.lights:
+            self._scene.add(pr.DirectionalLight(color=np.ones(3), intensity=intensity), pose=_light_pose(direction))
+        self._camera_node = self._scene.add(pr.IntrinsicsCamera(fx=1, fy=1, cx=0, cy=0))
+        self._materials: dict[str, object] = {}
+        self._mesh_nodes: list = []
+        try:
+            self._renderer = pr.OffscreenRenderer(self.width, self.height)
+        except Exception as error:
+            raise RenderBackendError(f"cannot open an off-screen OpenGL context: {error}") from error
+
+    def __enter__(self) -> "SceneRenderer":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        renderer, self._renderer = getattr(self, "_renderer", None), None
+        if renderer is not None:
+            renderer.delete()
+
+    def render(self, cameras: Sequence[Camera], meshes: Sequence[SurfaceMesh]) -> dict[str, RenderedView]:
+        """Render ``meshes`` from every camera; returns views keyed by camera name."""
+        if self._renderer is None:
+            raise RuntimeError("the renderer is closed")
+        self._set_meshes(meshes)
+        pr = self._pyrender
+        seg_map = {node: (mesh.label,) * 3 for node, mesh in zip(self._mesh_nodes, meshes)}
+        views = {}
+        for camera in cameras:
+            if (camera.width, camera.height) != (self.width, self.height):
+                raise ValueError(
+                    f"camera {camera.name!r} is {camera.width}x{camera.height}, the renderer {self.width}x{self.height}"
+                )
+            gl = opengl_camera(camera)
+            self._camera_node.camera = pr.IntrinsicsCamera(
+                fx=gl.fx, fy=gl.fy, cx=gl.cx, cy=gl.cy, znear=self.znear, zfar=self.zfar
+            )
+            self._scene.set_pose(self._camera_node, gl.pose)
+            rgb, depth = self._renderer.render(self._scene)
+            labels, _ = self._renderer.render(self._scene, flags=pr.RenderFlags.SEG, seg_node_map=seg_map)
+            depth = np.where(depth > 0, depth, np.inf).astype(np.float32)
+            views[camera.name] = RenderedView(rgb=np.ascontiguousarray(rgb), depth=depth,
+                                              labels=np.ascontiguousarray(labels[:, :, 0]))
+        return views
+
+    def _set_meshes(self, meshes: Sequence[SurfaceMesh]) -> None:
+        """Replace last frame's mesh nodes (vertices change every frame; materials and textures are reused)."""
+        pr = self._pyrender
+        for node in self._mesh_nodes:
+            self._scene.remove_node(node)
+        self._mesh_nodes = []
+        for mesh in meshes:
+            primitive = pr.Primitive(
+                positions=mesh.vertices.astype(np.float32),
+                normals=mesh.normals.astype(np.float32),
+                texcoord_0=None if mesh.uv is None else mesh.uv.astype(np.float32),
+                indices=mesh.faces.astype(np.uint32),
+                material=self._material(mesh),
+            )
+            self._mesh_nodes.append(self._scene.add(pr.Mesh([primitive])))
+
+    def _material(self, mesh: SurfaceMesh):
+        material = self._materials.get(mesh.key)
+        if material is None:
+            pr = self._pyrender
+            texture = None
+            if mesh.texture is not None:
+                texture = pr.Texture(source=mesh.texture, source_channels="RGB")
+            color = [*(c / 255.0 for c in mesh.color), 1.0] if texture is None else [1.0, 1.0, 1.0, 1.0]
+            material = pr.MetallicRoughnessMaterial(
+                baseColorFactor=color, baseColorTexture=texture, metallicFactor=0.0, roughnessFactor=1.0
+            )
+            self._materials[mesh.key] = material
+        return material
+
+
+def _light_pose(direction: Sequence[float]) -> np.ndarray:
+    """A pose whose -z axis (pyrender's light direction) points along ``direction``."""
+    z = -np.asarray(direction, dtype=np.float64)
+    z /= np.linalg.norm(z)
+    helper = np.array([0.0, 0.0, 1.0]) if abs(z[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    x = np.cross(helper, z)
+    x /= np.linalg.norm(x)
+    pose = np.eye(4)
+    pose[:3, :3] = np.stack([x, np.cross(z, x), z], axis=1)
+    return pose

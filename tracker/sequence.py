@@ -1,0 +1,70 @@
+"""A synthetic sequence: truth motion -> rendered views, frame by frame, with per-stage timings.
+
+`simulate` is the loop every run drives; trackers will consume its `FrameInput`s. It logs nothing: results go to
+whoever iterates (the recording and the tables in `experiments`).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from tracker.geometry.cameras import Camera
+from tracker.render.mesh import SurfaceMesh
+from tracker.render.offscreen import RenderedView, SceneRenderer
+
+
+class Model(Protocol):
+    part_names: tuple[str, ...]
+
+    def surface_meshes(self, params: np.ndarray) -> list[SurfaceMesh]: ...
+
+
+class Motion(Protocol):
+    def params(self, model: Model, frame: int) -> np.ndarray: ...
+
+
+@dataclass(frozen=True, eq=False)
+class FrameInput:
+    """One frame of a synthetic sequence.
+
+    truth: ``(n_parts, n_params)`` truth parameters; meshes: the truth surfaces that were rendered;
+    views: rendered images keyed by camera name; timings_ms: stage name -> milliseconds.
+    """
+
+    frame: int
+    truth: np.ndarray
+    meshes: list[SurfaceMesh]
+    views: dict[str, RenderedView]
+    timings_ms: dict[str, float] = field(default_factory=dict)
+
+
+def simulate(
+    model: Model, motion: Motion, cameras: Sequence[Camera], renderer: SceneRenderer, frames: int
+) -> Iterator[FrameInput]:
+    """Yield frames ``0 .. frames - 1`` of ``motion`` applied to ``model``, rendered from every camera."""
+    for frame in range(frames):
+        start = time.perf_counter()
+        truth = motion.params(model, frame)
+        meshes = model.surface_meshes(truth)
+        posed = time.perf_counter()
+        views = renderer.render(cameras, meshes)
+        rendered = time.perf_counter()
+        yield FrameInput(
+            frame=frame,
+            truth=truth,
+            meshes=meshes,
+            views=views,
+            timings_ms={"pose": 1e3 * (posed - start), "render": 1e3 * (rendered - posed)},
+        )
+
+
+@dataclass(frozen=True)
+class RenderOnly:
+    """The tracker that estimates nothing: the run renders and records what every tracker would observe."""
+
+    name: str = "render_only"
