@@ -219,17 +219,17 @@ def _check_field(key: str, value: Any, metadata: dict) -> None:
 
 def check_config(cfg: DictConfig, choices: dict[str, str]) -> None:
     """What composition cannot check: numeric ranges, and group options whose capability is not built yet."""
+    run_cfg = cfg.copy()  # keeps the schema type (a masked copy would not)
+    with open_dict(run_cfg):
+        run_cfg.pop("hydra", None)
+    check_known_keys(run_cfg)
+    check_ranges(OmegaConf.to_object(run_cfg))
     for group in GROUP_SCHEMAS:
         node = cfg.get(group)
         if isinstance(node, DictConfig) and node.get("_target_") == PLANNED_TARGET:
             raise ConfigError(
                 f"{group}={choices.get(group, '?')} is planned ({node.planned_in}: {node.what}) and cannot run yet"
             )
-    run_cfg = cfg.copy()  # keeps the schema type (a masked copy would not)
-    with open_dict(run_cfg):
-        run_cfg.pop("hydra", None)
-    check_known_keys(run_cfg)
-    check_ranges(OmegaConf.to_object(run_cfg))
 
 
 def check_known_keys(node: Any, path: str = "") -> None:

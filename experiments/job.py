@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from hydra.errors import InstantiationException
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
@@ -66,7 +67,7 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
                 timings.append(frame.timings_ms)
     except Exception as error:  # recorded, not raised: a sweep goes on and every output stays readable
         log.exception("run failed at frame %d", len(timings))
-        status = f"failed: {type(error).__name__}: {error}"
+        status = f"failed: {failure_reason(error)}"
     finally:
         if recording is not None:
             recording.close()
@@ -75,6 +76,14 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
         metrics = summarize(cfg, choices, table, timings, views, status)
         write_json(output_dir / "metrics.json", metrics)
     return metrics
+
+
+def failure_reason(error: BaseException) -> str:
+    """``Type: message`` on one line, of the error a factory raised rather than Hydra's wrapper around it."""
+    if isinstance(error, InstantiationException) and error.__cause__ is not None:
+        error = error.__cause__
+    message = str(error).strip().splitlines()
+    return f"{type(error).__name__}: {message[0]}" if message else type(error).__name__
 
 
 def frame_rows(frame: FrameInput, part_names: tuple[str, ...]) -> list[dict[str, Any]]:
@@ -106,6 +115,7 @@ def summarize(
         "seed": int(cfg.seed),
         "frames": int(cfg.frames),
         "frames_done": len(timings),
+        "views": views,
         "config": OmegaConf.to_container(cfg, resolve=True),
     }
     if timings:

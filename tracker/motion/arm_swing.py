@@ -32,6 +32,9 @@ class ArmSwing:
     shoulder_sway: float = 0.06
     shoulder: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "shoulder", tuple(float(x) for x in self.shoulder))  # a config passes a list
+
     def params(self, arm: DSQArm, frame: int) -> np.ndarray:
         """``(3, 17)`` truth parameters of every part at ``frame``, joints connected."""
         if len(arm.parts) != N_PARTS:

@@ -1,0 +1,58 @@
+"""Shared fixtures. The arm, its motion and the rig are the defaults of ``conf/`` (read as plain YAML, no Hydra)."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from omegaconf import OmegaConf
+
+from tracker.geometry.rigs import orthogonal3
+from tracker.models.dsq_arm import DSQArm, build_arm
+from tracker.motion.arm_swing import ArmSwing
+
+CONF = Path(__file__).resolve().parent.parent / "conf"
+
+
+def option_values(group: str, option: str) -> dict:
+    """The values a group option's YAML sets (its defaults list and ``_target_`` aside)."""
+    values = OmegaConf.to_container(OmegaConf.load(CONF / group / f"{option}.yaml"))
+    return {key: value for key, value in values.items() if key not in ("defaults", "_target_")}
+
+
+@pytest.fixture(scope="session")
+def arm() -> DSQArm:
+    return build_arm(**option_values("model", "dsq_arm"), seed=0)
+
+
+@pytest.fixture(scope="session")
+def motion() -> ArmSwing:
+    return ArmSwing(**option_values("scene", "arm_swing"))
+
+
+@pytest.fixture(scope="session")
+def rig():
+    return orthogonal3(**option_values("rig", "orthogonal3"))
+
+
+@pytest.fixture(scope="session")
+def renderer():
+    from tracker.render.offscreen import SceneRenderer
+
+    with SceneRenderer(320, 240) as shared:
+        yield shared
+
+
+def run_cli(run_dir, *overrides, cwd):
+    return subprocess.run(
+        [sys.executable, "-m", "experiments.run", f"hydra.run.dir={run_dir}", *overrides],
+        cwd=cwd, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+
+
+@pytest.fixture(scope="session")
+def five_frame_run(tmp_path_factory):
+    root = tmp_path_factory.mktemp("run")
+    result = run_cli(root / "out", "model=dsq_arm", "frames=5", cwd=root)
+    assert result.returncode == 0, result.stderr
+    return root / "out"

@@ -1,0 +1,96 @@
+import json
+import numpy as np
+import pandas as pd
+import pytest
+from rerun.chunk import RrdReader
+
+from tests.conftest import run_cli
+from tracker.models.dsq import PARAM_NAMES
+
+VIEWS = ("front", "left", "top")
+PARTS = ("upper_arm", "forearm", "hand")
+
+
+def frames_by_entity(path):
+    """Entity path -> sorted frame indices at which it was logged (non-static chunks)."""
+    frames: dict[str, list[int]] = {}
+    for chunk in RrdReader(path).stream().to_chunks():
+        if chunk.is_static or "frame" not in chunk.timeline_names:
+            continue
+        column = chunk.to_record_batch().column("frame").to_pylist()
+        frames.setdefault(chunk.entity_path, []).extend(column)
+    return {entity: sorted(values) for entity, values in frames.items()}
+
+
+def test_run_writes_the_three_outputs_and_nothing_half_written(five_frame_run):
+    names = {p.name for p in five_frame_run.iterdir()}
+    assert {"run.rrd", "frames.parquet", "metrics.json", ".hydra"} <= names
+    assert not [name for name in names if name.endswith(".tmp")]
+
+
+def test_metrics_summarise_the_run(five_frame_run):
+    metrics = json.loads((five_frame_run / "metrics.json").read_text())
+    assert metrics["status"] == "ok"
+    assert metrics["choices"] == {"model": "dsq_arm", "rig": "orthogonal3", "scene": "arm_swing",
+                                  "tracker": "render_only"}  # fmt: skip
+    assert (metrics["seed"], metrics["frames"], metrics["frames_done"]) == (0, 5, 5)
+    assert metrics["views"] == ["front", "left", "top"]
+    assert set(metrics["timing"]) == {"pose_ms_median", "render_ms_median", "record_ms_median",
+                                      "render_ms_per_view_median"}  # fmt: skip
+    assert all(value > 0 for value in metrics["timing"].values())
+    assert metrics["min_visible_fraction"]["forearm"]["left"] == 0.0  # hidden end-on at frame 0
+
+
+def test_frames_table_has_truth_per_frame_and_part(five_frame_run, arm, motion):
+    table = pd.read_parquet(five_frame_run / "frames.parquet")
+    assert len(table) == 5 * 3 and list(table["part"][:3]) == list(PARTS)
+    truth = table[[f"truth_{name}" for name in PARAM_NAMES]].to_numpy().reshape(5, 3, 17)
+    for frame in range(5):
+        np.testing.assert_allclose(truth[frame], motion.params(arm, frame))
+    assert {f"visible_px_{view}" for view in VIEWS} <= set(table.columns)
+    assert (table[["pose_ms", "render_ms", "record_ms"]] > 0).all().all()
+
+
+def test_recording_has_images_labels_params_and_timings_for_every_frame(five_frame_run):
+    path = five_frame_run / "run.rrd"
+    reader = RrdReader(path)
+    assert len(reader.recordings()) == 1 and len(reader.blueprints()) == 1  # with its default blueprint
+    frames = frames_by_entity(path)
+    every_frame = [0, 1, 2, 3, 4]
+    for view in VIEWS:
+        assert frames[f"/world/cameras/{view}/image/rgb"] == every_frame
+        assert frames[f"/world/cameras/{view}/image/labels"] == every_frame
+    for stage in ("pose", "render", "record"):
+        assert frames[f"/metrics/timing/{stage}_ms"] == every_frame
+    for part in PARTS:
+        assert frames[f"/world/truth/{part}"] == every_frame
+        assert frames[f"/metrics/params/{part}/b1/truth"] == every_frame
+
+
+def test_recorded_truth_series_equals_the_frames_table(five_frame_run):
+    table = pd.read_parquet(five_frame_run / "frames.parquet")
+    expected = table.loc[table["part"] == "forearm", "truth_r2"].to_numpy()
+    values = {}
+    for chunk in RrdReader(five_frame_run / "run.rrd").stream().to_chunks():
+        if chunk.entity_path == "/metrics/params/forearm/r2/truth":
+            batch = chunk.to_record_batch()
+            values.update(zip(batch.column("frame").to_pylist(), batch.column("Scalars:scalars").to_pylist()))
+    np.testing.assert_allclose([values[f][0] for f in range(5)], expected)
+
+
+def test_each_run_has_its_own_recording_id(five_frame_run, tmp_path):
+    result = run_cli(tmp_path / "again", "frames=1", "record.images=false", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    ids = {RrdReader(d / "run.rrd").recordings()[0].recording_id for d in (five_frame_run, tmp_path / "again")}
+    assert len(ids) == 2
+
+
+def test_a_failing_run_records_why_and_keeps_its_outputs_readable(tmp_path):
+    # A camera placed on its own target cannot be built: the run fails after Hydra started it.
+    result = run_cli(tmp_path / "out", "rig=mono", "rig.position=[0.55,0,-0.2]", "frames=2", cwd=tmp_path)
+    assert result.returncode == 1
+    metrics = json.loads((tmp_path / "out" / "metrics.json").read_text())
+    assert metrics["status"] == "failed: ValueError: camera 'main': position and target coincide ([0.55, 0.0, -0.2])"
+    assert metrics["frames_done"] == 0
+    assert pd.read_parquet(tmp_path / "out" / "frames.parquet").empty
+    assert not [p for p in (tmp_path / "out").iterdir() if p.name.endswith(".tmp")]

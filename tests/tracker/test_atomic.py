@@ -1,0 +1,37 @@
+import json
+
+import pandas as pd
+import pytest
+
+from tracker.atomic import AtomicFile, atomic_path, write_json, write_parquet
+
+
+def test_json_and_parquet_round_trip(tmp_path):
+    write_json(tmp_path / "m.json", {"b": 1, "a": [1.5]})
+    assert json.loads((tmp_path / "m.json").read_text()) == {"a": [1.5], "b": 1}
+    frame = pd.DataFrame({"frame": [0, 1], "x": [0.5, 1.5]})
+    write_parquet(tmp_path / "f.parquet", frame)
+    pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "f.parquet"), frame)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.parquet", "m.json"]
+
+
+def test_a_failed_write_leaves_the_previous_file_and_no_temporary(tmp_path):
+    target = tmp_path / "m.json"
+    write_json(target, {"complete": True})
+    with pytest.raises(ValueError):
+        write_json(target, {"bad": float("nan")})  # refused mid-write
+    assert json.loads(target.read_text()) == {"complete": True}
+    with pytest.raises(RuntimeError), atomic_path(target) as temporary:
+        temporary.write_text("half")
+        raise RuntimeError("killed")
+    assert json.loads(target.read_text()) == {"complete": True}
+    assert [p.name for p in tmp_path.iterdir()] == ["m.json"]
+
+
+def test_uncommitted_file_never_appears_under_its_name(tmp_path):
+    file = AtomicFile(tmp_path / "run.rrd")
+    file.temporary.write_bytes(b"partial")
+    assert not (tmp_path / "run.rrd").exists()
+    file.commit()
+    assert (tmp_path / "run.rrd").read_bytes() == b"partial"
+    assert (tmp_path / "run.rrd").stat().st_mode & 0o044  # readable by others, like any output

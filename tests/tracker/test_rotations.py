@@ -1,0 +1,47 @@
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from tracker.geometry.rotations import (
+    euler_to_matrix,
+    invert_rigid,
+    matrix_to_euler,
+    rigid_transform,
+    transform_points,
+)
+
+
+def test_euler_matches_scipy_extrinsic_xyz():
+    rng = np.random.default_rng(0)
+    for r in rng.uniform(-np.pi, np.pi, size=(20, 3)):
+        np.testing.assert_allclose(euler_to_matrix(r), Rotation.from_euler("xyz", r).as_matrix(), atol=1e-12)
+
+
+def test_wrong_reading_of_the_convention_differs():
+    r = np.array([0.3, -0.7, 1.1])
+    intrinsic = Rotation.from_euler("XYZ", r).as_matrix()  # Rx @ Ry @ Rz: the other common reading
+    assert np.abs(euler_to_matrix(r) - intrinsic).max() > 0.1
+
+
+def test_rotation_about_y_turns_z_onto_x():
+    # The arm relies on this: r2 = +90 deg maps a part's axis (local z) onto the parent's +x.
+    np.testing.assert_allclose(euler_to_matrix([0.0, np.pi / 2, 0.0]) @ [0, 0, 1], [1, 0, 0], atol=1e-12)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_matrix_to_euler_round_trip(seed):
+    rng = np.random.default_rng(seed)
+    r = np.array([rng.uniform(-np.pi, np.pi), rng.uniform(-1.5, 1.5), rng.uniform(-np.pi, np.pi)])
+    np.testing.assert_allclose(matrix_to_euler(euler_to_matrix(r)), r, atol=1e-10)
+
+
+def test_matrix_to_euler_at_gimbal_lock_reproduces_the_matrix():
+    rotation = euler_to_matrix([0.4, np.pi / 2, -0.2])
+    np.testing.assert_allclose(euler_to_matrix(matrix_to_euler(rotation)), rotation, atol=1e-9)
+
+
+def test_rigid_inverse_and_point_transform():
+    transform = rigid_transform(euler_to_matrix([0.1, 0.2, 0.3]), np.array([1.0, -2.0, 0.5]))
+    points = np.random.default_rng(1).normal(size=(10, 3))
+    np.testing.assert_allclose(transform_points(invert_rigid(transform), transform_points(transform, points)), points)
+    np.testing.assert_allclose(invert_rigid(transform) @ transform, np.eye(4), atol=1e-12)
