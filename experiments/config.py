@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from hydra.core.config_store import ConfigStore
@@ -20,6 +21,15 @@ from tracker.models.dsq import DSQShape, PARAM_RANGES, SHAPE_NAMES
 from tracker.ranges import ANY, NON_NEGATIVE, POSITIVE, Range, check_in_range
 
 PLANNED_TARGET = "experiments.config.planned"
+CONFIG_DIR = Path(__file__).resolve().parent.parent / "conf"
+CONFIG_NAME = "config"
+
+
+def option_values(group: str, option: str) -> dict[str, Any]:
+    """The values ``conf/<group>/<option>.yaml`` sets, as plain Python (its defaults list and ``_target_`` aside):
+    the keyword arguments of the option's core factory, for code that builds components without Hydra."""
+    values = OmegaConf.to_container(OmegaConf.load(CONFIG_DIR / group / f"{option}.yaml"))
+    return {key: value for key, value in values.items() if key not in ("defaults", "_target_")}
 
 
 def allowed(values: Range, *, each: bool = False, length: int | None = None, default: Any = MISSING, **kw) -> Any:
@@ -181,6 +191,9 @@ def register_schemas() -> None:
     for group, options in GROUP_SCHEMAS.items():
         for option, schema in options.items():
             store.store(group=group, name=f"schema_{option}", node=schema)
+
+
+register_schemas()  # importing the schemas makes them available to composition; storing again is harmless
 
 
 class ConfigError(ValueError):

@@ -16,15 +16,11 @@ from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from omegaconf import DictConfig
 
-from experiments.config import ConfigError, register_schemas
+from experiments.config import CONFIG_DIR, CONFIG_NAME, ConfigError
 from experiments.job import run_job
 from experiments.validate import validate_command_line
 
-CONFIG_DIR = Path(__file__).resolve().parent.parent / "conf"
-CONFIG_NAME = "config"
-
 log = logging.getLogger(__name__)
-register_schemas()
 
 
 @hydra.main(version_base="1.3", config_path=str(CONFIG_DIR), config_name=CONFIG_NAME)

@@ -2,22 +2,13 @@
 
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
-from omegaconf import OmegaConf
 
+from experiments.config import option_values
 from tracker.geometry.rigs import orthogonal3
 from tracker.models.dsq_arm import DSQArm, build_arm
 from tracker.motion.arm_swing import ArmSwing
-
-CONF = Path(__file__).resolve().parent.parent / "conf"
-
-
-def option_values(group: str, option: str) -> dict:
-    """The values a group option's YAML sets (its defaults list and ``_target_`` aside)."""
-    values = OmegaConf.to_container(OmegaConf.load(CONF / group / f"{option}.yaml"))
-    return {key: value for key, value in values.items() if key not in ("defaults", "_target_")}
 
 
 @pytest.fixture(scope="session")

@@ -8,8 +8,7 @@ import pytest
 from hydra import compose, initialize_config_dir
 from hydra.utils import instantiate
 
-from experiments.config import GROUP_SCHEMAS, PLANNED_TARGET, ConfigError, check_config
-from experiments.run import CONFIG_DIR
+from experiments.config import CONFIG_DIR, GROUP_SCHEMAS, PLANNED_TARGET, ConfigError, check_config
 from experiments.validate import sweep_combinations, validate_command_line
 from tracker.geometry.cameras import Camera
 from tracker.models.dsq_arm import DSQArm

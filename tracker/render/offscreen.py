@@ -9,6 +9,7 @@ One GL context serves every frame and camera of a run; textures are uploaded onc
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -57,6 +58,7 @@ class SceneRenderer:
         self._camera_node = self._scene.add(pr.IntrinsicsCamera(fx=1, fy=1, cx=0, cy=0))
         self._materials: dict[str, object] = {}
         self._mesh_nodes: list = []
+        self.last_pass_ms: dict[str, float] = {}  # time spent in each pass, summed over the last call's cameras
         try:
             self._renderer = pr.OffscreenRenderer(self.width, self.height)
         except Exception as error:
@@ -81,6 +83,7 @@ class SceneRenderer:
         pr = self._pyrender
         seg_map = {node: (mesh.label,) * 3 for node, mesh in zip(self._mesh_nodes, meshes)}
         views = {}
+        pass_ms = {"rgb_depth": 0.0, "labels": 0.0}
         for camera in cameras:
             if (camera.width, camera.height) != (self.width, self.height):
                 raise ValueError(
@@ -91,11 +94,16 @@ class SceneRenderer:
                 fx=gl.fx, fy=gl.fy, cx=gl.cx, cy=gl.cy, znear=self.znear, zfar=self.zfar
             )
             self._scene.set_pose(self._camera_node, gl.pose)
+            start = time.perf_counter()
             rgb, depth = self._renderer.render(self._scene)
+            lit = time.perf_counter()
             labels, _ = self._renderer.render(self._scene, flags=pr.RenderFlags.SEG, seg_node_map=seg_map)
+            pass_ms["rgb_depth"] += 1e3 * (lit - start)
+            pass_ms["labels"] += 1e3 * (time.perf_counter() - lit)
             depth = np.where(depth > 0, depth, np.inf).astype(np.float32)
             views[camera.name] = RenderedView(rgb=np.ascontiguousarray(rgb), depth=depth,
                                               labels=np.ascontiguousarray(labels[:, :, 0]))
+        self.last_pass_ms = pass_ms
         return views
 
     def _set_meshes(self, meshes: Sequence[SurfaceMesh]) -> None:
