@@ -13,6 +13,7 @@ import os
 import platform
 import statistics
 import time
+from pathlib import Path
 
 from experiments.config import option_values
 from tracker.geometry.rigs import orthogonal3
@@ -30,6 +31,7 @@ def bench_render(frames: int, width: int, height: int) -> dict[str, float]:
     frame_ms, rgb_ms, label_ms, pose_ms = [], [], [], []
     with SceneRenderer(width, height) as renderer:
         renderer.render(rig, arm.surface_meshes(motion.params(arm, 0)))  # warm-up: shader compilation, uploads
+        rss_start = _resident_mb()
         for frame in range(1, frames + 1):
             start = time.perf_counter()
             meshes = arm.surface_meshes(motion.params(arm, frame))
@@ -40,6 +42,7 @@ def bench_render(frames: int, width: int, height: int) -> dict[str, float]:
             frame_ms.append(1e3 * (done - posed))
             rgb_ms.append(renderer.last_pass_ms["rgb_depth"])
             label_ms.append(renderer.last_pass_ms["labels"])
+        rss_growth = _resident_mb() - rss_start
     views = len(rig)
     return {
         "views": views,
@@ -48,7 +51,13 @@ def bench_render(frames: int, width: int, height: int) -> dict[str, float]:
         "render_ms_per_view": statistics.median(frame_ms) / views,
         "rgb_depth_pass_ms_per_view": statistics.median(rgb_ms) / views,
         "label_pass_ms_per_view": statistics.median(label_ms) / views,
+        "resident_growth_mb": rss_growth,
     }
+
+
+def _resident_mb() -> float:
+    """Resident memory of this process (Linux ``/proc``), in MB."""
+    return int(Path("/proc/self/statm").read_text().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 1e6
 
 
 def main() -> None:
@@ -70,6 +79,7 @@ def main() -> None:
     log.info("  render per view    %7.2f ms  = lit RGB + depth pass %.2f ms + label pass %.2f ms (ratio %.2f)",
              result["render_ms_per_view"], result["rgb_depth_pass_ms_per_view"], result["label_pass_ms_per_view"],
              result["rgb_depth_pass_ms_per_view"] / result["label_pass_ms_per_view"])
+    log.info("  resident memory    %+7.1f MB over the %d frames after warm-up", result["resident_growth_mb"], args.frames)
 
 
 if __name__ == "__main__":

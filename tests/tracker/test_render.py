@@ -106,6 +106,16 @@ def test_rendering_is_deterministic_and_reuses_the_context(arm, motion, rig, ren
     assert len(renderer._materials) == materials  # one material (texture upload) per part, not one per frame
 
 
+def test_repeated_renders_reuse_compiled_shaders(arm, motion, rig, renderer):
+    # Regression: under OSMesa every pass used to miss pyrender's shader cache and compile (and leak) new programs.
+    renderer.render(rig, arm.surface_meshes(motion.params(arm, 0)))
+    programs = renderer._renderer._renderer._program_cache._program_cache  # pyrender internals, on purpose
+    compiled = len(programs)
+    for frame in range(1, 4):
+        renderer.render(rig, arm.surface_meshes(motion.params(arm, frame)))
+    assert len(programs) == compiled
+
+
 def test_rgb_has_texture_where_the_part_is(arm, motion, rig, renderer):
     view = renderer.render(rig, arm.surface_meshes(motion.params(arm, 0)))["front"]
     part = view.labels == 1

@@ -35,4 +35,30 @@ def load_pyrender() -> ModuleType:
     except Exception as error:  # PyOpenGL raises assorted errors when the platform library is missing
         fix = OSMESA_FIX if platform == "osmesa" else f"check the OpenGL platform {platform!r}"
         raise RenderBackendError(f"cannot load pyrender with {PLATFORM_VARIABLE}={platform}: {error}; {fix}") from error
+    if platform == "osmesa":
+        _use_stable_osmesa_context_ids()
     return pyrender
+
+
+def _use_stable_osmesa_context_ids() -> None:
+    """Make PyOpenGL identify the current OSMesa context by its address.
+
+    PyOpenGL's OSMesa platform returns the current context as a new ctypes pointer object on every call, and such
+    objects hash by identity. pyrender keys its shader-program cache on that value (as does PyOpenGL's per-context
+    storage), so every render pass missed the cache, compiled fresh programs and never freed them: about 10 MB and
+    several milliseconds per pass. An integer address is the same key for the same context every time.
+    """
+    import ctypes
+
+    import OpenGL.platform as gl_platform
+
+    if getattr(gl_platform.GetCurrentContext, "stable_ids", False):
+        return
+    current_context = gl_platform.PLATFORM.GetCurrentContext
+
+    def current_context_address() -> int | None:
+        pointer = current_context()
+        return ctypes.cast(pointer, ctypes.c_void_p).value if pointer else None
+
+    current_context_address.stable_ids = True
+    gl_platform.GetCurrentContext = current_context_address
