@@ -11,6 +11,7 @@ from __future__ import annotations
 import logging
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -31,20 +32,40 @@ from tracker.sequence import FrameInput, simulate
 log = logging.getLogger(__name__)
 
 
+@dataclass(frozen=True)
+class Components:
+    """What a run is made of, built from the config's groups."""
+
+    model: Any
+    motion: Any
+    cameras: tuple
+    tracker: Any
+
+    @property
+    def views(self) -> list[str]:
+        return [camera.name for camera in self.cameras]
+
+
+def build(cfg: DictConfig) -> Components:
+    return Components(
+        model=instantiate(cfg.model, seed=cfg.seed, _convert_="all"),
+        motion=instantiate(cfg.scene, _convert_="all"),
+        cameras=instantiate(cfg.rig, _convert_="all"),
+        tracker=instantiate(cfg.tracker),
+    )
+
+
 def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[str, Any]:
     """Run the configured scene for ``cfg.frames`` frames into ``output_dir``; return the metrics written."""
     check_config(cfg, choices)  # an invalid config raises before any output exists
     rows: list[dict[str, Any]] = []
     timings: list[dict[str, float]] = []
-    views: list[str] = []
+    components: Components | None = None
     recording: RunRecording | None = None
     status = "ok"
     try:
-        model = instantiate(cfg.model, seed=cfg.seed, _convert_="all")
-        motion = instantiate(cfg.scene, _convert_="all")
-        cameras = instantiate(cfg.rig, _convert_="all")
-        instantiate(cfg.tracker)
-        views = [camera.name for camera in cameras]
+        components = build(cfg)
+        model, cameras = components.model, components.cameras
         recording = RunRecording(
             output_dir / "run.rrd",
             cameras=cameras,
@@ -57,7 +78,7 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
         lighting = Lighting(ambient=cfg.render.ambient)
         background = tuple(cfg.render.background_rgb)
         with SceneRenderer(cameras[0].width, cameras[0].height, background_rgb=background, lighting=lighting) as renderer:
-            frames = simulate(model, motion, cameras, renderer, cfg.frames)
+            frames = simulate(model, components.motion, cameras, renderer, cfg.frames)
             for frame in tqdm(frames, total=cfg.frames, desc="frames", disable=not sys.stderr.isatty()):
                 start = time.perf_counter()
                 recording.log_frame(frame)
@@ -68,12 +89,15 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
     except Exception as error:  # recorded, not raised: a sweep goes on and every output stays readable
         log.exception("run failed at frame %d", len(timings))
         status = f"failed: {failure_reason(error)}"
+    except BaseException:  # Ctrl-C or exit: the outputs still say the run did not finish, then it stops
+        status = "failed: interrupted"
+        raise
     finally:
         if recording is not None:
             recording.close()
         table = pd.DataFrame(rows)
         write_parquet(output_dir / "frames.parquet", table)
-        metrics = summarize(cfg, choices, table, timings, views, status)
+        metrics = summarize(cfg, choices, components, table, timings, status)
         write_json(output_dir / "metrics.json", metrics)
     return metrics
 
@@ -88,13 +112,12 @@ def failure_reason(error: BaseException) -> str:
 
 def frame_rows(frame: FrameInput, part_names: tuple[str, ...]) -> list[dict[str, Any]]:
     """One row per part: truth parameters, label pixels in each view, the frame's stage timings."""
-    areas = {view: np.bincount(v.labels.ravel(), minlength=len(part_names) + 1) for view, v in frame.views.items()}
     timing_columns = {f"{stage}_ms": ms for stage, ms in frame.timings_ms.items()}
     rows = []
     for k, part in enumerate(part_names):
         row: dict[str, Any] = {"frame": frame.frame, "part": part}
         row.update({f"truth_{name}": float(frame.truth[k, i]) for i, name in enumerate(PARAM_NAMES)})
-        row.update({f"visible_px_{view}": int(area[k + 1]) for view, area in areas.items()})
+        row.update({f"visible_px_{view}": int(pixels[k]) for view, pixels in frame.visible_px.items()})
         row.update(timing_columns)
         rows.append(row)
     return rows
@@ -103,9 +126,9 @@ def frame_rows(frame: FrameInput, part_names: tuple[str, ...]) -> list[dict[str,
 def summarize(
     cfg: DictConfig,
     choices: dict[str, str],
+    components: Components | None,
     table: pd.DataFrame,
     timings: list[dict[str, float]],
-    views: list[str],
     status: str,
 ) -> dict[str, Any]:
     """The run's metrics.json content. Timings live under ``timing`` only, so the rest is reproducible."""
@@ -115,15 +138,16 @@ def summarize(
         "seed": int(cfg.seed),
         "frames": int(cfg.frames),
         "frames_done": len(timings),
-        "views": views,
+        "views": components.views if components else [],
+        "tracker": components.tracker.name if components else None,
         "config": OmegaConf.to_container(cfg, resolve=True),
     }
     if timings:
         stages = timings[0].keys()
         metrics["timing"] = {f"{stage}_ms_median": float(np.median([t[stage] for t in timings])) for stage in stages}
-        metrics["timing"]["render_ms_per_view_median"] = metrics["timing"]["render_ms_median"] / len(views)
+        metrics["timing"]["render_ms_per_view_median"] = metrics["timing"]["render_ms_median"] / len(components.views)
     if not table.empty:
-        metrics["min_visible_fraction"] = min_visible_fraction(table, views)
+        metrics["min_visible_fraction"] = min_visible_fraction(table, components.views)
     return metrics
 
 

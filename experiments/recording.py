@@ -107,9 +107,8 @@ class RunRecording:
                 rgb = rr.Image(rendered.rgb)
                 log(f"{image_path}/rgb", rgb.compress(jpeg_quality=self.jpeg_quality) if self.jpeg_quality else rgb)
                 log(f"{image_path}/labels", rr.SegmentationImage(rendered.labels, opacity=0.35))
-            areas = np.bincount(rendered.labels.ravel(), minlength=len(self.part_names) + 1)
-            for k, part in enumerate(self.part_names):
-                log(f"metrics/visible_px/{view}/{part}", rr.Scalars(float(areas[k + 1])))
+            for part, pixels in zip(self.part_names, frame.visible_px[view]):
+                log(f"metrics/visible_px/{view}/{part}", rr.Scalars(float(pixels)))
         for mesh in frame.meshes:
             path = f"world/truth/{mesh.key}"
             if mesh.key not in self._meshes_logged:

@@ -33,13 +33,15 @@ class FrameInput:
     """One frame of a synthetic sequence.
 
     truth: ``(n_parts, n_params)`` truth parameters; meshes: the truth surfaces that were rendered;
-    views: rendered images keyed by camera name; timings_ms: stage name -> milliseconds.
+    views: rendered images keyed by camera name; visible_px: per view, ``(n_parts,)`` label pixel counts
+    (part k's count at index k); timings_ms: stage name -> milliseconds.
     """
 
     frame: int
     truth: np.ndarray
     meshes: list[SurfaceMesh]
     views: dict[str, RenderedView]
+    visible_px: dict[str, np.ndarray]
     timings_ms: dict[str, float] = field(default_factory=dict)
 
 
@@ -59,8 +61,14 @@ def simulate(
             truth=truth,
             meshes=meshes,
             views=views,
+            visible_px={name: label_areas(view.labels, len(meshes)) for name, view in views.items()},
             timings_ms={"pose": 1e3 * (posed - start), "render": 1e3 * (rendered - posed)},
         )
+
+
+def label_areas(labels: np.ndarray, n_parts: int) -> np.ndarray:
+    """``(n_parts,)`` pixel counts of labels 1..n_parts in a label image (paper 2's A_j, eq 3)."""
+    return np.bincount(labels.ravel(), minlength=n_parts + 1)[1 : n_parts + 1]
 
 
 @dataclass(frozen=True)
