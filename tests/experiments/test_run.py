@@ -1,4 +1,8 @@
 import json
+import signal
+import subprocess
+import sys
+import time
 import numpy as np
 import pandas as pd
 import pytest
@@ -94,3 +98,22 @@ def test_a_failing_run_records_why_and_keeps_its_outputs_readable(tmp_path):
     assert metrics["frames_done"] == 0
     assert pd.read_parquet(tmp_path / "out" / "frames.parquet").empty
     assert not [p for p in (tmp_path / "out").iterdir() if p.name.endswith(".tmp")]
+
+
+def test_an_interrupted_run_says_so_and_leaves_readable_outputs(tmp_path):
+    run_dir = tmp_path / "out"
+    command = [sys.executable, "-m", "experiments.run", f"hydra.run.dir={run_dir}", "frames=1000"]
+    process = subprocess.Popen(command, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:  # wait until frames are being recorded (a few MB of images)
+        recording = list(run_dir.glob(".run.rrd.*.tmp"))
+        if recording and recording[0].stat().st_size > 2_000_000:
+            break
+        time.sleep(0.1)
+    process.send_signal(signal.SIGINT)  # Ctrl-C
+    assert process.wait(timeout=120) != 0
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    assert metrics["status"] == "failed: interrupted" and 0 < metrics["frames_done"] < 1000
+    assert len(pd.read_parquet(run_dir / "frames.parquet")) == 3 * metrics["frames_done"]
+    assert RrdReader(run_dir / "run.rrd").recordings()
+    assert not list(run_dir.glob("*.tmp")) and not list(run_dir.glob(".*.tmp"))
