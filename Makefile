@@ -7,7 +7,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 SUDO   := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: setup system-deps reproduce test test-all clean
+.PHONY: setup system-deps reproduce test test-all lint clean
 
 setup: system-deps $(STAMP)
 
@@ -38,6 +38,9 @@ test: setup
 
 test-all: setup
 	$(PY) -m pytest -q -m ''
+
+lint: setup
+	$(VENV)/bin/ruff check tracker experiments eval tests
 
 clean:
 	rm -rf runs multirun outputs reports .cache .pytest_cache

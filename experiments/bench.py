@@ -79,7 +79,8 @@ def main() -> None:
     log.info("  render per view    %7.2f ms  = lit RGB + depth pass %.2f ms + label pass %.2f ms (ratio %.2f)",
              result["render_ms_per_view"], result["rgb_depth_pass_ms_per_view"], result["label_pass_ms_per_view"],
              result["rgb_depth_pass_ms_per_view"] / result["label_pass_ms_per_view"])
-    log.info("  resident memory    %+7.1f MB over the %d frames after warm-up", result["resident_growth_mb"], args.frames)
+    log.info("  resident memory    %+7.1f MB over the %d frames after warm-up",
+             result["resident_growth_mb"], args.frames)
 
 
 if __name__ == "__main__":

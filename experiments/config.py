@@ -17,7 +17,7 @@ from typing import Any
 from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING, DictConfig, ListConfig, OmegaConf, open_dict
 
-from tracker.models.dsq import DSQShape, PARAM_RANGES, SHAPE_NAMES
+from tracker.models.dsq import PARAM_RANGES, SHAPE_NAMES, DSQShape
 from tracker.ranges import ANY, NON_NEGATIVE, POSITIVE, Range, check_in_range
 
 PLANNED_TARGET = "experiments.config.planned"

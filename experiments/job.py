@@ -9,7 +9,9 @@ A failure inside the loop is recorded as ``status: "failed: <reason>"`` with eve
 from __future__ import annotations
 
 import logging
+import signal
 import sys
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -63,6 +65,7 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
     components: Components | None = None
     recording: RunRecording | None = None
     status = "ok"
+    stop = StopRequest.install()
     try:
         components = build(cfg)
         model, cameras = components.model, components.cameras
@@ -75,9 +78,13 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
             jpeg_quality=cfg.record.jpeg_quality,
             images=cfg.record.images,
         )
-        lighting = Lighting(ambient=cfg.render.ambient)
-        background = tuple(cfg.render.background_rgb)
-        with SceneRenderer(cameras[0].width, cameras[0].height, background_rgb=background, lighting=lighting) as renderer:
+        renderer = SceneRenderer(
+            cameras[0].width,
+            cameras[0].height,
+            background_rgb=tuple(cfg.render.background_rgb),
+            lighting=Lighting(ambient=cfg.render.ambient),
+        )
+        with renderer:
             frames = simulate(model, components.motion, cameras, renderer, cfg.frames)
             for frame in tqdm(frames, total=cfg.frames, desc="frames", disable=not sys.stderr.isatty()):
                 start = time.perf_counter()
@@ -86,20 +93,60 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
                 recording.log_timings(frame.frame, frame.timings_ms)
                 rows.extend(frame_rows(frame, model.part_names))
                 timings.append(frame.timings_ms)
+                if stop.requested:
+                    break
     except Exception as error:  # recorded, not raised: a sweep goes on and every output stays readable
         log.exception("run failed at frame %d", len(timings))
         status = f"failed: {failure_reason(error)}"
-    except BaseException:  # Ctrl-C or exit: the outputs still say the run did not finish, then it stops
+    except BaseException:  # an exit or interrupt raised anyway: the outputs still say the run did not finish
         status = "failed: interrupted"
         raise
     finally:
+        stop.restore()
+        if stop.requested:
+            status = f"failed: interrupted by {stop.requested}"
         if recording is not None:
             recording.close()
         table = pd.DataFrame(rows)
         write_parquet(output_dir / "frames.parquet", table)
         metrics = summarize(cfg, choices, components, table, timings, status)
         write_json(output_dir / "metrics.json", metrics)
+    if stop.requested:  # outputs are safe; now stop like the signal asked (a sweep stops too)
+        raise KeyboardInterrupt if stop.requested == "SIGINT" else SystemExit(128 + signal.SIGTERM)
     return metrics
+
+
+class StopRequest:
+    """SIGINT and SIGTERM ask the frame loop to stop after the current frame (then the run writes its outputs).
+
+    A KeyboardInterrupt raised wherever the signal lands can be swallowed (inside a finalizer of a GL object it is
+    only printed), and the run would go on; a flag checked once per frame cannot be missed. A second signal of the
+    same kind takes the default action at once.
+    """
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+    def __init__(self) -> None:
+        self.requested: str | None = None
+        self._previous: dict[int, Any] = {}
+
+    @classmethod
+    def install(cls) -> StopRequest:
+        request = cls()
+        if threading.current_thread() is threading.main_thread():  # signal handlers live in the main thread
+            for number in cls.SIGNALS:
+                request._previous[number] = signal.signal(number, request._handle)
+        return request
+
+    def _handle(self, number: int, _frame: Any) -> None:
+        self.requested = signal.Signals(number).name
+        log.warning("%s: stopping after this frame (again to stop at once)", self.requested)
+        signal.signal(number, self._previous.get(number, signal.SIG_DFL))
+
+    def restore(self) -> None:
+        for number, previous in self._previous.items():
+            signal.signal(number, previous)
+        self._previous = {}
 
 
 def failure_reason(error: BaseException) -> str:

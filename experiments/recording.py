@@ -14,12 +14,11 @@ import uuid
 from collections.abc import Sequence
 from pathlib import Path
 
-import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from tracker.geometry.cameras import Camera
 from tracker.atomic import AtomicFile
+from tracker.geometry.cameras import Camera
 from tracker.sequence import FrameInput
 
 APPLICATION_ID = "articulated-tracking"
@@ -31,7 +30,7 @@ def default_blueprint(view_names: Sequence[str], part_names: Sequence[str]) -> r
     series = [rrb.TimeSeriesView(name=f"{part} truth", origin=f"metrics/params/{part}") for part in part_names]
     return rrb.Blueprint(
         rrb.Vertical(
-            rrb.Horizontal(*[rrb.Spatial2DView(name=view, origin=f"world/cameras/{view}/image") for view in view_names]),
+            rrb.Horizontal(*[rrb.Spatial2DView(name=v, origin=f"world/cameras/{v}/image") for v in view_names]),
             rrb.Horizontal(
                 rrb.Spatial3DView(name="3-D scene", origin="world"),
                 rrb.Tabs(
@@ -68,11 +67,12 @@ class RunRecording:
         self.images = images
         self._file: AtomicFile | None = AtomicFile(self.path)
         self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=self.recording_id)
-        self.stream.save(self._file.temporary, default_blueprint=default_blueprint([c.name for c in cameras], part_names))
+        blueprint = default_blueprint([camera.name for camera in cameras], part_names)
+        self.stream.save(self._file.temporary, default_blueprint=blueprint)
         self._log_static(cameras, part_colors)
         self._meshes_logged: set[str] = set()
 
-    def __enter__(self) -> "RunRecording":
+    def __enter__(self) -> RunRecording:
         return self
 
     def __exit__(self, *exc) -> None:
@@ -84,7 +84,7 @@ class RunRecording:
         classes = [rr.AnnotationInfo(id=0, label="background", color=(0, 0, 0))]
         classes += [
             rr.AnnotationInfo(id=k + 1, label=name, color=tuple(color))
-            for k, (name, color) in enumerate(zip(self.part_names, part_colors))
+            for k, (name, color) in enumerate(zip(self.part_names, part_colors, strict=True))
         ]
         log("world", rr.AnnotationContext(classes), static=True)
         for camera in cameras:
@@ -107,7 +107,7 @@ class RunRecording:
                 rgb = rr.Image(rendered.rgb)
                 log(f"{image_path}/rgb", rgb.compress(jpeg_quality=self.jpeg_quality) if self.jpeg_quality else rgb)
                 log(f"{image_path}/labels", rr.SegmentationImage(rendered.labels, opacity=0.35))
-            for part, pixels in zip(self.part_names, frame.visible_px[view]):
+            for part, pixels in zip(self.part_names, frame.visible_px[view], strict=True):
                 log(f"metrics/visible_px/{view}/{part}", rr.Scalars(float(pixels)))
         for mesh in frame.meshes:
             path = f"world/truth/{mesh.key}"

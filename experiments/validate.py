@@ -13,7 +13,7 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.errors import HydraException, MissingConfigException, OverrideParseException
 from omegaconf.errors import OmegaConfBaseException
 
-from experiments.config import ConfigError, GROUP_SCHEMAS, check_config
+from experiments.config import GROUP_SCHEMAS, ConfigError, check_config
 
 # Flags after which Hydra runs nothing (help, printing the config, shell completion): nothing to validate.
 _INFORMATIONAL_FLAGS = {"--help", "-h", "--hydra-help", "--cfg", "-c", "--info", "-i", "--version",
@@ -47,7 +47,7 @@ def sweep_combinations(overrides: list[str]) -> list[list[str]]:
     except OverrideParseException as error:
         raise ConfigError(f"cannot parse the overrides {' '.join(overrides)!r}: {_first_line(error)}") from None
     choices = []
-    for override, text in zip(parsed, overrides):
+    for override, text in zip(parsed, overrides, strict=True):
         key = text.split("=", 1)[0]
         values = list(override.sweep_string_iterator()) if override.is_sweep_override() else None
         choices.append([f"{key}={value}" for value in values] if values else [text])

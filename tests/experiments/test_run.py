@@ -3,6 +3,7 @@ import signal
 import subprocess
 import sys
 import time
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -78,7 +79,8 @@ def test_recorded_truth_series_equals_the_frames_table(five_frame_run):
     for chunk in RrdReader(five_frame_run / "run.rrd").stream().to_chunks():
         if chunk.entity_path == "/metrics/params/forearm/r2/truth":
             batch = chunk.to_record_batch()
-            values.update(zip(batch.column("frame").to_pylist(), batch.column("Scalars:scalars").to_pylist()))
+            frames, scalars = batch.column("frame").to_pylist(), batch.column("Scalars:scalars").to_pylist()
+            values.update(zip(frames, scalars, strict=True))
     np.testing.assert_allclose([values[f][0] for f in range(5)], expected)
 
 
@@ -100,7 +102,8 @@ def test_a_failing_run_records_why_and_keeps_its_outputs_readable(tmp_path):
     assert not [p for p in (tmp_path / "out").iterdir() if p.name.endswith(".tmp")]
 
 
-def test_an_interrupted_run_says_so_and_leaves_readable_outputs(tmp_path):
+@pytest.mark.parametrize("signal_number", [signal.SIGINT, signal.SIGTERM])
+def test_an_interrupted_run_says_so_and_leaves_readable_outputs(tmp_path, signal_number):
     run_dir = tmp_path / "out"
     command = [sys.executable, "-m", "experiments.run", f"hydra.run.dir={run_dir}", "frames=1000"]
     process = subprocess.Popen(command, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -110,10 +113,10 @@ def test_an_interrupted_run_says_so_and_leaves_readable_outputs(tmp_path):
         if recording and recording[0].stat().st_size > 2_000_000:
             break
         time.sleep(0.1)
-    process.send_signal(signal.SIGINT)  # Ctrl-C
+    process.send_signal(signal_number)  # Ctrl-C, or a scheduler's stop
     assert process.wait(timeout=120) != 0
     metrics = json.loads((run_dir / "metrics.json").read_text())
-    assert metrics["status"] == "failed: interrupted" and 0 < metrics["frames_done"] < 1000
+    assert metrics["status"] == f"failed: interrupted by {signal_number.name}" and 0 < metrics["frames_done"] < 1000
     assert len(pd.read_parquet(run_dir / "frames.parquet")) == 3 * metrics["frames_done"]
     assert RrdReader(run_dir / "run.rrd").recordings()
     assert not list(run_dir.glob("*.tmp")) and not list(run_dir.glob(".*.tmp"))

@@ -64,7 +64,7 @@ def test_deformed_points_equal_the_naive_formula():
     q = DSQShape(a=0.3, a1=0.4, a2=0.5, a3=0.9, eps1=0.7, eps2=1.3, t1=0.4, t2=-0.6, b1=0.05, b2=0.2,
                  b3=0.7).to_params()  # fmt: skip
     eta, omega = random_coords(200, seed=3)
-    expected = np.array([naive_dsq_point(q, h, w) for h, w in zip(eta, omega)])
+    expected = np.array([naive_dsq_point(q, h, w) for h, w in zip(eta, omega, strict=True)])
     np.testing.assert_allclose(dsq_points(q, eta, omega), expected, atol=1e-12)
 
 

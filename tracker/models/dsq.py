@@ -17,7 +17,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from tracker.ranges import ANY, POSITIVE, NON_NEGATIVE, Range
+from tracker.ranges import ANY, NON_NEGATIVE, POSITIVE, Range
 from tracker.tol import TRIG_SNAP
 
 PARAM_NAMES = ("a", "a1", "a2", "a3", "eps1", "eps2", "t1", "t2", "b1", "b2", "b3",

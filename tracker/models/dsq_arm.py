@@ -20,11 +20,11 @@ from tracker.models.dsq import (
     PARAM_INDEX,
     DSQShape,
     MeshTopology,
+    SampleGrid,
     dsq_points,
     mesh_topology,
     pole_point,
     sample_grid,
-    SampleGrid,
     vertex_normals,
 )
 from tracker.models.textures import block_noise_texture
@@ -70,9 +70,10 @@ class DSQArm:
         self.tree = KinematicTree(tuple(names), (None, *range(len(self.parts) - 1)))
         self.topology: MeshTopology = mesh_topology(self.mesh.n_eta, self.mesh.n_omega)
         self.sample_grid: SampleGrid = sample_grid(self.samples.n_eta, self.samples.n_omega)
-        part_rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(self.seed).spawn(len(self.parts))]
+        seeds = np.random.SeedSequence(self.seed).spawn(len(self.parts))  # one stream per part
         self.textures = [
-            block_noise_texture(rng, part.texture_cells, part.tint) for rng, part in zip(part_rngs, self.parts)
+            block_noise_texture(np.random.default_rng(seed), part.texture_cells, part.tint)
+            for seed, part in zip(seeds, self.parts, strict=True)
         ]
 
     @property

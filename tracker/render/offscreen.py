@@ -52,7 +52,8 @@ class SceneRenderer:
         self.width, self.height = int(width), int(height)
         self.znear, self.zfar = znear, zfar
         pr = self._pyrender
-        self._scene = pr.Scene(bg_color=[*(c / 255.0 for c in background_rgb), 1.0], ambient_light=[lighting.ambient] * 3)
+        background = [*(channel / 255.0 for channel in background_rgb), 1.0]
+        self._scene = pr.Scene(bg_color=background, ambient_light=[lighting.ambient] * 3)
         for direction, intensity in lighting.lights:
             self._scene.add(pr.DirectionalLight(color=np.ones(3), intensity=intensity), pose=_light_pose(direction))
         self._camera_node = self._scene.add(pr.IntrinsicsCamera(fx=1, fy=1, cx=0, cy=0))
@@ -64,7 +65,7 @@ class SceneRenderer:
         except Exception as error:
             raise RenderBackendError(f"cannot open an off-screen OpenGL context: {error}") from error
 
-    def __enter__(self) -> "SceneRenderer":
+    def __enter__(self) -> SceneRenderer:
         return self
 
     def __exit__(self, *exc) -> None:
@@ -81,7 +82,7 @@ class SceneRenderer:
             raise RuntimeError("the renderer is closed")
         self._set_meshes(meshes)
         pr = self._pyrender
-        seg_map = {node: (mesh.label,) * 3 for node, mesh in zip(self._mesh_nodes, meshes)}
+        seg_map = {node: (mesh.label,) * 3 for node, mesh in zip(self._mesh_nodes, meshes, strict=True)}
         views = {}
         pass_ms = {"rgb_depth": 0.0, "labels": 0.0}
         for camera in cameras:
