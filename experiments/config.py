@@ -40,10 +40,6 @@ def allowed(values: Range, *, each: bool = False, length: int | None = None, def
     return field(default=default, metadata=metadata, **kw)
 
 
-def _list(default: list) -> Any:
-    return field(default_factory=lambda: list(default))
-
-
 BYTE = Range(0, 255)
 IMAGE_SIDE = Range(16, 4096)
 COUNT = Range(1, math.inf)

@@ -11,7 +11,7 @@ from pathlib import Path
 from hydra import compose, initialize_config_dir
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.errors import HydraException, MissingConfigException, OverrideParseException
-from omegaconf.errors import OmegaConfBaseException
+from omegaconf.errors import ConfigAttributeError, ConfigKeyError, OmegaConfBaseException
 
 from experiments.config import GROUP_SCHEMAS, ConfigError, check_config
 
@@ -77,7 +77,7 @@ def _compose(config_dir: Path, config_name: str, overrides: list[str]):
 def _describe(error: OmegaConfBaseException) -> str:
     key = getattr(error, "full_key", None) or getattr(error, "key", None) or "?"
     schema = getattr(error, "object_type", None)
-    if "not in" in str(error) and dataclasses.is_dataclass(schema):  # an unknown key in a schema-backed node
+    if isinstance(error, (ConfigAttributeError, ConfigKeyError)) and dataclasses.is_dataclass(schema):  # unknown key
         known = [f.name for f in dataclasses.fields(schema) if not f.name.startswith("_")]
         return f"{key}: unknown key, allowed keys here: {', '.join(known)}"
     message = getattr(error, "msg", None) or str(error)

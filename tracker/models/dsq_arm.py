@@ -60,6 +60,11 @@ class DSQArm:
     mesh: Resolution = field(default_factory=lambda: Resolution(40, 48))
     samples: Resolution = field(default_factory=lambda: Resolution(16, 24))
     seed: int = 0
+    # Derived in __post_init__:
+    tree: KinematicTree = field(init=False, repr=False)
+    topology: MeshTopology = field(init=False, repr=False)  # of the render mesh
+    sample_grid: SampleGrid = field(init=False, repr=False)  # model samples for fitting
+    textures: list[np.ndarray] = field(init=False, repr=False)  # one per part
 
     def __post_init__(self) -> None:
         if len(self.parts) < 1:
@@ -68,8 +73,8 @@ class DSQArm:
         if len(set(names)) != len(names):
             raise ValueError(f"arm part names must be unique, got {names}")
         self.tree = KinematicTree(tuple(names), (None, *range(len(self.parts) - 1)))
-        self.topology: MeshTopology = mesh_topology(self.mesh.n_eta, self.mesh.n_omega)
-        self.sample_grid: SampleGrid = sample_grid(self.samples.n_eta, self.samples.n_omega)
+        self.topology = mesh_topology(self.mesh.n_eta, self.mesh.n_omega)
+        self.sample_grid = sample_grid(self.samples.n_eta, self.samples.n_omega)
         seeds = np.random.SeedSequence(self.seed).spawn(len(self.parts))  # one stream per part
         self.textures = [
             block_noise_texture(np.random.default_rng(seed), part.texture_cells, part.tint)
