@@ -72,6 +72,18 @@ def test_recording_has_images_labels_params_and_timings_for_every_frame(five_fra
         assert frames[f"/metrics/params/{part}/b1/truth"] == every_frame
 
 
+def test_default_blueprint_shows_the_views_the_scene_and_the_series(five_frame_run):
+    reader = RrdReader(five_frame_run / "run.rrd")
+    origins = set()
+    for chunk in reader.stream(store=reader.blueprints()[0]).to_chunks():
+        batch = chunk.to_record_batch()
+        if "ViewBlueprint:space_origin" in batch.schema.names:
+            origins.update(value[0] for value in batch.column("ViewBlueprint:space_origin").to_pylist() if value)
+    assert {f"world/cameras/{view}/image" for view in VIEWS} <= origins  # RGB with the label overlay
+    assert {"world", "metrics/visible_px", "metrics/timing"} <= origins
+    assert {f"metrics/params/{part}" for part in PARTS} <= origins
+
+
 def test_recorded_truth_series_equals_the_frames_table(five_frame_run):
     table = pd.read_parquet(five_frame_run / "frames.parquet")
     expected = table.loc[table["part"] == "forearm", "truth_r2"].to_numpy()
