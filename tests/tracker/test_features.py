@@ -1,0 +1,77 @@
+import cv2
+import numpy as np
+
+from tracker.models.textures import block_noise_texture
+from tracker.observe.features import FeatureSettings, FeatureTracker
+
+
+def textured_image(seed=0, size=(240, 320)):
+    """Blocks of random grey on a plain background, slightly blurred like a camera image."""
+    texture = block_noise_texture(np.random.default_rng(seed), (size[0] // 8, size[1] // 8), (255, 255, 255))
+    return cv2.GaussianBlur(texture[: size[0], : size[1]], (3, 3), 0.8)
+
+
+def shifted(image, du, dv):
+    matrix = np.float32([[1, 0, du], [0, 1, dv]])
+    return cv2.warpAffine(image, matrix, (image.shape[1], image.shape[0]), flags=cv2.INTER_LINEAR,
+                          borderMode=cv2.BORDER_REFLECT)
+
+
+def test_tracks_follow_a_subpixel_shift():
+    image = textured_image()
+    tracker = FeatureTracker()
+    first = tracker.step(image)
+    assert len(first.ids) > 100 and first.new.all() and len(first.lost_ids) == 0
+    second = tracker.step(shifted(image, 1.7, -0.6))
+    tracked = second.tracked
+    before = dict(zip(first.ids, first.points, strict=True))
+    moves = np.array([p - before[i] for i, p in zip(second.ids[tracked], second.points[tracked], strict=True)])
+    interior = np.all((second.points[tracked] > 20) & (second.points[tracked] < [300, 220]), axis=1)
+    np.testing.assert_allclose(np.median(moves[interior], axis=0), [1.7, -0.6], atol=0.05)
+    assert np.mean(np.linalg.norm(moves[interior] - [1.7, -0.6], axis=1) < 0.2) > 0.9
+
+
+def test_occluded_features_are_lost_and_new_ones_fill_the_gap():
+    image = textured_image(seed=1)
+    tracker = FeatureTracker(FeatureSettings(max_features=400))
+    first = tracker.step(image)
+    covered = image.copy()
+    # Something else moves in front; its texture is off the first one's block grid (corners do not coincide).
+    covered[60:180, 80:240] = shifted(textured_image(seed=2), 3.5, 4.5)[60:180, 80:240]
+    second = tracker.step(covered)
+    inside = lambda p: (p[:, 0] > 85) & (p[:, 0] < 235) & (p[:, 1] > 65) & (p[:, 1] < 175)  # noqa: E731
+    hidden_ids = first.ids[inside(first.points)]
+    assert len(hidden_ids) > 20
+    assert np.isin(hidden_ids, second.lost_ids).mean() > 0.9  # forward-backward rejects them
+    assert np.isin(second.ids[second.tracked], hidden_ids).sum() <= 0.1 * len(hidden_ids)
+    assert inside(second.points[second.new]).sum() > 20  # the new texture gets new corners
+    assert len(np.intersect1d(second.ids[second.new], first.ids)) == 0  # new features get new ids
+
+
+def test_new_corners_keep_their_distance_from_live_tracks():
+    image = textured_image(seed=3)
+    settings = FeatureSettings(min_distance_px=6.0)
+    tracker = FeatureTracker(settings)
+    tracker.step(image)
+    frame = tracker.step(shifted(image, 0.5, 0.5))
+    tracked, new = frame.points[frame.tracked], frame.points[frame.new]
+    if len(new) and len(tracked):
+        gaps = np.linalg.norm(new[:, None] - tracked[None], axis=2).min(axis=1)
+        assert gaps.min() >= 6.0 - 1.0  # the detection mask is drawn at whole pixels
+    assert len(frame.ids) <= settings.max_features
+    assert len(np.unique(frame.ids)) == len(frame.ids)
+
+
+def test_features_leaving_the_image_are_lost():
+    image = textured_image(seed=4)
+    tracker = FeatureTracker()
+    first = tracker.step(image)
+    second = tracker.step(shifted(image, -12.0, 0.0))
+    near_left = first.ids[first.points[:, 0] < 8]
+    assert len(near_left) > 0 and np.isin(near_left, second.lost_ids).all()
+    assert (second.points[:, 0] >= 0).all()
+
+
+def test_a_plain_image_has_no_features():
+    frame = FeatureTracker().step(np.full((240, 320, 3), 40, np.uint8))
+    assert len(frame.ids) == 0 and frame.points.shape == (0, 2)
