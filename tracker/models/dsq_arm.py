@@ -115,6 +115,12 @@ class DSQArm:
         ]
         return np.array(joints).reshape(-1, 3)
 
+    def sample_points(self, params: np.ndarray) -> list[np.ndarray]:
+        """Per part, the world positions ``(n_samples, 3)`` of its model samples (row k is sample id k)."""
+        world = self.world_transforms(params)
+        grid = self.sample_grid
+        return [transform_points(world[k], dsq_points(params[k], grid.eta, grid.omega)) for k in range(len(self.parts))]
+
     def surface_meshes(self, params: np.ndarray) -> list[SurfaceMesh]:
         """The parts' textured meshes in the world, labels 1..n."""
         world = self.world_transforms(params)

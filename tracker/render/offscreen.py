@@ -27,6 +27,14 @@ class RenderedView:
     labels: np.ndarray
 
 
+@dataclass(frozen=True, eq=False)
+class DepthLabels:
+    """A z-buffer render: depth and labels as in `RenderedView`, no colour."""
+
+    depth: np.ndarray
+    labels: np.ndarray
+
+
 @dataclass(frozen=True)
 class Lighting:
     """Ambient level and directional lights ``(direction the light travels, intensity)``, fixed in the world."""
@@ -86,26 +94,42 @@ class SceneRenderer:
         views = {}
         pass_ms = {"rgb_depth": 0.0, "labels": 0.0}
         for camera in cameras:
-            if (camera.width, camera.height) != (self.width, self.height):
-                raise ValueError(
-                    f"camera {camera.name!r} is {camera.width}x{camera.height}, the renderer {self.width}x{self.height}"
-                )
-            gl = opengl_camera(camera)
-            self._camera_node.camera = pr.IntrinsicsCamera(
-                fx=gl.fx, fy=gl.fy, cx=gl.cx, cy=gl.cy, znear=self.znear, zfar=self.zfar
-            )
-            self._scene.set_pose(self._camera_node, gl.pose)
+            self._set_camera(camera)
             start = time.perf_counter()
             rgb, depth = self._renderer.render(self._scene)
             lit = time.perf_counter()
             labels, _ = self._renderer.render(self._scene, flags=pr.RenderFlags.SEG, seg_node_map=seg_map)
             pass_ms["rgb_depth"] += 1e3 * (lit - start)
             pass_ms["labels"] += 1e3 * (time.perf_counter() - lit)
-            depth = np.where(depth > 0, depth, np.inf).astype(np.float32)
-            views[camera.name] = RenderedView(rgb=np.ascontiguousarray(rgb), depth=depth,
+            views[camera.name] = RenderedView(rgb=np.ascontiguousarray(rgb), depth=_metric_depth(depth),
                                               labels=np.ascontiguousarray(labels[:, :, 0]))
         self.last_pass_ms = pass_ms
         return views
+
+    def render_depth_labels(self, cameras: Sequence[Camera], meshes: Sequence[SurfaceMesh]) -> dict[str, DepthLabels]:
+        """Depth and labels only (one unlit pass per camera): the z-buffer an estimator uses for visibility."""
+        if self._renderer is None:
+            raise RuntimeError("the renderer is closed")
+        self._set_meshes(meshes)
+        seg_map = {node: (mesh.label,) * 3 for node, mesh in zip(self._mesh_nodes, meshes, strict=True)}
+        views = {}
+        for camera in cameras:
+            self._set_camera(camera)
+            labels, depth = self._renderer.render(self._scene, flags=self._pyrender.RenderFlags.SEG,
+                                                  seg_node_map=seg_map)
+            views[camera.name] = DepthLabels(depth=_metric_depth(depth), labels=np.ascontiguousarray(labels[:, :, 0]))
+        return views
+
+    def _set_camera(self, camera: Camera) -> None:
+        if (camera.width, camera.height) != (self.width, self.height):
+            raise ValueError(
+                f"camera {camera.name!r} is {camera.width}x{camera.height}, the renderer {self.width}x{self.height}"
+            )
+        gl = opengl_camera(camera)
+        self._camera_node.camera = self._pyrender.IntrinsicsCamera(
+            fx=gl.fx, fy=gl.fy, cx=gl.cx, cy=gl.cy, znear=self.znear, zfar=self.zfar
+        )
+        self._scene.set_pose(self._camera_node, gl.pose)
 
     def _set_meshes(self, meshes: Sequence[SurfaceMesh]) -> None:
         """Replace last frame's mesh nodes (vertices change every frame; materials and textures are reused)."""
@@ -136,6 +160,11 @@ class SceneRenderer:
             )
             self._materials[mesh.key] = material
         return material
+
+
+def _metric_depth(depth: np.ndarray) -> np.ndarray:
+    """pyrender's depth (camera z in metres, 0 where nothing was drawn) with ``inf`` where nothing was drawn."""
+    return np.where(depth > 0, depth, np.inf).astype(np.float32)
 
 
 def _light_pose(direction: Sequence[float]) -> np.ndarray:

@@ -1,0 +1,1 @@
+"""Paper 1's Analysis-by-Image-Synthesis tracker: visibility, correspondences, per-part fitting."""

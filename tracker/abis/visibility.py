@@ -1,0 +1,51 @@
+"""Which model samples a view sees (paper 1, step 1-2): a z-buffer render of the current estimate decides.
+
+Sample k of part j is visible in a view when it projects inside the image, the label image shows part j at its
+pixel (nothing else in front: occlusion by other parts) and the z-buffer depth there is not more than
+`VISIBILITY_DEPTH_M` in front of the sample (not behind its own part's near side: self-occlusion).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from tracker.geometry.cameras import Camera
+from tracker.render.offscreen import DepthLabels
+from tracker.tol import VISIBILITY_DEPTH_M
+
+
+@dataclass(frozen=True, eq=False)
+class VisibleSamples:
+    """The samples a view sees: ``part`` and ``sample`` index ``(m,)`` int, projections ``uv`` ``(m, 2)``."""
+
+    part: np.ndarray
+    sample: np.ndarray
+    uv: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.part)
+
+
+def visible_samples(camera: Camera, zbuffer: DepthLabels, samples_world: Sequence[np.ndarray]) -> VisibleSamples:
+    """Samples of every part (``samples_world[j]`` is part j's ``(n_j, 3)`` world points) visible in ``camera``.
+
+    Part j must have label ``j + 1`` in ``zbuffer`` (the convention of `tracker.models.dsq_arm`).
+    """
+    parts, indices, uvs = [], [], []
+    for part, points in enumerate(samples_world):
+        uv, z = camera.project(points)
+        pixel = np.rint(uv)
+        inside = np.all(np.isfinite(pixel), axis=1)
+        inside[inside] &= np.all((pixel[inside] >= 0) & (pixel[inside] <= [camera.width - 1, camera.height - 1]), 1)
+        rows, columns = pixel[inside, 1].astype(int), pixel[inside, 0].astype(int)
+        own_part = zbuffer.labels[rows, columns] == part + 1
+        nearest = z[inside] <= zbuffer.depth[rows, columns] + VISIBILITY_DEPTH_M
+        seen = own_part & nearest
+        chosen = np.flatnonzero(inside)[seen]
+        parts.append(np.full(len(chosen), part))
+        indices.append(chosen)
+        uvs.append(uv[chosen])
+    return VisibleSamples(np.concatenate(parts), np.concatenate(indices), np.concatenate(uvs).reshape(-1, 2))
