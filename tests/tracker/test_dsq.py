@@ -9,6 +9,7 @@ from tracker.models.dsq import (
     PARAM_RANGES,
     DSQShape,
     dsq_points,
+    dsq_points_jacobian,
     mesh_topology,
     pole_point,
     sample_grid,
@@ -148,3 +149,24 @@ def test_vertex_normals_of_a_sphere_point_outwards():
     vertices = dsq_points(DSQShape(a=1.0).to_params(), topology.eta, topology.omega)
     normals = vertex_normals(vertices, topology)
     np.testing.assert_allclose(np.einsum("ij,ij->i", normals, vertices), 1.0, atol=1e-2)
+
+
+@pytest.mark.parametrize("shape", [
+    DSQShape(a=0.3, a1=0.4, a2=0.5, a3=0.9, eps1=0.7, eps2=1.3, t1=0.4, t2=-0.6, b1=0.05, b2=0.2, b3=0.7),
+    DSQShape(a=0.22, a1=0.3, a2=0.3, eps1=0.5, t1=-0.2, t2=-0.2, b1=-0.03, b3=0.5),
+    DSQShape(a=0.1, a1=0.9, a2=0.2, a3=0.6, eps1=1.8, eps2=0.4, b1=0.01, b2=-0.5, b3=1.0),
+])  # fmt: skip
+def test_shape_jacobian_matches_central_differences(shape):
+    q = shape.to_params()
+    grid = sample_grid(12, 16)  # includes omega = -pi, -pi/2, 0, pi/2, where a sine or cosine is 0
+    eta = np.concatenate([grid.eta, [-np.pi / 2, np.pi / 2]])  # and the poles
+    omega = np.concatenate([grid.omega, [0.3, -2.0]])
+    analytic = dsq_points_jacobian(q, eta, omega)
+    assert analytic.shape == (len(eta), 3, 11) and np.isfinite(analytic).all()
+    for k, name in enumerate(PARAM_NAMES[:11]):
+        step = 1e-6 * max(1.0, abs(q[k]))
+        plus, minus = q.copy(), q.copy()
+        plus[k] += step
+        minus[k] -= step
+        numeric = (dsq_points(plus, eta, omega) - dsq_points(minus, eta, omega)) / (2 * step)
+        np.testing.assert_allclose(analytic[:, :, k], numeric, atol=1e-7, err_msg=name)

@@ -45,3 +45,15 @@ def test_rigid_inverse_and_point_transform():
     points = np.random.default_rng(1).normal(size=(10, 3))
     np.testing.assert_allclose(transform_points(invert_rigid(transform), transform_points(transform, points)), points)
     np.testing.assert_allclose(invert_rigid(transform) @ transform, np.eye(4), atol=1e-12)
+
+
+def test_rotation_derivatives_match_central_differences():
+    from tracker.geometry.rotations import euler_to_matrix_derivatives
+
+    r = np.array([0.4, -1.1, 2.3])
+    analytic = euler_to_matrix_derivatives(r)
+    for i in range(3):
+        step = np.zeros(3)
+        step[i] = 1e-6
+        numeric = (euler_to_matrix(r + step) - euler_to_matrix(r - step)) / 2e-6
+        np.testing.assert_allclose(analytic[i], numeric, atol=1e-9)

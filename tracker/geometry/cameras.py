@@ -60,6 +60,16 @@ class Camera:
         return uv, z
 
 
+def projection_jacobian(camera: Camera, points: np.ndarray) -> np.ndarray:
+    """``(n, 2, 3)``: derivatives of `Camera.project`'s pixels with respect to the world points."""
+    p = camera.world_to_camera(points)
+    x, y, z = p[:, 0:1], p[:, 1:2], p[:, 2:3]
+    rows = camera.rotation.T  # d p_camera / d p_world
+    du = camera.fx * (rows[0] * z - x * rows[2]) / z**2
+    dv = camera.fy * (rows[1] * z - y * rows[2]) / z**2
+    return np.stack([du, dv], axis=1)
+
+
 def look_at(
     name: str,
     position: np.ndarray,

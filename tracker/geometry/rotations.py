@@ -33,6 +33,22 @@ def euler_to_matrix(r: np.ndarray) -> np.ndarray:
     return rotation_z(r3) @ rotation_y(r2) @ rotation_x(r1)
 
 
+def euler_to_matrix_derivatives(r: np.ndarray) -> np.ndarray:
+    """``(3, 3, 3)``: ``[i] = dR/dr_i`` of `euler_to_matrix` (i = 0, 1, 2 for r1, r2, r3)."""
+    r1, r2, r3 = np.asarray(r, dtype=np.float64)
+    rx, ry, rz = rotation_x(r1), rotation_y(r2), rotation_z(r3)
+    return np.stack([rz @ ry @ _rotation_derivative(0, r1), rz @ _rotation_derivative(1, r2) @ rx,
+                     _rotation_derivative(2, r3) @ ry @ rx])  # fmt: skip
+
+
+def _rotation_derivative(axis: int, angle: float) -> np.ndarray:
+    """d/d angle of the rotation about ``axis``: the generator (cross-product matrix of the axis) times it."""
+    generator = np.zeros((3, 3))
+    i, j = (axis + 1) % 3, (axis + 2) % 3
+    generator[j, i], generator[i, j] = 1.0, -1.0
+    return generator @ (rotation_x, rotation_y, rotation_z)[axis](angle)
+
+
 def matrix_to_euler(rotation: np.ndarray) -> np.ndarray:
     """Inverse of `euler_to_matrix`, with ``r2`` in ``[-pi/2, pi/2]``; at ``|r2| = pi/2`` (gimbal lock) ``r1 = 0``."""
     m = np.asarray(rotation, dtype=np.float64)

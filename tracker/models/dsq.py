@@ -188,3 +188,52 @@ def vertex_normals(vertices: np.ndarray, topology: MeshTopology) -> np.ndarray:
     normals = accumulated[topology.weld]
     length = np.linalg.norm(normals, axis=1, keepdims=True)
     return normals / np.where(length > 0, length, 1.0)
+
+
+def _log_abs(x: np.ndarray) -> np.ndarray:
+    """``ln|x|`` with 0 where x is 0: it multiplies a factor ``|x|^eps`` that is 0 there (x^eps ln x -> 0)."""
+    magnitude = np.abs(x)
+    return np.log(np.where(magnitude > 0, magnitude, 1.0))
+
+
+def dsq_points_jacobian(q: np.ndarray, eta: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    """``(n, 3, 11)``: derivatives of eq 1-2's local points with respect to the shape parameters `SHAPE_NAMES`.
+
+    Derived by hand from eq 1-2, with ``S = e3 / (a a3) = sign(sin eta)|sin eta|^eps1`` (which does not depend
+    on a or a3) and the bending angle ``theta = (S + b2 / (a a3)) pi b3``. Checked against finite differences.
+    """
+    q = np.asarray(q, dtype=np.float64)
+    a, a1, a2, a3, eps1, eps2, t1, t2, b1, b2, b3 = q[:11]
+    cos_eta, sin_eta = _snap(np.cos(eta)), _snap(np.sin(eta))
+    cos_omega, sin_omega = _snap(np.cos(omega)), _snap(np.sin(omega))
+    c_eta, s_eta = signed_power(cos_eta, eps1), signed_power(sin_eta, eps1)
+    c_omega, s_omega = signed_power(cos_omega, eps2), signed_power(sin_omega, eps2)
+    half_length = a * a3
+    e1, e2, e3 = a * a1 * c_eta * c_omega, a * a2 * c_eta * s_omega, half_length * s_eta
+    taper1, taper2 = t1 * s_eta + 1.0, t2 * s_eta + 1.0
+    theta = (s_eta + b2 / half_length) * math.pi * b3
+    bend_slope = -b1 * np.sin(theta)  # d(b1 cos theta) / d theta
+
+    # d/d eps of the signed powers: x^eps ln|x|.
+    de1_eps1, de2_eps1 = e1 * _log_abs(cos_eta), e2 * _log_abs(cos_eta)
+    ds_eta_eps1 = s_eta * _log_abs(sin_eta)
+    de1_eps2, de2_eps2 = e1 * _log_abs(cos_omega), e2 * _log_abs(sin_omega)
+    zero = np.zeros_like(e1)
+    columns = {
+        "a": (taper1 * e1 / a + bend_slope * (-b2 * math.pi * b3 / (a * half_length)), taper2 * e2 / a, e3 / a),
+        "a1": (taper1 * e1 / a1, zero, zero),
+        "a2": (zero, taper2 * e2 / a2, zero),
+        "a3": (bend_slope * (-b2 * math.pi * b3 / (a3 * half_length)), zero, e3 / a3),
+        "eps1": (
+            t1 * ds_eta_eps1 * e1 + taper1 * de1_eps1 + bend_slope * math.pi * b3 * ds_eta_eps1,
+            t2 * ds_eta_eps1 * e2 + taper2 * de2_eps1,
+            half_length * ds_eta_eps1,
+        ),
+        "eps2": (taper1 * de1_eps2, taper2 * de2_eps2, zero),
+        "t1": (s_eta * e1, zero, zero),
+        "t2": (zero, s_eta * e2, zero),
+        "b1": (np.cos(theta), zero, zero),
+        "b2": (bend_slope * math.pi * b3 / half_length, zero, zero),
+        "b3": (bend_slope * (s_eta + b2 / half_length) * math.pi, zero, zero),
+    }
+    return np.stack([np.stack(columns[name], axis=1) for name in SHAPE_NAMES], axis=2)

@@ -1,0 +1,74 @@
+"""One part's model samples as a function of the parameters AbIS fits, with their Jacobian (paper 1, eq 3-8).
+
+The part being fitted sees its parent's world transform as fixed (estimation is top-down, 4.2.2). Its free
+parameters (`free_parameter_names`):
+    root  - all 17 of eq 4: the 11 shape parameters, c (world translation) and r;
+    child - the 11 shape parameters and r; its c follows from the joint (its bottom pole on the parent's top
+            pole, as `tracker.models.dsq_arm.DSQArm.connect` places it), so the joint stays connected:
+            ``p_parent = j_parent + R(r) (s(q) - j_child(q))``.
+Jacobians are ``(n, 3, n_free)`` for world points and ``(n, 2, n_free)`` for pixels.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from tracker.geometry.cameras import Camera, projection_jacobian
+from tracker.geometry.rotations import euler_to_matrix, euler_to_matrix_derivatives
+from tracker.models.dsq import PARAM_INDEX, PARAM_NAMES, SHAPE_NAMES, dsq_points, dsq_points_jacobian
+
+_C = slice(PARAM_INDEX["c1"], PARAM_INDEX["c3"] + 1)
+_R = slice(PARAM_INDEX["r1"], PARAM_INDEX["r3"] + 1)
+_BOTTOM_POLE = (np.array([-math.pi / 2]), np.zeros(1))
+
+
+def free_parameter_names(is_root: bool) -> tuple[str, ...]:
+    return PARAM_NAMES if is_root else (*SHAPE_NAMES, "r1", "r2", "r3")
+
+
+def free_parameter_indices(is_root: bool) -> np.ndarray:
+    """Positions of the free parameters in the 17-vector q."""
+    return np.array([PARAM_INDEX[name] for name in free_parameter_names(is_root)])
+
+
+def part_world_points(
+    q: np.ndarray,
+    eta: np.ndarray,
+    omega: np.ndarray,
+    parent_world: np.ndarray | None = None,
+    joint_in_parent: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """World points ``(n, 3)`` of the samples at (eta, omega) and their Jacobian over the free parameters.
+
+    For a root pass neither ``parent_world`` nor ``joint_in_parent``; for a child pass the parent's ``(4, 4)``
+    world transform and the joint in the parent's frame (its top pole).
+    """
+    q = np.asarray(q, dtype=np.float64)
+    rotation = euler_to_matrix(q[_R])
+    rotation_derivatives = euler_to_matrix_derivatives(q[_R])
+    local = dsq_points(q, eta, omega)
+    local_jacobian = dsq_points_jacobian(q, eta, omega)  # (n, 3, 11)
+    if parent_world is None:
+        points = local @ rotation.T + q[_C]
+        shape_jacobian = np.einsum("ij,njk->nik", rotation, local_jacobian)
+        translation_jacobian = np.broadcast_to(np.eye(3), (len(local), 3, 3))
+        rotation_jacobian = np.einsum("kij,nj->nik", rotation_derivatives, local)
+        return points, np.concatenate([shape_jacobian, translation_jacobian, rotation_jacobian], axis=2)
+
+    joint_in_child = dsq_points(q, *_BOTTOM_POLE)[0]
+    joint_jacobian = dsq_points_jacobian(q, *_BOTTOM_POLE)[0]  # (3, 11)
+    relative = local - joint_in_child
+    in_parent = relative @ rotation.T + joint_in_parent
+    parent_rotation = parent_world[:3, :3]
+    points = in_parent @ parent_rotation.T + parent_world[:3, 3]
+    shape_jacobian = np.einsum("ij,njk->nik", parent_rotation @ rotation, local_jacobian - joint_jacobian)
+    rotation_jacobian = np.einsum("ij,kjl,nl->nik", parent_rotation, rotation_derivatives, relative)
+    return points, np.concatenate([shape_jacobian, rotation_jacobian], axis=2)
+
+
+def project_with_jacobian(camera: Camera, points: np.ndarray, jacobian: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pixels ``(n, 2)`` of world points and their Jacobian ``(n, 2, n_free)`` by the chain rule."""
+    uv, _ = camera.project(points)
+    return uv, np.einsum("nij,njk->nik", projection_jacobian(camera, points), jacobian)
