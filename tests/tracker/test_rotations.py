@@ -57,3 +57,18 @@ def test_rotation_derivatives_match_central_differences():
         step[i] = 1e-6
         numeric = (euler_to_matrix(r + step) - euler_to_matrix(r - step)) / 2e-6
         np.testing.assert_allclose(analytic[i], numeric, atol=1e-9)
+
+
+def test_rotation_vector_matches_scipy_and_local_derivatives_match_differences():
+    from tracker.geometry.rotations import local_rotation_derivatives, rotation_vector_to_matrix
+
+    for vector in (np.array([0.3, -0.2, 0.9]), np.array([1e-14, 0.0, 0.0]), np.zeros(3)):
+        np.testing.assert_allclose(rotation_vector_to_matrix(vector), Rotation.from_rotvec(vector).as_matrix(),
+                                   atol=1e-12)
+    rotation = euler_to_matrix([0.2, np.pi / 2, -0.4])  # at the Euler angles' singularity: no matter here
+    analytic = local_rotation_derivatives(rotation)
+    for i in range(3):
+        step = np.zeros(3)
+        step[i] = 1e-6
+        numeric = (rotation @ rotation_vector_to_matrix(step) - rotation @ rotation_vector_to_matrix(-step)) / 2e-6
+        np.testing.assert_allclose(analytic[i], numeric, atol=1e-9)

@@ -6,7 +6,10 @@ parameters (`free_parameter_names`):
     child - the 11 shape parameters and r; its c follows from the joint (its bottom pole on the parent's top
             pole, as `tracker.models.dsq_arm.DSQArm.connect` places it), so the joint stays connected:
             ``p_parent = j_parent + R(r) (s(q) - j_child(q))``.
-Jacobians are ``(n, 3, n_free)`` for world points and ``(n, 2, n_free)`` for pixels.
+Jacobians are ``(n, 3, n_free)`` for world points and ``(n, 2, n_free)`` for pixels. Their rotation columns are
+by the Euler angles r (``local_rotation=False``) or, for fitting, by a rotation increment w in the part's own frame,
+``R(r) Exp(w)`` at w = 0: eq 4's Euler angles lose a degree of freedom at r2 = +-pi/2 (the upper arm's pose
+points its axis along +x with r2 = pi/2), an increment never does.
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ import math
 import numpy as np
 
 from tracker.geometry.cameras import Camera, projection_jacobian
-from tracker.geometry.rotations import euler_to_matrix, euler_to_matrix_derivatives
+from tracker.geometry.rotations import euler_to_matrix, euler_to_matrix_derivatives, local_rotation_derivatives
 from tracker.models.dsq import PARAM_INDEX, PARAM_NAMES, SHAPE_NAMES, dsq_points, dsq_points_jacobian
 
 _C = slice(PARAM_INDEX["c1"], PARAM_INDEX["c3"] + 1)
@@ -39,6 +42,7 @@ def part_world_points(
     omega: np.ndarray,
     parent_world: np.ndarray | None = None,
     joint_in_parent: np.ndarray | None = None,
+    local_rotation: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """World points ``(n, 3)`` of the samples at (eta, omega) and their Jacobian over the free parameters.
 
@@ -47,7 +51,10 @@ def part_world_points(
     """
     q = np.asarray(q, dtype=np.float64)
     rotation = euler_to_matrix(q[_R])
-    rotation_derivatives = euler_to_matrix_derivatives(q[_R])
+    if local_rotation:
+        rotation_derivatives = local_rotation_derivatives(rotation)
+    else:
+        rotation_derivatives = euler_to_matrix_derivatives(q[_R])
     local = dsq_points(q, eta, omega)
     local_jacobian = dsq_points_jacobian(q, eta, omega)  # (n, 3, 11)
     if parent_world is None:

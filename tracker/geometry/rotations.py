@@ -33,6 +33,27 @@ def euler_to_matrix(r: np.ndarray) -> np.ndarray:
     return rotation_z(r3) @ rotation_y(r2) @ rotation_x(r1)
 
 
+def rotation_vector_to_matrix(vector: np.ndarray) -> np.ndarray:
+    """``(3,)`` rotation vector (axis times angle) -> ``(3, 3)`` rotation (Rodrigues)."""
+    vector = np.asarray(vector, dtype=np.float64)
+    angle = np.linalg.norm(vector)
+    cross = cross_matrix(vector)
+    if angle < 1e-12:
+        return np.eye(3) + cross
+    return np.eye(3) + np.sin(angle) / angle * cross + (1 - np.cos(angle)) / angle**2 * (cross @ cross)
+
+
+def cross_matrix(vector: np.ndarray) -> np.ndarray:
+    """``[v]_x``, with ``[v]_x w = v x w``."""
+    x, y, z = vector
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def local_rotation_derivatives(rotation: np.ndarray) -> np.ndarray:
+    """``(3, 3, 3)``: ``[i] = d/dw_i R Exp(w)`` at w = 0, i.e. ``R [e_i]_x`` (increments in the rotated frame)."""
+    return np.stack([rotation @ cross_matrix(axis) for axis in np.eye(3)])
+
+
 def euler_to_matrix_derivatives(r: np.ndarray) -> np.ndarray:
     """``(3, 3, 3)``: ``[i] = dR/dr_i`` of `euler_to_matrix` (i = 0, 1, 2 for r1, r2, r3)."""
     r1, r2, r3 = np.asarray(r, dtype=np.float64)

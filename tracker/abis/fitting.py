@@ -1,0 +1,228 @@
+"""Fitting one part to its correspondences: paper 1, eq 7-9, by steepest descent (`sd`) or Levenberg-Marquardt (`lm`).
+
+The cost of part i is eq 8, ``E_i = sum_v sum_j (U_mj - U_j)^2 + (V_mj - V_j)^2`` over its pairs (model sample j
+seen in view v, paired with a tracked feature), optionally with eq 7's robust rho (Huber) through iteratively
+reweighted least squares. Both optimisers work in coordinates scaled by the Jacobian's column norms, since the
+17 parameters have unrelated units (metres, radians, exponents).
+
+Gauge: eq 1-2 depend on a, a1, a2, a3 only through a*a1, a*a2, a*a3 (the bending and tapering terms divide by
+a*a3 too), so one of the four is redundant. After every step the fit rescales them to ``max(a1, a2, a3) = 1``,
+which leaves the surface unchanged and the paper's reading intact (a is the scale, a1..a3 aspects in (0, 1]).
+
+Rotations are stepped as increments ``R(r) Exp(w)`` in the part's frame and converted back to eq 4's Euler angles
+after every step (`tracker.abis.part_model`): the Euler angles themselves are singular at r2 = +-pi/2.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from tracker.abis.part_model import free_parameter_indices, part_world_points, project_with_jacobian
+from tracker.geometry.cameras import Camera
+from tracker.geometry.rotations import euler_to_matrix, matrix_to_euler, rotation_vector_to_matrix
+from tracker.models.dsq import PARAM_INDEX, PARAM_NAMES, PARAM_RANGES
+
+OPTIMIZERS = ("sd", "lm")
+_ASPECTS = [PARAM_INDEX[name] for name in ("a1", "a2", "a3")]
+_ROTATION = np.array([PARAM_INDEX[name] for name in ("r1", "r2", "r3")])
+
+
+@dataclass(frozen=True)
+class FitSettings:
+    optimizer: str = "lm"
+    max_iterations: int = 20  # lm; sd gets `sd_iterations_factor` times as many (each is cheaper)
+    sd_iterations_factor: int = 10
+    relative_tolerance: float = 1e-6  # stop when the cost falls by less than this fraction
+    huber_px: float | None = None  # eq 7's rho: Huber with this threshold (pixels), or plain squares (None)
+
+    def __post_init__(self) -> None:
+        if self.optimizer not in OPTIMIZERS:
+            raise ValueError(f"optimizer={self.optimizer!r}: allowed {', '.join(OPTIMIZERS)}")
+
+
+@dataclass(frozen=True, eq=False)
+class ViewPairs:
+    """One view's pairs for the part: sample indices into the part's grid and the observed feature pixels."""
+
+    camera: Camera
+    samples: np.ndarray  # (m,) int
+    observed: np.ndarray  # (m, 2)
+
+
+@dataclass(frozen=True, eq=False)
+class FitResult:
+    params: np.ndarray  # (17,)
+    cost_start: float  # eq 8 (or its robust form) at the start
+    cost: float  # and at the end
+    iterations: int
+    residuals: list[np.ndarray]  # per view, (m, 2) model minus observed pixels at the end
+
+
+class PartProblem:
+    """Residuals and Jacobians of one part's pairs as functions of its free parameters."""
+
+    def __init__(
+        self,
+        eta: np.ndarray,
+        omega: np.ndarray,
+        views: Sequence[ViewPairs],
+        parent_world: np.ndarray | None = None,
+        joint_in_parent: np.ndarray | None = None,
+    ) -> None:
+        self.views = [view for view in views if len(view.samples)]
+        self.eta, self.omega = eta, omega
+        self.parent_world, self.joint_in_parent = parent_world, joint_in_parent
+        self.free = free_parameter_indices(parent_world is None)
+
+    def residuals(self, q: np.ndarray, with_jacobian: bool = True) -> tuple[list[np.ndarray], np.ndarray | None]:
+        """Per view ``(m, 2)`` residuals; stacked ``(2M, n_free)`` Jacobian (or None)."""
+        residuals, jacobians = [], []
+        for view in self.views:
+            points, jacobian = part_world_points(q, self.eta[view.samples], self.omega[view.samples],
+                                                 self.parent_world, self.joint_in_parent, local_rotation=True)
+            uv, uv_jacobian = project_with_jacobian(view.camera, points, jacobian)
+            residuals.append(uv - view.observed)
+            jacobians.append(uv_jacobian.reshape(-1, len(self.free)))
+        stacked = np.concatenate(jacobians) if with_jacobian and jacobians else None
+        return residuals, stacked
+
+
+def fit_part(q0: np.ndarray, problem: PartProblem, settings: FitSettings = FitSettings()) -> FitResult:
+    """Minimise the part's cost from ``q0`` (17,) over its free parameters; parameters stay in their ranges."""
+    q = _normalise_gauge(np.array(q0, dtype=np.float64))
+    residuals, jacobian = problem.residuals(q)
+    if jacobian is None:
+        return FitResult(q, 0.0, 0.0, 0, residuals)
+    cost = cost_start = _cost(residuals, settings)
+    step = _lm_step if settings.optimizer == "lm" else _sd_step
+    budget = settings.max_iterations * (1 if settings.optimizer == "lm" else settings.sd_iterations_factor)
+    state = {"damping": 1e-3}
+    accepted = 0
+    while accepted < budget:
+        candidate, candidate_cost, candidate_residuals = step(q, problem, residuals, jacobian, cost, settings, state)
+        if candidate is None:  # no step lowers the cost: converged (or stuck)
+            break
+        accepted += 1
+        improvement = cost - candidate_cost
+        q, cost, residuals = candidate, candidate_cost, candidate_residuals
+        if improvement <= settings.relative_tolerance * max(cost, 1e-12):
+            break
+        _, jacobian = problem.residuals(q)
+    return FitResult(q, cost_start, cost, accepted, residuals)
+
+
+def _lm_step(q, problem, residuals, jacobian, cost, settings, state):
+    """Marquardt: solve (J^T W J + lambda diag) delta = -J^T W r; raise lambda until the cost falls."""
+    weights = _weights(residuals, settings)
+    r = np.concatenate(residuals).ravel()
+    scale = _column_scale(jacobian)
+    js = jacobian / scale
+    hessian = js.T @ (weights[:, None] * js)
+    gradient = js.T @ (weights * r)
+    for _ in range(12):
+        damped = hessian + state["damping"] * np.diag(np.diag(hessian) + 1e-12)
+        try:
+            delta = -np.linalg.solve(damped, gradient) / scale
+        except np.linalg.LinAlgError:
+            state["damping"] *= 10
+            continue
+        candidate = _apply(q, problem.free, delta)
+        candidate_residuals, _ = problem.residuals(candidate, with_jacobian=False)
+        candidate_cost = _cost(candidate_residuals, settings)
+        if candidate_cost < cost:
+            state["damping"] = max(state["damping"] / 3, 1e-9)
+            return candidate, candidate_cost, candidate_residuals
+        state["damping"] *= 4
+    return None, cost, residuals
+
+
+def _sd_step(q, problem, residuals, jacobian, cost, settings, state):
+    """Eq 9, alpha <- alpha - beta dE/dalpha in scaled coordinates.
+
+    beta starts at the Cauchy step (the minimum along the gradient of the Gauss-Newton model of E) and is halved
+    until Armijo's sufficient decrease holds, which makes the descent converge. Parameters held at a bound of
+    their range by the gradient drop out of the step (projected gradient).
+    """
+    weights = _weights(residuals, settings)
+    r = np.concatenate(residuals).ravel()
+    scale = _column_scale(jacobian)
+    js = jacobian / scale
+    gradient = js.T @ (weights * r)  # half the gradient of E in scaled coordinates
+    gradient[_pressed_against_bounds(q, problem.free, gradient)] = 0.0
+    slope = gradient @ gradient
+    curvature = np.sum(weights * (js @ gradient) ** 2)
+    if slope <= 0 or curvature <= 0:
+        return None, cost, residuals
+    beta = slope / curvature
+    for _ in range(30):
+        candidate = _apply(q, problem.free, -beta * gradient / scale)
+        candidate_residuals, _ = problem.residuals(candidate, with_jacobian=False)
+        candidate_cost = _cost(candidate_residuals, settings)
+        if candidate_cost <= cost - 1e-4 * beta * 2 * slope:  # sufficient decrease
+            return candidate, candidate_cost, candidate_residuals
+        beta /= 2
+    return None, cost, residuals
+
+
+def _pressed_against_bounds(q: np.ndarray, free: np.ndarray, gradient: np.ndarray) -> np.ndarray:
+    """Free parameters at a bound of their range whose descent direction (-gradient) points out of it."""
+    pressed = np.zeros(len(free), bool)
+    for column, index in enumerate(free):
+        if index in _ROTATION:
+            continue
+        low, high = _bounds(index)
+        pressed[column] = (q[index] <= low and gradient[column] > 0) or (q[index] >= high and gradient[column] < 0)
+    return pressed
+
+
+def _bounds(index: int) -> tuple[float, float]:
+    allowed = PARAM_RANGES[PARAM_NAMES[index]]
+    return allowed.low + (1e-6 if allowed.low_open else 0.0), allowed.high - (1e-6 if allowed.high_open else 0.0)
+
+
+def _apply(q: np.ndarray, free: np.ndarray, delta: np.ndarray) -> np.ndarray:
+    """q moved by ``delta`` over the free parameters; the rotation entries of delta are a local increment w."""
+    candidate = q.copy()
+    is_rotation = np.isin(free, _ROTATION)
+    candidate[free[~is_rotation]] += delta[~is_rotation]
+    turned = euler_to_matrix(q[_ROTATION]) @ rotation_vector_to_matrix(delta[is_rotation])
+    candidate[_ROTATION] = matrix_to_euler(turned)
+    for index in free[~is_rotation]:  # stay inside eq 1-2's ranges
+        low, high = _bounds(index)
+        candidate[index] = min(max(candidate[index], low), high)
+    return _normalise_gauge(candidate)
+
+
+def _normalise_gauge(q: np.ndarray) -> np.ndarray:
+    """Rescale (a, a1, a2, a3) to max(a1, a2, a3) = 1 without changing the surface."""
+    largest = q[_ASPECTS].max()
+    q[PARAM_INDEX["a"]] *= largest
+    q[_ASPECTS] /= largest
+    return q
+
+
+def _column_scale(jacobian: np.ndarray) -> np.ndarray:
+    norms = np.linalg.norm(jacobian, axis=0)
+    return np.where(norms > 1e-12, norms, 1.0)
+
+
+def _weights(residuals: list[np.ndarray], settings: FitSettings) -> np.ndarray:
+    """Per residual component: 1, or Huber's IRLS weight min(1, k / |r_j|) with |r_j| the pair's pixel distance."""
+    distances = np.concatenate([np.linalg.norm(r, axis=1) for r in residuals])
+    if settings.huber_px is None:
+        weights = np.ones_like(distances)
+    else:
+        weights = np.minimum(1.0, settings.huber_px / np.maximum(distances, 1e-12))
+    return np.repeat(weights, 2)
+
+
+def _cost(residuals: list[np.ndarray], settings: FitSettings) -> float:
+    """Eq 8, or eq 7 with Huber's rho on each pair's pixel distance."""
+    distances = np.concatenate([np.linalg.norm(r, axis=1) for r in residuals]) if residuals else np.empty(0)
+    if settings.huber_px is None:
+        return float(np.sum(distances**2))
+    k = settings.huber_px
+    return float(np.sum(np.where(distances <= k, distances**2, 2 * k * distances - k**2)))
