@@ -72,3 +72,14 @@ def test_rotation_vector_matches_scipy_and_local_derivatives_match_differences()
         step[i] = 1e-6
         numeric = (rotation @ rotation_vector_to_matrix(step) - rotation @ rotation_vector_to_matrix(-step)) / 2e-6
         np.testing.assert_allclose(analytic[i], numeric, atol=1e-9)
+
+
+@pytest.mark.parametrize("vector", [[0.3, -0.2, 0.9], [1e-9, 2e-9, 0.0], [0.0, 0.0, 0.0], [0.0, np.pi - 1e-9, 0.0],
+                                    [2.0, -1.0, 0.5]])  # fmt: skip
+def test_rotation_vector_round_trip(vector):
+    from tracker.geometry.rotations import matrix_to_rotation_vector, rotation_vector_to_matrix
+
+    rotation = rotation_vector_to_matrix(np.array(vector))
+    np.testing.assert_allclose(rotation_vector_to_matrix(matrix_to_rotation_vector(rotation)), rotation, atol=1e-7)
+    np.testing.assert_allclose(matrix_to_rotation_vector(rotation), Rotation.from_matrix(rotation).as_rotvec(),
+                               atol=1e-6)

@@ -11,6 +11,12 @@ which leaves the surface unchanged and the paper's reading intact (a is the scal
 
 Rotations are stepped as increments ``R(r) Exp(w)`` in the part's frame and converted back to eq 4's Euler angles
 after every step (`tracker.abis.part_model`): the Euler angles themselves are singular at r2 = +-pi/2.
+
+Prior: a frame's pairs cannot pin all 17 parameters (b1 cos(theta) has a shear-like limit b1 -> inf, theta ->
+pi/2; a part seen in one view has unobservable depth). A `Prior` adds residual rows ``(q_k - q_ref_k) / sigma_k``
+to the cost (a MAP fit around the previous frame's estimate): a parameter the pairs say nothing about stays, and
+one pixel of image error weighs as much as one sigma of change. ``sigma = inf`` leaves a parameter free; without
+a prior the cost is eq 8 itself.
 """
 
 from __future__ import annotations
@@ -22,7 +28,12 @@ import numpy as np
 
 from tracker.abis.part_model import free_parameter_indices, part_world_points, project_with_jacobian
 from tracker.geometry.cameras import Camera
-from tracker.geometry.rotations import euler_to_matrix, matrix_to_euler, rotation_vector_to_matrix
+from tracker.geometry.rotations import (
+    euler_to_matrix,
+    matrix_to_euler,
+    matrix_to_rotation_vector,
+    rotation_vector_to_matrix,
+)
 from tracker.models.dsq import PARAM_INDEX, PARAM_NAMES, PARAM_RANGES
 
 OPTIMIZERS = ("sd", "lm")
@@ -44,6 +55,14 @@ class FitSettings:
 
 
 @dataclass(frozen=True, eq=False)
+class Prior:
+    """Residual rows ``(q - reference) / sigmas`` over the free parameters (rotations: the increment's angle)."""
+
+    reference: np.ndarray  # (17,)
+    sigmas: np.ndarray  # (17,), inf for none
+
+
+@dataclass(frozen=True, eq=False)
 class ViewPairs:
     """One view's pairs for the part: sample indices into the part's grid and the observed feature pixels."""
 
@@ -55,14 +74,25 @@ class ViewPairs:
 @dataclass(frozen=True, eq=False)
 class FitResult:
     params: np.ndarray  # (17,)
-    cost_start: float  # eq 8 (or its robust form) at the start
+    cost_start: float  # the cost at the start (eq 8, robust and with the prior where set)
     cost: float  # and at the end
     iterations: int
     residuals: list[np.ndarray]  # per view, (m, 2) model minus observed pixels at the end
 
 
+@dataclass(frozen=True, eq=False)
+class Evaluation:
+    """The part's residuals at q: per view (pixels), and stacked with the prior rows for least squares."""
+
+    view_residuals: list[np.ndarray]
+    vector: np.ndarray  # (2M + n_prior,)
+    jacobian: np.ndarray | None  # (2M + n_prior, n_free)
+    weights: np.ndarray  # (2M + n_prior,) IRLS weights (Huber on pixel pairs, 1 for the prior)
+    cost: float
+
+
 class PartProblem:
-    """Residuals and Jacobians of one part's pairs as functions of its free parameters."""
+    """Residuals and Jacobians of one part's pairs (and prior) as functions of its free parameters."""
 
     def __init__(
         self,
@@ -71,14 +101,23 @@ class PartProblem:
         views: Sequence[ViewPairs],
         parent_world: np.ndarray | None = None,
         joint_in_parent: np.ndarray | None = None,
+        prior: Prior | None = None,
     ) -> None:
         self.views = [view for view in views if len(view.samples)]
         self.eta, self.omega = eta, omega
         self.parent_world, self.joint_in_parent = parent_world, joint_in_parent
         self.free = free_parameter_indices(parent_world is None)
+        self.prior = prior
+        if prior is not None:
+            inverse = 1.0 / prior.sigmas[self.free]
+            self._prior_rows = np.flatnonzero(inverse > 0)
+            self._prior_scale = inverse[self._prior_rows]
 
-    def residuals(self, q: np.ndarray, with_jacobian: bool = True) -> tuple[list[np.ndarray], np.ndarray | None]:
-        """Per view ``(m, 2)`` residuals; stacked ``(2M, n_free)`` Jacobian (or None)."""
+    @property
+    def empty(self) -> bool:
+        return not self.views
+
+    def evaluate(self, q: np.ndarray, settings: FitSettings, with_jacobian: bool = True) -> Evaluation:
         residuals, jacobians = [], []
         for view in self.views:
             points, jacobian = part_world_points(q, self.eta[view.samples], self.omega[view.samples],
@@ -86,42 +125,61 @@ class PartProblem:
             uv, uv_jacobian = project_with_jacobian(view.camera, points, jacobian)
             residuals.append(uv - view.observed)
             jacobians.append(uv_jacobian.reshape(-1, len(self.free)))
-        stacked = np.concatenate(jacobians) if with_jacobian and jacobians else None
-        return residuals, stacked
+        distances = np.concatenate([np.linalg.norm(r, axis=1) for r in residuals]) if residuals else np.empty(0)
+        pixel_cost, pixel_weights = _robust(distances, settings.huber_px)
+        vector = [np.concatenate([r.ravel() for r in residuals])] if residuals else []
+        weights = [np.repeat(pixel_weights, 2)]
+        rows = jacobians
+        prior_cost = 0.0
+        if self.prior is not None and len(self._prior_rows):
+            difference = _parameter_difference(q, self.prior.reference, self.free)[self._prior_rows]
+            prior_residual = difference * self._prior_scale
+            prior_cost = float(prior_residual @ prior_residual)
+            vector.append(prior_residual)
+            weights.append(np.ones(len(prior_residual)))
+            prior_jacobian = np.zeros((len(prior_residual), len(self.free)))
+            prior_jacobian[np.arange(len(prior_residual)), self._prior_rows] = self._prior_scale
+            rows = [*jacobians, prior_jacobian]
+        return Evaluation(
+            view_residuals=residuals,
+            vector=np.concatenate(vector) if vector else np.empty(0),
+            jacobian=np.concatenate(rows) if with_jacobian and rows else None,
+            weights=np.concatenate(weights),
+            cost=pixel_cost + prior_cost,
+        )
 
 
 def fit_part(q0: np.ndarray, problem: PartProblem, settings: FitSettings = FitSettings()) -> FitResult:
     """Minimise the part's cost from ``q0`` (17,) over its free parameters; parameters stay in their ranges."""
     q = _normalise_gauge(np.array(q0, dtype=np.float64))
-    residuals, jacobian = problem.residuals(q)
-    if jacobian is None:
-        return FitResult(q, 0.0, 0.0, 0, residuals)
-    cost = cost_start = _cost(residuals, settings)
+    if problem.empty:
+        return FitResult(q, 0.0, 0.0, 0, [])
+    current = problem.evaluate(q, settings)
+    cost_start = current.cost
     step = _lm_step if settings.optimizer == "lm" else _sd_step
     budget = settings.max_iterations * (1 if settings.optimizer == "lm" else settings.sd_iterations_factor)
     state = {"damping": 1e-3}
     accepted = 0
     while accepted < budget:
-        candidate, candidate_cost, candidate_residuals = step(q, problem, residuals, jacobian, cost, settings, state)
+        candidate, evaluation = step(q, problem, current, settings, state)
         if candidate is None:  # no step lowers the cost: converged (or stuck)
             break
         accepted += 1
-        improvement = cost - candidate_cost
-        q, cost, residuals = candidate, candidate_cost, candidate_residuals
-        if improvement <= settings.relative_tolerance * max(cost, 1e-12):
+        improvement = current.cost - evaluation.cost
+        q = candidate
+        if improvement <= settings.relative_tolerance * max(evaluation.cost, 1e-12):
+            current = evaluation
             break
-        _, jacobian = problem.residuals(q)
-    return FitResult(q, cost_start, cost, accepted, residuals)
+        current = problem.evaluate(q, settings)
+    return FitResult(q, cost_start, current.cost, accepted, current.view_residuals)
 
 
-def _lm_step(q, problem, residuals, jacobian, cost, settings, state):
+def _lm_step(q, problem, current, settings, state):
     """Marquardt: solve (J^T W J + lambda diag) delta = -J^T W r; raise lambda until the cost falls."""
-    weights = _weights(residuals, settings)
-    r = np.concatenate(residuals).ravel()
-    scale = _column_scale(jacobian)
-    js = jacobian / scale
-    hessian = js.T @ (weights[:, None] * js)
-    gradient = js.T @ (weights * r)
+    scale = _column_scale(current.jacobian)
+    js = current.jacobian / scale
+    hessian = js.T @ (current.weights[:, None] * js)
+    gradient = js.T @ (current.weights * current.vector)
     for _ in range(12):
         damped = hessian + state["damping"] * np.diag(np.diag(hessian) + 1e-12)
         try:
@@ -130,41 +188,55 @@ def _lm_step(q, problem, residuals, jacobian, cost, settings, state):
             state["damping"] *= 10
             continue
         candidate = _apply(q, problem.free, delta)
-        candidate_residuals, _ = problem.residuals(candidate, with_jacobian=False)
-        candidate_cost = _cost(candidate_residuals, settings)
-        if candidate_cost < cost:
+        evaluation = problem.evaluate(candidate, settings, with_jacobian=False)
+        if evaluation.cost < current.cost:
             state["damping"] = max(state["damping"] / 3, 1e-9)
-            return candidate, candidate_cost, candidate_residuals
+            return candidate, evaluation
         state["damping"] *= 4
-    return None, cost, residuals
+    return None, current
 
 
-def _sd_step(q, problem, residuals, jacobian, cost, settings, state):
+def _sd_step(q, problem, current, settings, state):
     """Eq 9, alpha <- alpha - beta dE/dalpha in scaled coordinates.
 
     beta starts at the Cauchy step (the minimum along the gradient of the Gauss-Newton model of E) and is halved
     until Armijo's sufficient decrease holds, which makes the descent converge. Parameters held at a bound of
     their range by the gradient drop out of the step (projected gradient).
     """
-    weights = _weights(residuals, settings)
-    r = np.concatenate(residuals).ravel()
-    scale = _column_scale(jacobian)
-    js = jacobian / scale
-    gradient = js.T @ (weights * r)  # half the gradient of E in scaled coordinates
+    scale = _column_scale(current.jacobian)
+    js = current.jacobian / scale
+    gradient = js.T @ (current.weights * current.vector)  # half the gradient of E in scaled coordinates
     gradient[_pressed_against_bounds(q, problem.free, gradient)] = 0.0
     slope = gradient @ gradient
-    curvature = np.sum(weights * (js @ gradient) ** 2)
+    curvature = np.sum(current.weights * (js @ gradient) ** 2)
     if slope <= 0 or curvature <= 0:
-        return None, cost, residuals
+        return None, current
     beta = slope / curvature
     for _ in range(30):
         candidate = _apply(q, problem.free, -beta * gradient / scale)
-        candidate_residuals, _ = problem.residuals(candidate, with_jacobian=False)
-        candidate_cost = _cost(candidate_residuals, settings)
-        if candidate_cost <= cost - 1e-4 * beta * 2 * slope:  # sufficient decrease
-            return candidate, candidate_cost, candidate_residuals
+        evaluation = problem.evaluate(candidate, settings, with_jacobian=False)
+        if evaluation.cost <= current.cost - 1e-4 * beta * 2 * slope:  # sufficient decrease
+            return candidate, evaluation
         beta /= 2
-    return None, cost, residuals
+    return None, current
+
+
+def _parameter_difference(q: np.ndarray, reference: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """q - reference over the free parameters; for the rotation, the rotation vector of R(ref)^T R(q)."""
+    difference = q[free] - reference[free]
+    is_rotation = np.isin(free, _ROTATION)
+    relative = euler_to_matrix(reference[_ROTATION]).T @ euler_to_matrix(q[_ROTATION])
+    difference[is_rotation] = matrix_to_rotation_vector(relative)
+    return difference
+
+
+def _robust(distances: np.ndarray, huber_px: float | None) -> tuple[float, np.ndarray]:
+    """Eq 8's squares, or eq 7 with Huber's rho; and the IRLS weight of each pair."""
+    if huber_px is None:
+        return float(np.sum(distances**2)), np.ones_like(distances)
+    k = huber_px
+    cost = float(np.sum(np.where(distances <= k, distances**2, 2 * k * distances - k**2)))
+    return cost, np.minimum(1.0, k / np.maximum(distances, 1e-12))
 
 
 def _pressed_against_bounds(q: np.ndarray, free: np.ndarray, gradient: np.ndarray) -> np.ndarray:
@@ -207,22 +279,3 @@ def _normalise_gauge(q: np.ndarray) -> np.ndarray:
 def _column_scale(jacobian: np.ndarray) -> np.ndarray:
     norms = np.linalg.norm(jacobian, axis=0)
     return np.where(norms > 1e-12, norms, 1.0)
-
-
-def _weights(residuals: list[np.ndarray], settings: FitSettings) -> np.ndarray:
-    """Per residual component: 1, or Huber's IRLS weight min(1, k / |r_j|) with |r_j| the pair's pixel distance."""
-    distances = np.concatenate([np.linalg.norm(r, axis=1) for r in residuals])
-    if settings.huber_px is None:
-        weights = np.ones_like(distances)
-    else:
-        weights = np.minimum(1.0, settings.huber_px / np.maximum(distances, 1e-12))
-    return np.repeat(weights, 2)
-
-
-def _cost(residuals: list[np.ndarray], settings: FitSettings) -> float:
-    """Eq 8, or eq 7 with Huber's rho on each pair's pixel distance."""
-    distances = np.concatenate([np.linalg.norm(r, axis=1) for r in residuals]) if residuals else np.empty(0)
-    if settings.huber_px is None:
-        return float(np.sum(distances**2))
-    k = settings.huber_px
-    return float(np.sum(np.where(distances <= k, distances**2, 2 * k * distances - k**2)))

@@ -43,6 +43,20 @@ def rotation_vector_to_matrix(vector: np.ndarray) -> np.ndarray:
     return np.eye(3) + np.sin(angle) / angle * cross + (1 - np.cos(angle)) / angle**2 * (cross @ cross)
 
 
+def matrix_to_rotation_vector(rotation: np.ndarray) -> np.ndarray:
+    """Inverse of `rotation_vector_to_matrix`, angle in [0, pi]."""
+    cos_angle = np.clip((np.trace(rotation) - 1.0) / 2.0, -1.0, 1.0)
+    angle = np.arccos(cos_angle)
+    skew = np.array([rotation[2, 1] - rotation[1, 2], rotation[0, 2] - rotation[2, 0], rotation[1, 0] - rotation[0, 1]])
+    if angle < 1e-6:  # sin(angle) ~ angle: first order
+        return skew / 2.0
+    if np.pi - angle < 1e-6:  # sin(angle) ~ 0: the axis from the symmetric part
+        axis = np.sqrt(np.maximum((np.diag(rotation) + 1.0) / 2.0, 0.0))
+        axis *= np.where(skew >= 0, 1.0, -1.0) if np.any(skew) else np.sign(rotation[0] + 1e-300)
+        return angle * axis / np.linalg.norm(axis)
+    return angle / (2.0 * np.sin(angle)) * skew
+
+
 def cross_matrix(vector: np.ndarray) -> np.ndarray:
     """``[v]_x``, with ``[v]_x w = v x w``."""
     x, y, z = vector
