@@ -64,10 +64,11 @@ class Prior:
 
 @dataclass(frozen=True, eq=False)
 class ViewPairs:
-    """One view's pairs for the part: sample indices into the part's grid and the observed feature pixels."""
+    """One view's pairs for the part: the model points' surface coordinates and the observed feature pixels."""
 
     camera: Camera
-    samples: np.ndarray  # (m,) int
+    eta: np.ndarray  # (m,)
+    omega: np.ndarray  # (m,)
     observed: np.ndarray  # (m, 2)
 
 
@@ -96,15 +97,16 @@ class PartProblem:
 
     def __init__(
         self,
-        eta: np.ndarray,
-        omega: np.ndarray,
         views: Sequence[ViewPairs],
         parent_world: np.ndarray | None = None,
         joint_in_parent: np.ndarray | None = None,
         prior: Prior | None = None,
     ) -> None:
-        self.views = [view for view in views if len(view.samples)]
-        self.eta, self.omega = eta, omega
+        self.views = [view for view in views if len(view.eta)]
+        self._eta = np.concatenate([view.eta for view in self.views]) if self.views else np.empty(0)
+        self._omega = np.concatenate([view.omega for view in self.views]) if self.views else np.empty(0)
+        bounds = np.cumsum([0] + [len(view.eta) for view in self.views])
+        self._rows = [slice(start, end) for start, end in zip(bounds[:-1], bounds[1:], strict=True)]
         self.parent_world, self.joint_in_parent = parent_world, joint_in_parent
         self.free = free_parameter_indices(parent_world is None)
         self.prior = prior
@@ -119,17 +121,20 @@ class PartProblem:
 
     def evaluate(self, q: np.ndarray, settings: FitSettings, with_jacobian: bool = True) -> Evaluation:
         residuals, jacobians = [], []
-        for view in self.views:
-            points, jacobian = part_world_points(q, self.eta[view.samples], self.omega[view.samples],
-                                                 self.parent_world, self.joint_in_parent, local_rotation=True)
-            uv, uv_jacobian = project_with_jacobian(view.camera, points, jacobian)
+        # All views' points in one batch: the per-call overhead dominates at a few dozen pairs per view.
+        points, jacobian = part_world_points(q, self._eta, self._omega, self.parent_world, self.joint_in_parent,
+                                             local_rotation=True, with_jacobian=with_jacobian)
+        for view, rows in zip(self.views, self._rows, strict=True):
+            if with_jacobian:
+                uv, uv_jacobian = project_with_jacobian(view.camera, points[rows], jacobian[rows])
+                jacobians.append(uv_jacobian.reshape(-1, len(self.free)))
+            else:
+                uv, _ = view.camera.project(points[rows])
             residuals.append(uv - view.observed)
-            jacobians.append(uv_jacobian.reshape(-1, len(self.free)))
         distances = np.concatenate([np.linalg.norm(r, axis=1) for r in residuals]) if residuals else np.empty(0)
         pixel_cost, pixel_weights = _robust(distances, settings.huber_px)
         vector = [np.concatenate([r.ravel() for r in residuals])] if residuals else []
         weights = [np.repeat(pixel_weights, 2)]
-        rows = jacobians
         prior_cost = 0.0
         if self.prior is not None and len(self._prior_rows):
             difference = _parameter_difference(q, self.prior.reference, self.free)[self._prior_rows]
@@ -139,11 +144,11 @@ class PartProblem:
             weights.append(np.ones(len(prior_residual)))
             prior_jacobian = np.zeros((len(prior_residual), len(self.free)))
             prior_jacobian[np.arange(len(prior_residual)), self._prior_rows] = self._prior_scale
-            rows = [*jacobians, prior_jacobian]
+            jacobians = [*jacobians, prior_jacobian]
         return Evaluation(
             view_residuals=residuals,
             vector=np.concatenate(vector) if vector else np.empty(0),
-            jacobian=np.concatenate(rows) if with_jacobian and rows else None,
+            jacobian=np.concatenate(jacobians) if with_jacobian and jacobians else None,
             weights=np.concatenate(weights),
             cost=pixel_cost + prior_cost,
         )

@@ -43,13 +43,17 @@ def part_world_points(
     parent_world: np.ndarray | None = None,
     joint_in_parent: np.ndarray | None = None,
     local_rotation: bool = False,
-) -> tuple[np.ndarray, np.ndarray]:
+    with_jacobian: bool = True,
+) -> tuple[np.ndarray, np.ndarray | None]:
     """World points ``(n, 3)`` of the samples at (eta, omega) and their Jacobian over the free parameters.
 
     For a root pass neither ``parent_world`` nor ``joint_in_parent``; for a child pass the parent's ``(4, 4)``
-    world transform and the joint in the parent's frame (its top pole).
+    world transform and the joint in the parent's frame (its top pole). Without ``with_jacobian`` the Jacobian is
+    None (and not computed).
     """
     q = np.asarray(q, dtype=np.float64)
+    if not with_jacobian:
+        return _world_points(q, eta, omega, parent_world, joint_in_parent), None
     rotation = euler_to_matrix(q[_R])
     if local_rotation:
         rotation_derivatives = local_rotation_derivatives(rotation)
@@ -73,6 +77,16 @@ def part_world_points(
     shape_jacobian = np.einsum("ij,njk->nik", parent_rotation @ rotation, local_jacobian - joint_jacobian)
     rotation_jacobian = np.einsum("ij,kjl,nl->nik", parent_rotation, rotation_derivatives, relative)
     return points, np.concatenate([shape_jacobian, rotation_jacobian], axis=2)
+
+
+def _world_points(q, eta, omega, parent_world, joint_in_parent) -> np.ndarray:
+    """The points of `part_world_points` alone."""
+    rotation = euler_to_matrix(q[_R])
+    local = dsq_points(q, eta, omega)
+    if parent_world is None:
+        return local @ rotation.T + q[_C]
+    in_parent = (local - dsq_points(q, *_BOTTOM_POLE)[0]) @ rotation.T + joint_in_parent
+    return in_parent @ parent_world[:3, :3].T + parent_world[:3, 3]
 
 
 def project_with_jacobian(camera: Camera, points: np.ndarray, jacobian: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

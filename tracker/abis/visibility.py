@@ -1,8 +1,9 @@
-"""Which model samples a view sees (paper 1, step 1-2): a z-buffer render of the current estimate decides.
+"""Which model points a view sees (paper 1, step 1-2): a z-buffer render of the current estimate decides.
 
-Sample k of part j is visible in a view when it projects inside the image, the label image shows part j at its
-pixel (nothing else in front: occlusion by other parts) and the z-buffer depth there is not more than
-`VISIBILITY_DEPTH_M` in front of the sample (not behind its own part's near side: self-occlusion).
+A point of part j (a grid sample, or a pair's own surface point) is visible in a view when it projects inside the
+image, the label image shows part j at its pixel (nothing else in front: occlusion by other parts) and the
+z-buffer depth there is not more than `VISIBILITY_DEPTH_M` in front of the point (not behind its own part's near
+side: self-occlusion).
 """
 
 from __future__ import annotations
@@ -29,22 +30,29 @@ class VisibleSamples:
         return len(self.part)
 
 
-def visible_samples(camera: Camera, zbuffer: DepthLabels, samples_world: Sequence[np.ndarray]) -> VisibleSamples:
-    """Samples of every part (``samples_world[j]`` is part j's ``(n_j, 3)`` world points) visible in ``camera``.
+def visible_mask(camera: Camera, zbuffer: DepthLabels, part: int, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Which of part ``part``'s world points ``(n, 3)`` the view sees, and their pixels ``(n, 2)``.
 
     Part j must have label ``j + 1`` in ``zbuffer`` (the convention of `tracker.models.dsq_arm`).
     """
+    uv, z = camera.project(points)
+    pixel = np.rint(uv)
+    inside = np.all(np.isfinite(pixel), axis=1)
+    inside[inside] &= np.all((pixel[inside] >= 0) & (pixel[inside] <= [camera.width - 1, camera.height - 1]), 1)
+    rows, columns = pixel[inside, 1].astype(int), pixel[inside, 0].astype(int)
+    own_part = zbuffer.labels[rows, columns] == part + 1
+    nearest = z[inside] <= zbuffer.depth[rows, columns] + VISIBILITY_DEPTH_M
+    seen = np.zeros(len(points), bool)
+    seen[np.flatnonzero(inside)[own_part & nearest]] = True
+    return seen, uv
+
+
+def visible_samples(camera: Camera, zbuffer: DepthLabels, samples_world: Sequence[np.ndarray]) -> VisibleSamples:
+    """Samples of every part (``samples_world[j]`` is part j's ``(n_j, 3)`` world points) visible in ``camera``."""
     parts, indices, uvs = [], [], []
     for part, points in enumerate(samples_world):
-        uv, z = camera.project(points)
-        pixel = np.rint(uv)
-        inside = np.all(np.isfinite(pixel), axis=1)
-        inside[inside] &= np.all((pixel[inside] >= 0) & (pixel[inside] <= [camera.width - 1, camera.height - 1]), 1)
-        rows, columns = pixel[inside, 1].astype(int), pixel[inside, 0].astype(int)
-        own_part = zbuffer.labels[rows, columns] == part + 1
-        nearest = z[inside] <= zbuffer.depth[rows, columns] + VISIBILITY_DEPTH_M
-        seen = own_part & nearest
-        chosen = np.flatnonzero(inside)[seen]
+        seen, uv = visible_mask(camera, zbuffer, part, points)
+        chosen = np.flatnonzero(seen)
         parts.append(np.full(len(chosen), part))
         indices.append(chosen)
         uvs.append(uv[chosen])

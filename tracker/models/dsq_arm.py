@@ -115,6 +115,10 @@ class DSQArm:
         ]
         return np.array(joints).reshape(-1, 3)
 
+    def part_points(self, params: np.ndarray, part: int, eta: np.ndarray, omega: np.ndarray) -> np.ndarray:
+        """World points ``(n, 3)`` of part ``part`` at surface coordinates (eta, omega)."""
+        return transform_points(self.world_transforms(params)[part], dsq_points(params[part], eta, omega))
+
     def sample_points(self, params: np.ndarray) -> list[np.ndarray]:
         """Per part, the world positions ``(n_samples, 3)`` of its model samples (row k is sample id k)."""
         world = self.world_transforms(params)

@@ -17,11 +17,10 @@ def exact_problem(arm, params, part, rig, outliers=0.0, seed=0):
         observed, _ = camera.project(samples)
         wrong = rng.random(len(observed)) < outliers
         observed[wrong] += rng.normal(0, 25, size=(wrong.sum(), 2))
-        views.append(ViewPairs(camera, np.arange(len(samples)), observed))
+        views.append(ViewPairs(camera, arm.sample_grid.eta, arm.sample_grid.omega, observed))
     parent = None if part == 0 else world[part - 1]
     joint = None if part == 0 else pole_point(params[part - 1], top=True)
-    grid = arm.sample_grid
-    return PartProblem(grid.eta, grid.omega, views, parent, joint)
+    return PartProblem(views, parent, joint)
 
 
 def perturbed(q, part, seed=1):
@@ -88,7 +87,6 @@ def test_parameters_stay_in_their_ranges_and_bad_settings_fail(arm, motion, rig)
 
 def test_no_pairs_leaves_the_part_as_it_was(arm, motion):
     truth = motion.params(arm, 5)
-    grid = arm.sample_grid
-    result = fit_part(truth[0], PartProblem(grid.eta, grid.omega, []))
+    result = fit_part(truth[0], PartProblem([]))
     np.testing.assert_array_equal(result.params, truth[0])
     assert result.iterations == 0

@@ -1,0 +1,80 @@
+import numpy as np
+import pytest
+
+from tracker.abis.correspondences import COUNT_NAMES
+from tracker.abis.tracker import AbisTracker, InitialNoise, initial_estimate, interior_labels
+from tracker.models.dsq import PARAM_INDEX
+from tracker.sequence import simulate
+
+TRACKED, NEW, OCCLUSION, ERROR, LOST = (COUNT_NAMES.index(name) for name in COUNT_NAMES)
+
+
+@pytest.fixture(scope="module")
+def run(arm, motion, rig, renderer):
+    """12 frames of the default scene tracked with the default settings."""
+    tracker = AbisTracker()
+    results, truths = [], []
+    try:
+        for frame in simulate(arm, motion, rig, renderer, 12):
+            if frame.frame == 0:
+                start = initial_estimate(arm, frame.truth, tracker.settings.initial_noise, np.random.default_rng(0))
+                tracker.start(arm, rig, start)
+            results.append(tracker.step(frame))
+            truths.append(frame.truth)
+    finally:
+        tracker.close()
+    return results, np.array(truths)
+
+
+def test_pair_counts_balance_from_frame_to_frame(run):
+    results, _ = run
+    assert results[0].counts["front"][:, NEW].sum() > 0
+    for before, after in zip(results, results[1:], strict=False):
+        for view in after.counts:
+            c = after.counts[view]
+            np.testing.assert_array_equal(c[:, TRACKED], before.pairs[view] - c[:, LOST])
+            np.testing.assert_array_equal(after.pairs[view], c[:, TRACKED] - c[:, OCCLUSION] - c[:, ERROR] + c[:, NEW])
+
+
+def test_the_forearm_is_followed_and_hidden_from_the_left(run):
+    results, truths = run
+    estimates = np.array([result.estimate for result in results])
+    r2_error = np.degrees(np.abs(estimates[:, 1, PARAM_INDEX["r2"]] - truths[:, 1, PARAM_INDEX["r2"]]))
+    b1_error = np.abs(estimates[:, 1, PARAM_INDEX["b1"]] - truths[:, 1, PARAM_INDEX["b1"]])
+    assert r2_error.max() < 3.0 and b1_error.max() < 0.01
+    assert all(result.failure is None for result in results)
+    assert results[0].pairs["left"][1] == 0  # straight forearm: no pairs where it cannot be seen
+    assert all(result.iterations[1] > 0 for result in results[1:])
+
+
+def test_the_tracker_never_sees_the_truth_after_frame_0(arm, motion, rig, renderer):
+    # Same images, a different truth passed along: the estimates must not change.
+    frames = list(simulate(arm, motion, rig, renderer, 4))
+    estimates = []
+    for lie in (False, True):
+        tracker = AbisTracker()
+        tracker.start(arm, rig, frames[0].truth)
+        for frame in frames:
+            if lie:
+                frame = type(frame)(frame.frame, frame.truth * 0 + 1, frame.meshes, frame.views, frame.visible_px)
+            estimates.append(tracker.step(frame).estimate)
+        tracker.close()
+    np.testing.assert_array_equal(estimates[:4], estimates[4:])
+
+
+def test_interior_labels_drop_a_margin_at_every_edge():
+    labels = np.zeros((20, 30), np.uint8)
+    labels[5:15, 5:15], labels[5:15, 15:25] = 1, 2
+    interior = interior_labels(labels, 2)
+    assert (interior[7:13, 7:13] == 1).all() and (interior[7:13, 17:23] == 2).all()
+    assert (interior[:, 13:17] == 0).all()  # the boundary between the parts
+    assert (interior[5:7] == 0).all() and (interior[:, 5:7] == 0).all()  # the silhouette
+
+
+def test_initial_noise_is_seeded_and_keeps_joints_connected(arm, motion):
+    truth = motion.params(arm, 3)
+    a = initial_estimate(arm, truth, InitialNoise(), np.random.default_rng(5))
+    b = initial_estimate(arm, truth, InitialNoise(), np.random.default_rng(5))
+    np.testing.assert_array_equal(a, b)
+    assert np.abs(a - truth).max() > 0
+    np.testing.assert_allclose(arm.connect(a), a)

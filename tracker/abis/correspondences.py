@@ -1,0 +1,123 @@
+"""Pairs of a model sample and an observed feature, per view, and their life cycle (paper 1, 4.1 and 4.3.2).
+
+A pair links a feature track (its id) to a model sample (part, sample index in the part's grid). Frame 0 pairs
+every feature with the nearest visible sample over all parts within a radius; each later frame the pairs whose
+feature was tracked carry over, and after fitting the tracker discards pairs whose sample became invisible
+(occlusion) or whose residual is too large (false match), then pairs the still-unpaired features again as in
+frame 0. A sample takes at most one feature per view: the nearest wins (the paper's "best hypothesis").
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from tracker.abis.visibility import VisibleSamples
+from tracker.geometry.cameras import Camera
+
+COUNT_NAMES = ("tracked", "new", "discarded_occlusion", "discarded_error", "lost")
+
+
+@dataclass(frozen=True, eq=False)
+class Pairs:
+    """One view's pairs: ``(k,)`` arrays of feature ids, parts, seed samples (grid indices) and the model point's
+    own surface coordinates (eta, omega), refined so that it lay exactly under its feature when the pair formed."""
+
+    feature_ids: np.ndarray
+    parts: np.ndarray
+    samples: np.ndarray
+    eta: np.ndarray
+    omega: np.ndarray
+
+    @classmethod
+    def empty(cls) -> Pairs:
+        return cls(np.empty(0, np.int64), np.empty(0, int), np.empty(0, int), np.empty(0), np.empty(0))
+
+    def __len__(self) -> int:
+        return len(self.feature_ids)
+
+    def _fields(self) -> tuple[np.ndarray, ...]:
+        return self.feature_ids, self.parts, self.samples, self.eta, self.omega
+
+    def subset(self, keep: np.ndarray) -> Pairs:
+        return Pairs(*(values[keep] for values in self._fields()))
+
+    def extend(self, other: Pairs) -> Pairs:
+        return Pairs(*(np.concatenate(pair) for pair in zip(self._fields(), other._fields(), strict=True)))
+
+    def count_by_part(self, n_parts: int) -> np.ndarray:
+        return np.bincount(self.parts, minlength=n_parts)
+
+
+def pair_features(
+    feature_ids: np.ndarray,
+    feature_points: np.ndarray,
+    visible: VisibleSamples,
+    radius_px: float,
+    grid_eta: np.ndarray,
+    grid_omega: np.ndarray,
+    taken: Pairs | None = None,
+) -> Pairs:
+    """Pair features with the nearest visible sample within ``radius_px``, each sample at most once.
+
+    Samples already in ``taken`` are not offered again. The pairs' surface coordinates start at their samples'
+    (``grid_eta``, ``grid_omega``); `refine_surface_coordinates` then moves them under the features.
+    """
+    if len(feature_ids) == 0 or len(visible) == 0:
+        return Pairs.empty()
+    available = np.ones(len(visible), bool)
+    if taken is not None and len(taken):
+        available = ~np.isin(sample_keys(visible.part, visible.sample), sample_keys(taken.parts, taken.samples))
+    candidates = np.flatnonzero(available)
+    if len(candidates) == 0:
+        return Pairs.empty()
+    distance, nearest = cKDTree(visible.uv[candidates]).query(feature_points, distance_upper_bound=radius_px)
+    within = np.isfinite(distance)
+    order = np.argsort(distance[within], kind="stable")  # nearest first: it wins a contested sample
+    features = np.flatnonzero(within)[order]
+    chosen = candidates[nearest[within][order]]
+    _, first = np.unique(chosen, return_index=True)
+    winners = np.sort(first)
+    samples = visible.sample[chosen[winners]]
+    return Pairs(feature_ids[features[winners]], visible.part[chosen[winners]], samples, grid_eta[samples].copy(),
+                 grid_omega[samples].copy())
+
+
+def refine_surface_coordinates(
+    surface: Callable[[np.ndarray, np.ndarray], np.ndarray],
+    camera: Camera,
+    eta: np.ndarray,
+    omega: np.ndarray,
+    targets: np.ndarray,
+    iterations: int = 5,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Move surface coordinates so that ``surface(eta, omega)`` (world points) projects onto ``targets`` pixels.
+
+    Gauss-Newton on each pair's (eta, omega), derivatives by central differences, steps damped and capped at
+    0.2 rad, eta kept off the poles (where omega is degenerate). Returns eta, omega and the final pixel distances.
+    """
+    eta, omega = eta.astype(np.float64).copy(), omega.astype(np.float64).copy()
+    step = 1e-5
+
+    def pixels(e, w):
+        return camera.project(surface(e, w))[0]
+
+    for _ in range(iterations):
+        residual = pixels(eta, omega) - targets
+        d_eta = (pixels(eta + step, omega) - pixels(eta - step, omega)) / (2 * step)
+        d_omega = (pixels(eta, omega + step) - pixels(eta, omega - step)) / (2 * step)
+        jacobian = np.stack([d_eta, d_omega], axis=2)  # (k, 2, 2)
+        normal = np.einsum("kji,kjl->kil", jacobian, jacobian) + 1e-6 * np.eye(2)
+        delta = -np.linalg.solve(normal, np.einsum("kji,kj->ki", jacobian, residual)[..., None])[..., 0]
+        delta = np.clip(delta, -0.2, 0.2)
+        eta = np.clip(eta + delta[:, 0], -np.pi / 2 + 1e-3, np.pi / 2 - 1e-3)
+        omega = (omega + delta[:, 1] + np.pi) % (2 * np.pi) - np.pi
+    return eta, omega, np.linalg.norm(pixels(eta, omega) - targets, axis=1)
+
+
+def sample_keys(parts: np.ndarray, samples: np.ndarray) -> np.ndarray:
+    """One integer per (part, sample), for set operations."""
+    return parts.astype(np.int64) * (1 << 32) + samples.astype(np.int64)

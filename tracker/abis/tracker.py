@@ -1,0 +1,303 @@
+"""The AbIS tracker (paper 1): features -> pairs -> top-down per-part fitting -> visibility -> pair upkeep.
+
+Per frame t it sees only the views' RGB images. Frame 0 starts from an initial estimate (the paper aligns the model
+with a user's help; `initial_estimate` stands in with the truth plus configurable noise) and pairs features with
+visible samples. Every later frame:
+    1. features are tracked; pairs whose feature was lost are dropped ("lost"), the rest carry over ("tracked");
+    2. parts are fitted top-down (root first, each child against its freshly fitted parent), eq 8;
+    3. a z-buffer render of the new estimate decides visibility: pairs whose sample is now hidden are discarded
+       ("discarded_occlusion"), then pairs whose residual exceeds `max_residual_px` ("discarded_error");
+    4. unpaired features are paired with visible samples not yet taken ("new").
+So per part and view: pairs(t) = pairs(t-1) - lost - discarded_occlusion - discarded_error + new.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import cv2
+import numpy as np
+
+from tracker.abis.correspondences import COUNT_NAMES, Pairs, pair_features, refine_surface_coordinates
+from tracker.abis.fitting import FitSettings, PartProblem, Prior, ViewPairs, fit_part
+from tracker.abis.visibility import VisibleSamples, visible_mask, visible_samples
+from tracker.geometry.cameras import Camera
+from tracker.models.dsq import PARAM_INDEX, pole_point
+from tracker.models.dsq_arm import DSQArm
+from tracker.observe.features import FeatureFrame, FeatureSettings, FeatureTracker
+from tracker.render.offscreen import DepthLabels, SceneRenderer
+from tracker.sequence import FrameInput
+
+TRACKED, NEW, DISCARDED_OCCLUSION, DISCARDED_ERROR, LOST = range(len(COUNT_NAMES))
+
+
+@dataclass(frozen=True)
+class InitialNoise:
+    """Frame 0's estimate is the truth plus Gaussian noise of these sizes (standard deviations)."""
+
+    translation_m: float = 0.003  # root position
+    rotation_rad: float = 0.01  # every part's r
+    scale_fraction: float = 0.01  # every part's a, relative
+
+
+@dataclass(frozen=True)
+class PriorSigmas:
+    """How much each parameter may plausibly change from one frame to the next (one sigma; inf: unconstrained).
+
+    One pixel of image residual weighs as much as one sigma of change (`tracker.abis.fitting.Prior`).
+    """
+
+    scale: float = 0.002  # a (m) and a1..a3
+    roundness: float = 0.01  # eps1, eps2
+    tapering: float = 0.01  # t1, t2
+    bending: float = 0.01  # b1 (m), b2, b3
+    translation_m: float = 0.01  # the root's c
+    rotation_rad: float = 0.1  # r
+
+    def vector(self) -> np.ndarray:
+        groups = {"scale": ("a", "a1", "a2", "a3"), "roundness": ("eps1", "eps2"), "tapering": ("t1", "t2"),
+                  "bending": ("b1", "b2", "b3"), "translation_m": ("c1", "c2", "c3"),
+                  "rotation_rad": ("r1", "r2", "r3")}  # fmt: skip
+        sigmas = np.full(len(PARAM_INDEX), np.inf)
+        for group, names in groups.items():
+            sigmas[[PARAM_INDEX[name] for name in names]] = getattr(self, group)
+        return sigmas
+
+
+@dataclass(frozen=True)
+class AbisSettings:
+    fit: FitSettings = field(default_factory=lambda: FitSettings(huber_px=1.0))
+    features: FeatureSettings = field(default_factory=FeatureSettings)
+    prior: PriorSigmas | None = field(default_factory=PriorSigmas)  # None: eq 8 alone
+    pairing_radius_px: float = 2.0  # a feature pairs with the nearest visible sample within this
+    refined_tolerance_px: float = 0.5  # ... and keeps the pair if its own point then lies this close under it
+    boundary_margin_px: int = 5  # features this close to a silhouette or occlusion edge do not pair
+    max_residual_px: float = 2.0  # after fitting, a pair farther off is a false match
+    initial_noise: InitialNoise = field(default_factory=InitialNoise)
+
+
+def initial_estimate(arm: DSQArm, truth: np.ndarray, noise: InitialNoise, rng: np.random.Generator) -> np.ndarray:
+    """The frame-0 estimate: truth with noise on the root position, every rotation and every scale."""
+    estimate = np.array(truth, dtype=np.float64)
+    estimate[0, PARAM_INDEX["c1"] : PARAM_INDEX["c3"] + 1] += rng.normal(0, noise.translation_m, 3)
+    estimate[:, PARAM_INDEX["r1"] : PARAM_INDEX["r3"] + 1] += rng.normal(0, noise.rotation_rad, (len(estimate), 3))
+    estimate[:, PARAM_INDEX["a"]] *= 1 + rng.normal(0, noise.scale_fraction, len(estimate))
+    return arm.connect(estimate)
+
+
+@dataclass(frozen=True, eq=False)
+class ViewResult:
+    """What one view saw and did: its features, the state of each (``FEATURE_STATES``), the estimate's samples."""
+
+    features: FeatureFrame
+    feature_states: np.ndarray  # (n,) index into FEATURE_STATES
+    visible: VisibleSamples
+
+
+FEATURE_STATES = ("tracked", "new", "discarded", "unpaired")
+
+
+@dataclass(frozen=True, eq=False)
+class AbisResult:
+    frame: int
+    estimate: np.ndarray  # (n_parts, 17)
+    counts: dict[str, np.ndarray]  # view -> (n_parts, 5) in COUNT_NAMES order
+    pairs: dict[str, np.ndarray]  # view -> (n_parts,) pairs held after the frame
+    cost: np.ndarray  # (n_parts,) eq 8 at the end of the fit (0 where a part had no pairs)
+    iterations: np.ndarray  # (n_parts,)
+    views: dict[str, ViewResult]
+    timings_ms: dict[str, float]
+    failure: str | None = None
+
+
+class AbisTracker:
+    """`start` with the model, the cameras and the initial estimate; then `step` once per frame; `close`."""
+
+    name = "abis"
+
+    def __init__(self, settings: AbisSettings = AbisSettings()) -> None:
+        self.settings = settings
+        self._renderer: SceneRenderer | None = None
+
+    @classmethod
+    def from_config(cls, **values: Any) -> AbisTracker:
+        """From plain values (as a config gives them): fit, features and initial_noise are mappings."""
+        nested = {"fit": FitSettings, "features": FeatureSettings, "initial_noise": InitialNoise,
+                  "prior": PriorSigmas}  # fmt: skip
+        return cls(AbisSettings(**{k: nested[k](**v) if k in nested else v for k, v in values.items()}))
+
+    def start(self, model: DSQArm, cameras: Sequence[Camera], initial: np.ndarray) -> None:
+        self.model, self.cameras = model, list(cameras)
+        self._estimate = model.connect(initial)
+        self._trackers = {  # feature ids are unique across views
+            camera.name: FeatureTracker(self.settings.features, first_id=k << 40) for k, camera in enumerate(cameras)
+        }
+        self._pairs = {camera.name: Pairs.empty() for camera in cameras}
+        if self._renderer is None:
+            self._renderer = SceneRenderer(cameras[0].width, cameras[0].height)
+        self._frame = 0
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    def step(self, frame: FrameInput) -> AbisResult:
+        n_parts = len(self.model.parts)
+        names = [camera.name for camera in self.cameras]
+        counts = {name: np.zeros((n_parts, len(COUNT_NAMES)), int) for name in names}
+        discarded = {name: np.empty(0, np.int64) for name in names}
+        timings: dict[str, float] = {}
+        failure = None
+        cost, iterations = np.zeros(n_parts), np.zeros(n_parts, int)
+
+        start = time.perf_counter()
+        features = {name: self._trackers[name].step(frame.views[name].rgb) for name in names}
+        timings["features"] = _ms(start)
+
+        if self._frame > 0:
+            for name in names:  # 1. carry over the pairs whose feature was tracked
+                pairs = self._pairs[name]
+                live = np.isin(pairs.feature_ids, features[name].ids)
+                counts[name][:, LOST] = pairs.subset(~live).count_by_part(n_parts)
+                self._pairs[name] = pairs.subset(live)
+                counts[name][:, TRACKED] = self._pairs[name].count_by_part(n_parts)
+            start = time.perf_counter()  # 2. fit top-down
+            estimate, cost, iterations, failure = self._fit(features)
+            timings["fit"] = _ms(start)
+            if failure is None:
+                self._estimate = estimate
+
+        start = time.perf_counter()  # 3. visibility of the new estimate
+        zbuffers = self._renderer.render_depth_labels(self.cameras, self.model.surface_meshes(self._estimate))
+        samples = self.model.sample_points(self._estimate)
+        visible = {c.name: visible_samples(c, zbuffers[c.name], samples) for c in self.cameras}
+        timings["visibility"] = _ms(start)
+        start = time.perf_counter()  # 4. pair upkeep
+        for camera in self.cameras:
+            discarded[camera.name] = self._upkeep(camera, features[camera.name], zbuffers[camera.name],
+                                                  visible[camera.name], counts[camera.name])
+        timings["pairing"] = _ms(start)
+        if failure is None and all(len(pairs) == 0 for pairs in self._pairs.values()):
+            failure = "all pairs lost"
+
+        result = AbisResult(
+            frame=frame.frame,
+            estimate=self._estimate.copy(),
+            counts=counts,
+            pairs={name: self._pairs[name].count_by_part(n_parts) for name in names},
+            cost=cost,
+            iterations=iterations,
+            views={name: ViewResult(features[name], self._feature_states(name, features[name], counts, discarded),
+                                    visible[name]) for name in names},  # fmt: skip
+            timings_ms=timings,
+            failure=failure,
+        )
+        self._frame += 1
+        return result
+
+    def _fit(self, features: Mapping[str, FeatureFrame]) -> tuple[np.ndarray, np.ndarray, np.ndarray, str | None]:
+        """Fit every part top-down against the current pairs; a failure leaves the previous estimate."""
+        estimate = self._estimate.copy()
+        n_parts = len(estimate)
+        cost, iterations = np.zeros(n_parts), np.zeros(n_parts, int)
+        sigmas = None if self.settings.prior is None else self.settings.prior.vector()
+        for part in self.model.tree.topdown_order():
+            parent = self.model.tree.parents[part]
+            views = []
+            for camera in self.cameras:
+                pairs = self._pairs[camera.name]
+                mine = pairs.parts == part
+                observed = _rows(features[camera.name], pairs.feature_ids[mine])
+                views.append(ViewPairs(camera, pairs.eta[mine], pairs.omega[mine], observed))
+            world = self.model.world_transforms(estimate)
+            prior = None if sigmas is None else Prior(reference=self._estimate[part], sigmas=sigmas)
+            problem = PartProblem(views,
+                                  None if parent is None else world[parent],
+                                  None if parent is None else pole_point(estimate[parent], top=True),
+                                  prior)  # fmt: skip
+            fitted = fit_part(estimate[part], problem, self.settings.fit)
+            if not np.isfinite(fitted.params).all():
+                return self._estimate, cost, iterations, f"non-finite parameters fitting part {part + 1}"
+            estimate[part] = fitted.params
+            estimate = self.model.connect(estimate)  # children follow the part's new pose
+            cost[part], iterations[part] = fitted.cost, fitted.iterations
+        return estimate, cost, iterations, None
+
+    def _upkeep(self, camera: Camera, features: FeatureFrame, zbuffer: DepthLabels, visible: VisibleSamples,
+                counts: np.ndarray) -> np.ndarray:
+        """Discard hidden and false pairs, pair the unpaired features; returns the discarded features' ids."""
+        n_parts = len(self.model.parts)
+        pairs = self._pairs[camera.name]
+        seen, uv = np.zeros(len(pairs), bool), np.zeros((len(pairs), 2))
+        for part in range(n_parts):
+            mine = pairs.parts == part
+            points = self.model.part_points(self._estimate, part, pairs.eta[mine], pairs.omega[mine])
+            seen[mine], uv[mine] = visible_mask(camera, zbuffer, part, points)
+        counts[:, DISCARDED_OCCLUSION] = pairs.subset(~seen).count_by_part(n_parts)
+        residual = np.linalg.norm(uv - _rows(features, pairs.feature_ids), axis=1)
+        wrong = seen & (residual > self.settings.max_residual_px)
+        counts[:, DISCARDED_ERROR] = pairs.subset(wrong).count_by_part(n_parts)
+        discarded = pairs.feature_ids[~seen | wrong]
+        pairs = pairs.subset(seen & ~wrong)
+
+        unpaired = ~np.isin(features.ids, pairs.feature_ids) & ~np.isin(features.ids, discarded)
+        # Only features inside a part's region (away from silhouettes and occlusion edges, whose corners are no
+        # material point of either side) pair, and only with samples of that part.
+        interior = interior_labels(zbuffer.labels, self.settings.boundary_margin_px)
+        pixel = np.rint(features.points).astype(int)
+        region = interior[pixel[:, 1], pixel[:, 0]]
+        grid = self.model.sample_grid
+        new = Pairs.empty()
+        for part in range(n_parts):
+            candidates = unpaired & (region == part + 1)
+            own = visible.part == part
+            new = new.extend(pair_features(
+                features.ids[candidates], features.points[candidates],
+                VisibleSamples(visible.part[own], visible.sample[own], visible.uv[own]),
+                self.settings.pairing_radius_px, grid.eta, grid.omega, taken=pairs))  # fmt: skip
+        keep = np.zeros(len(new), bool)
+        for part in np.unique(new.parts):  # move each new pair's point exactly under its feature
+            mine = new.parts == part
+
+            def surface(eta, omega, part=part):
+                return self.model.part_points(self._estimate, part, eta, omega)
+
+            new.eta[mine], new.omega[mine], distance = refine_surface_coordinates(
+                surface, camera, new.eta[mine], new.omega[mine], _rows(features, new.feature_ids[mine]))
+            keep[mine] = distance <= self.settings.refined_tolerance_px
+        new = new.subset(keep)
+        counts[:, NEW] = new.count_by_part(n_parts)
+        self._pairs[camera.name] = pairs.extend(new)
+        return discarded
+
+    def _feature_states(self, name: str, features: FeatureFrame, counts, discarded: Mapping[str, np.ndarray]):
+        states = np.full(len(features.ids), FEATURE_STATES.index("unpaired"))
+        paired = np.isin(features.ids, self._pairs[name].feature_ids)
+        states[paired & features.tracked] = FEATURE_STATES.index("tracked")
+        states[paired & features.new] = FEATURE_STATES.index("new")
+        states[np.isin(features.ids, discarded[name])] = FEATURE_STATES.index("discarded")
+        return states
+
+
+def interior_labels(labels: np.ndarray, margin_px: int) -> np.ndarray:
+    """The label image with every pixel within ``margin_px`` of another label (or the background) set to 0."""
+    if margin_px <= 0:
+        return labels
+    kernel = np.ones((2 * margin_px + 1, 2 * margin_px + 1), np.uint8)
+    smallest = cv2.erode(labels, kernel)  # a pixel keeps its label only if its whole neighbourhood has it
+    largest = cv2.dilate(labels, kernel)
+    return np.where((smallest == labels) & (largest == labels), labels, 0)
+
+
+def _rows(features: FeatureFrame, ids: np.ndarray) -> np.ndarray:
+    """The feature points of ``ids`` (all live in ``features``)."""
+    order = np.argsort(features.ids)
+    return features.points[order[np.searchsorted(features.ids[order], ids)]]
+
+
+def _ms(start: float) -> float:
+    return 1e3 * (time.perf_counter() - start)
