@@ -12,7 +12,7 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Optional
 
 from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING, DictConfig, ListConfig, OmegaConf, open_dict
@@ -32,9 +32,18 @@ def option_values(group: str, option: str) -> dict[str, Any]:
     return {key: value for key, value in values.items() if key not in ("defaults", "_target_")}
 
 
-def allowed(values: Range, *, each: bool = False, length: int | None = None, default: Any = MISSING, **kw) -> Any:
-    """A dataclass field whose value (or, with ``each``, every element) must lie in ``values``."""
-    metadata = {"allowed": values, "each": each, "length": length}
+def allowed(
+    values: Range | tuple[str, ...],
+    *,
+    each: bool = False,
+    length: int | None = None,
+    optional: bool = False,
+    default: Any = MISSING,
+    **kw,
+) -> Any:
+    """A dataclass field whose value (or, with ``each``, every element) must lie in ``values`` (a `Range`, or a
+    tuple of allowed strings); ``optional`` also allows None (null in YAML)."""
+    metadata = {"allowed": values, "each": each, "length": length, "optional": optional}
     if isinstance(default, list):
         return field(default_factory=lambda: list(default), metadata=metadata, **kw)
     return field(default=default, metadata=metadata, **kw)
@@ -117,6 +126,66 @@ class RenderOnlySchema:
 
 
 @dataclass
+class FitSchema:
+    """Per-part fitting (tracker/abis/fitting.py). huber_px: eq 7's rho (null: plain squares, eq 8)."""
+
+    optimizer: str = allowed(("sd", "lm"), default="lm")
+    max_iterations: int = allowed(COUNT, default=20)
+    sd_iterations_factor: int = allowed(COUNT, default=10)
+    relative_tolerance: float = allowed(POSITIVE, default=1e-6)
+    huber_px: Optional[float] = allowed(POSITIVE, optional=True, default=1.0)  # noqa: UP045 (OmegaConf needs it)
+
+
+@dataclass
+class FeatureSchema:
+    """Shi-Tomasi + pyramidal LK (tracker/observe/features.py)."""
+
+    max_features: int = allowed(COUNT, default=300)
+    quality_level: float = allowed(Range(0.0, 1.0, low_open=True), default=0.01)
+    min_distance_px: float = allowed(POSITIVE, default=5.0)
+    block_size: int = allowed(Range(3, 31), default=5)
+    window_px: int = allowed(Range(5, 101), default=15)
+    pyramid_levels: int = allowed(Range(1, 8), default=3)
+    max_forward_backward_px: float = allowed(POSITIVE, default=0.25)
+
+
+@dataclass
+class PriorSchema:
+    """One sigma of plausible change per frame, per parameter group (tracker/abis/tracker.py PriorSigmas)."""
+
+    scale: float = allowed(POSITIVE, default=0.002)
+    roundness: float = allowed(POSITIVE, default=0.01)
+    tapering: float = allowed(POSITIVE, default=0.01)
+    bending: float = allowed(POSITIVE, default=0.01)
+    translation_m: float = allowed(POSITIVE, default=0.01)
+    rotation_rad: float = allowed(POSITIVE, default=0.1)
+
+
+@dataclass
+class InitialNoiseSchema:
+    """Frame 0 starts from the truth plus this noise (the paper aligns the model with a user's help)."""
+
+    translation_m: float = allowed(NON_NEGATIVE, default=0.003)
+    rotation_rad: float = allowed(NON_NEGATIVE, default=0.01)
+    scale_fraction: float = allowed(NON_NEGATIVE, default=0.01)
+
+
+@dataclass
+class AbisSchema:
+    """Paper 1's AbIS tracker. prior: null fits eq 8 alone (no prior around the previous frame)."""
+
+    _target_: str = "tracker.abis.tracker.AbisTracker.from_config"
+    fit: FitSchema = field(default_factory=FitSchema)
+    features: FeatureSchema = field(default_factory=FeatureSchema)
+    prior: Optional[PriorSchema] = field(default_factory=PriorSchema)  # noqa: UP045
+    pairing_radius_px: float = allowed(POSITIVE, default=2.0)
+    refined_tolerance_px: float = allowed(POSITIVE, default=0.5)
+    boundary_margin_px: int = allowed(Range(0, 50), default=5)
+    max_residual_px: float = allowed(POSITIVE, default=2.0)
+    initial_noise: InitialNoiseSchema = field(default_factory=InitialNoiseSchema)
+
+
+@dataclass
 class PlannedSchema:
     """A group option whose capability a later issue builds; it composes (its values are checked) but cannot run."""
 
@@ -174,7 +243,7 @@ GROUP_SCHEMAS: dict[str, dict[str, type]] = {
     "model": {"dsq_arm": DSQArmSchema, "body_mesh": PlannedSchema},
     "scene": {"arm_swing": ArmSwingSchema},
     "rig": {"orthogonal3": Orthogonal3Schema, "mono": MonoSchema},
-    "tracker": {"render_only": RenderOnlySchema, "abis": PlannedSchema, "tbf": PlannedSchema},
+    "tracker": {"render_only": RenderOnlySchema, "abis": AbisSchema, "tbf": PlannedSchema},
     "cost": {"xor": CostSchema, "wxor": CostSchema, "nwxor": CostSchema},
     "motion": {"dm1": MotionModelSchema, "dm2": MotionModelSchema},
 }
@@ -213,6 +282,12 @@ def check_ranges(node: Any, path: str = "") -> None:
 
 
 def _check_field(key: str, value: Any, metadata: dict) -> None:
+    if value is None and metadata["optional"]:
+        return
+    if isinstance(metadata["allowed"], tuple):
+        if value not in metadata["allowed"]:
+            raise ConfigError(f"{key}={value!r} is not allowed: allowed {', '.join(metadata['allowed'])}")
+        return
     length = metadata["length"]
     if length is not None and len(value) != length:
         raise ConfigError(f"{key}={list(value)!r} has {len(value)} values: allowed exactly {length}")

@@ -1,8 +1,8 @@
 """One run: build the components a composed config names, run the frames, write the three outputs.
 
 Outputs in the job's directory, each written atomically: ``run.rrd`` (Rerun), ``frames.parquet`` (one row per
-frame and part: truth parameters, visible label pixels per view, per-frame stage timings repeated on each part's
-row) and, last, ``metrics.json`` (choices, seed, frames, status, timing medians in their own ``timing`` field).
+frame and part; columns in `experiments.outputs`) and, last, ``metrics.json`` (choices, seed, frames, status,
+accuracy where the tracker estimates, timing medians in their own ``timing`` field).
 A failure inside the loop is recorded as ``status: "failed: <reason>"`` with every output still written.
 """
 
@@ -25,11 +25,12 @@ from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
 
 from experiments.config import check_config
+from experiments.outputs import accuracy, frame_rows
 from experiments.recording import RunRecording
 from tracker.atomic import write_json, write_parquet
 from tracker.models.dsq import PARAM_NAMES
 from tracker.render.offscreen import Lighting, SceneRenderer
-from tracker.sequence import FrameInput, simulate
+from tracker.sequence import simulate
 
 log = logging.getLogger(__name__)
 
@@ -84,14 +85,24 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
             background_rgb=tuple(cfg.render.background_rgb),
             lighting=Lighting(ambient=cfg.render.ambient),
         )
+        tracker = components.tracker
+        # The tracker's own random stream (stream 1 of the run's seed; the model's textures use others).
+        tracker.start(model, cameras, components.motion.params(model, 0), np.random.default_rng([cfg.seed, 1]))
         with renderer:
             frames = simulate(model, components.motion, cameras, renderer, cfg.frames)
             for frame in tqdm(frames, total=cfg.frames, desc="frames", disable=not sys.stderr.isatty()):
                 start = time.perf_counter()
+                result = tracker.step(frame)
+                estimated = time.perf_counter()
+                if result is not None:
+                    frame.timings_ms["estimate"] = 1e3 * (estimated - start)
+                    frame.timings_ms.update({f"estimate_{k}": v for k, v in result.timings_ms.items()})
                 recording.log_frame(frame)
-                frame.timings_ms["record"] = 1e3 * (time.perf_counter() - start)
+                if result is not None:
+                    recording.log_estimate(result, model)
+                frame.timings_ms["record"] = 1e3 * (time.perf_counter() - estimated)
                 recording.log_timings(frame.frame, frame.timings_ms)
-                rows.extend(frame_rows(frame, model.part_names))
+                rows.extend(frame_rows(frame, model, result))
                 timings.append(frame.timings_ms)
                 if stop.requested:
                     break
@@ -102,6 +113,8 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
         status = "failed: interrupted"
         raise
     finally:
+        if components is not None:
+            components.tracker.close()
         stop.restore()
         if stop.requested:
             status = f"failed: interrupted by {stop.requested}"
@@ -157,19 +170,6 @@ def failure_reason(error: BaseException) -> str:
     return f"{type(error).__name__}: {message[0]}" if message else type(error).__name__
 
 
-def frame_rows(frame: FrameInput, part_names: tuple[str, ...]) -> list[dict[str, Any]]:
-    """One row per part: truth parameters, label pixels in each view, the frame's stage timings."""
-    timing_columns = {f"{stage}_ms": ms for stage, ms in frame.timings_ms.items()}
-    rows = []
-    for k, part in enumerate(part_names):
-        row: dict[str, Any] = {"frame": frame.frame, "part": part}
-        row.update({f"truth_{name}": float(frame.truth[k, i]) for i, name in enumerate(PARAM_NAMES)})
-        row.update({f"visible_px_{view}": int(pixels[k]) for view, pixels in frame.visible_px.items()})
-        row.update(timing_columns)
-        rows.append(row)
-    return rows
-
-
 def summarize(
     cfg: DictConfig,
     choices: dict[str, str],
@@ -190,11 +190,14 @@ def summarize(
         "config": OmegaConf.to_container(cfg, resolve=True),
     }
     if timings:
-        stages = timings[0].keys()
-        metrics["timing"] = {f"{stage}_ms_median": float(np.median([t[stage] for t in timings])) for stage in stages}
+        stages = timings[-1].keys()  # frame 0 has no estimate_fit stage
+        metrics["timing"] = {
+            f"{stage}_ms_median": float(np.median([t[stage] for t in timings if stage in t])) for stage in stages
+        }
         metrics["timing"]["render_ms_per_view_median"] = metrics["timing"]["render_ms_median"] / len(components.views)
     if not table.empty:
         metrics["min_visible_fraction"] = min_visible_fraction(table, components.views)
+        metrics.update(accuracy(table))
     return metrics
 
 

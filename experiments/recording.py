@@ -17,11 +17,14 @@ from pathlib import Path
 import rerun as rr
 import rerun.blueprint as rrb
 
+from tracker.abis.correspondences import COUNT_NAMES
+from tracker.abis.tracker import FEATURE_STATES, AbisResult
 from tracker.atomic import AtomicFile
 from tracker.geometry.cameras import Camera
 from tracker.sequence import FrameInput
 
 APPLICATION_ID = "articulated-tracking"
+FEATURE_COLORS = {"tracked": (0, 220, 0), "new": (0, 160, 255), "discarded": (255, 40, 40), "unpaired": (150, 150, 150)}
 TIMELINE = "frame"
 
 
@@ -34,6 +37,7 @@ def default_blueprint(view_names: Sequence[str], part_names: Sequence[str]) -> r
             rrb.Horizontal(
                 rrb.Spatial3DView(name="3-D scene", origin="world"),
                 rrb.Tabs(
+                    rrb.TimeSeriesView(name="pairs", origin="metrics/correspondences"),
                     rrb.TimeSeriesView(name="visible pixels", origin="metrics/visible_px"),
                     *series,
                     rrb.TimeSeriesView(name="timing (ms)", origin="metrics/timing"),
@@ -87,6 +91,11 @@ class RunRecording:
             for k, (name, color) in enumerate(zip(self.part_names, part_colors, strict=True))
         ]
         log("world", rr.AnnotationContext(classes), static=True)
+        # Feature states (tracker.abis.tracker.FEATURE_STATES) for the features overlay of each view.
+        states = [rr.AnnotationInfo(id=k, label=state, color=FEATURE_COLORS[state])
+                  for k, state in enumerate(FEATURE_STATES)]  # fmt: skip
+        for camera in cameras:
+            log(f"world/cameras/{camera.name}/image/features", rr.AnnotationContext(states), static=True)
         for camera in cameras:
             log(f"world/cameras/{camera.name}", rr.Transform3D(translation=camera.position, mat3x3=camera.rotation),
                 static=True)
@@ -111,14 +120,37 @@ class RunRecording:
                 log(f"metrics/visible_px/{view}/{part}", rr.Scalars(float(pixels)))
         for mesh in frame.meshes:
             path = f"world/truth/{mesh.key}"
-            if mesh.key not in self._meshes_logged:
+            if path not in self._meshes_logged:
                 log(path, rr.Mesh3D.from_fields(triangle_indices=mesh.faces, albedo_factor=[*mesh.color, 255]),
                     static=True)
-                self._meshes_logged.add(mesh.key)
+                self._meshes_logged.add(path)
             log(path, rr.Mesh3D.from_fields(vertex_positions=mesh.vertices, vertex_normals=mesh.normals))
         for k, part in enumerate(self.part_names):
             for index, name in enumerate(self.param_names):
                 log(f"metrics/params/{part}/{name}/truth", rr.Scalars(float(frame.truth[k, index])))
+
+    def log_estimate(self, result: AbisResult, model) -> None:
+        """An AbIS frame: features by state and the estimate's visible samples over each view, the estimated
+        meshes in 3-D, estimated parameters, pair counts and costs as series (call after `log_frame`)."""
+        log = self.stream.log
+        for view, seen in result.views.items():
+            image_path = f"world/cameras/{view}/image"
+            log(f"{image_path}/features", rr.Points2D(seen.features.points, class_ids=seen.feature_states, radii=1.5))
+            log(f"{image_path}/estimate", rr.Points2D(seen.visible.uv, colors=[255, 255, 0], radii=0.6))
+        for mesh in model.surface_meshes(result.estimate):
+            path = f"world/estimate/{mesh.key}"
+            if path not in self._meshes_logged:
+                log(path, rr.Mesh3D.from_fields(triangle_indices=mesh.faces, albedo_factor=[255, 255, 0, 120]),
+                    static=True)
+                self._meshes_logged.add(path)
+            log(path, rr.Mesh3D.from_fields(vertex_positions=mesh.vertices, vertex_normals=mesh.normals))
+        for k, part in enumerate(self.part_names):
+            for index, name in enumerate(self.param_names):
+                log(f"metrics/params/{part}/{name}/estimate", rr.Scalars(float(result.estimate[k, index])))
+            for index, count in enumerate(COUNT_NAMES):
+                total = sum(int(counts[k, index]) for counts in result.counts.values())
+                log(f"metrics/correspondences/{part}/{count}", rr.Scalars(float(total)))
+            log(f"metrics/cost/{part}", rr.Scalars(float(result.cost[k])))
 
     def log_timings(self, frame: int, timings_ms: dict[str, float]) -> None:
         self.stream.set_time(TIMELINE, sequence=frame)

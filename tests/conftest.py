@@ -47,3 +47,12 @@ def five_frame_run(tmp_path_factory):
     result = run_cli(root / "out", "model=dsq_arm", "frames=5", cwd=root)
     assert result.returncode == 0, result.stderr
     return root / "out"
+
+
+@pytest.fixture(scope="session")
+def abis_run(tmp_path_factory):
+    """A 10-frame AbIS run of the default scene through the real CLI."""
+    root = tmp_path_factory.mktemp("abis")
+    result = run_cli(root / "out", "tracker=abis", "frames=10", cwd=root)
+    assert result.returncode == 0, result.stderr
+    return root / "out"

@@ -71,8 +71,30 @@ def label_areas(labels: np.ndarray, n_parts: int) -> np.ndarray:
     return np.bincount(labels.ravel(), minlength=n_parts + 1)[1 : n_parts + 1]
 
 
+class Tracker(Protocol):
+    """What a run drives: `start` once with the model, cameras and frame-0 truth (a tracker may use it only to
+    initialise, as the papers' user-assisted alignment), `step` once per frame (images only), `close`."""
+
+    name: str
+
+    def start(self, model: Model, cameras: Sequence[Camera], truth: np.ndarray, rng: np.random.Generator) -> None: ...
+
+    def step(self, frame: FrameInput) -> object | None: ...
+
+    def close(self) -> None: ...
+
+
 @dataclass(frozen=True)
 class RenderOnly:
     """The tracker that estimates nothing: the run renders and records what every tracker would observe."""
 
     name: str = "render_only"
+
+    def start(self, model: Model, cameras: Sequence[Camera], truth: np.ndarray, rng: np.random.Generator) -> None:
+        pass
+
+    def step(self, frame: FrameInput) -> None:
+        return None
+
+    def close(self) -> None:
+        pass

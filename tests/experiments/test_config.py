@@ -10,6 +10,7 @@ from hydra.utils import instantiate
 
 from experiments.config import CONFIG_DIR, GROUP_SCHEMAS, PLANNED_TARGET, ConfigError, check_config
 from experiments.validate import sweep_combinations, validate_command_line
+from tracker.abis.tracker import AbisTracker
 from tracker.geometry.cameras import Camera
 from tracker.models.dsq_arm import DSQArm
 from tracker.motion.arm_swing import ArmSwing
@@ -39,7 +40,8 @@ def test_every_group_option_composes_and_instantiates(group, option):
         return
     check_config(cfg, choices)
     built = instantiate(cfg[group], **({"seed": 0} if group == "model" else {}), _convert_="all")
-    expected_type = {"model": DSQArm, "scene": ArmSwing, "rig": tuple, "tracker": RenderOnly}[group]
+    expected_type = {"model": DSQArm, "scene": ArmSwing, "rig": tuple,
+                     "tracker": {"render_only": RenderOnly, "abis": AbisTracker}.get(option)}[group]  # fmt: skip
     assert isinstance(built, expected_type)
     if group == "rig":
         assert all(isinstance(camera, Camera) for camera in built)
@@ -76,7 +78,11 @@ BAD_OVERRIDES = [
     (["motion=dm2", "motion.m=0.5"], r"^motion\.m=0\.5 is out of range: allowed >= 1$"),
     (["motion=dm1", "motion.sigma=-0.1"], r"^motion\.sigma=-0\.1 is out of range: allowed > 0$"),
     (["motion=dm2", "motion.occlusion_area_px=-1"], r"occlusion_area_px=-1\.0 is out of range: allowed >= 0"),
-    (["tracker=abis"], r"^tracker=abis is planned \(issue 3: AbIS"),
+    (["tracker=tbf"], r"^tracker=tbf is planned \(issue 5: silhouette"),
+    (["tracker=abis", "tracker.fit.optimizer=newton"], r"^tracker\.fit\.optimizer='newton' is not allowed: allowed sd"),
+    (["tracker=abis", "tracker.pairing_radius_px=0"], r"^tracker\.pairing_radius_px=0\.0 is out of range: allowed > 0"),
+    (["tracker=abis", "tracker.fit.huber_px=-1"], r"^tracker\.fit\.huber_px=-1\.0 is out of range: allowed > 0$"),
+    (["tracker=abis", "tracker.features.max_features=0"], r"max_features=0 is out of range: allowed >= 1"),
     (["model=schema_dsq_arm"], r"^model=schema_dsq_arm is a schema, not an option"),
     (["frames=["], r"^cannot parse the overrides"),
     (["experiment=nope"], r"^experiment=nope: no such option, allowed arm_scene$"),

@@ -114,7 +114,7 @@ class AbisResult:
 
 
 class AbisTracker:
-    """`start` with the model, the cameras and the initial estimate; then `step` once per frame; `close`."""
+    """`start` with the model, the cameras and the frame-0 truth; then `step` once per frame; `close`."""
 
     name = "abis"
 
@@ -127,11 +127,14 @@ class AbisTracker:
         """From plain values (as a config gives them): fit, features and initial_noise are mappings."""
         nested = {"fit": FitSettings, "features": FeatureSettings, "initial_noise": InitialNoise,
                   "prior": PriorSigmas}  # fmt: skip
-        return cls(AbisSettings(**{k: nested[k](**v) if k in nested else v for k, v in values.items()}))
+        return cls(AbisSettings(**{k: nested[k](**v) if k in nested and v is not None else v
+                                   for k, v in values.items()}))  # fmt: skip
 
-    def start(self, model: DSQArm, cameras: Sequence[Camera], initial: np.ndarray) -> None:
+    def start(self, model: DSQArm, cameras: Sequence[Camera], truth: np.ndarray, rng: np.random.Generator) -> None:
+        """Begin a sequence: frame 0's estimate is ``truth`` with the configured `InitialNoise` drawn from ``rng``
+        (the paper's user-assisted alignment); after that the tracker sees images only."""
         self.model, self.cameras = model, list(cameras)
-        self._estimate = model.connect(initial)
+        self._estimate = initial_estimate(model, truth, self.settings.initial_noise, rng)
         self._trackers = {  # feature ids are unique across views
             camera.name: FeatureTracker(self.settings.features, first_id=k << 40) for k, camera in enumerate(cameras)
         }

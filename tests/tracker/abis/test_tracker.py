@@ -17,8 +17,7 @@ def run(arm, motion, rig, renderer):
     try:
         for frame in simulate(arm, motion, rig, renderer, 12):
             if frame.frame == 0:
-                start = initial_estimate(arm, frame.truth, tracker.settings.initial_noise, np.random.default_rng(0))
-                tracker.start(arm, rig, start)
+                tracker.start(arm, rig, frame.truth, np.random.default_rng(0))
             results.append(tracker.step(frame))
             truths.append(frame.truth)
     finally:
@@ -53,7 +52,7 @@ def test_the_tracker_never_sees_the_truth_after_frame_0(arm, motion, rig, render
     estimates = []
     for lie in (False, True):
         tracker = AbisTracker()
-        tracker.start(arm, rig, frames[0].truth)
+        tracker.start(arm, rig, frames[0].truth, np.random.default_rng(0))
         for frame in frames:
             if lie:
                 frame = type(frame)(frame.frame, frame.truth * 0 + 1, frame.meshes, frame.views, frame.visible_px)

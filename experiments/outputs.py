@@ -1,0 +1,87 @@
+"""A run's tables and summary: frame results -> ``frames.parquet`` rows, and the rows -> ``metrics.json`` figures.
+
+Rows: one per frame and part. Columns: ``truth_<param>``; ``visible_px_<view>``; frame-level stage timings
+``<stage>_ms`` (repeated on each part's row). With an estimating tracker also ``est_<param>``,
+``surface_error_mm`` (mean distance between the part's estimated and true model samples) and, for AbIS, the pair
+counts ``<count>`` (all views) and ``<count>_<view>``, ``pairs``, ``cost`` (eq 8 at the end of the fit),
+``iterations`` and ``failure``. Angles are radians here; the summary reports their errors in degrees.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from tracker.abis.correspondences import COUNT_NAMES
+from tracker.abis.tracker import AbisResult
+from tracker.models.dsq import ANGLE_NAMES, PARAM_NAMES
+from tracker.sequence import FrameInput
+
+PAPER_PART = 1  # paper 1's "part 2" (1-based), our index 1: the forearm
+
+
+def frame_rows(frame: FrameInput, model: Any, result: object | None) -> list[dict[str, Any]]:
+    """One row per part for ``frame`` (and the tracker's ``result`` for it, if any)."""
+    timing_columns = {f"{stage}_ms": ms for stage, ms in frame.timings_ms.items()}
+    estimate = getattr(result, "estimate", None)
+    if estimate is not None:
+        true_points, estimated_points = model.sample_points(frame.truth), model.sample_points(estimate)
+    rows = []
+    for k, part in enumerate(model.part_names):
+        row: dict[str, Any] = {"frame": frame.frame, "part": part}
+        row.update({f"truth_{name}": float(frame.truth[k, i]) for i, name in enumerate(PARAM_NAMES)})
+        row.update({f"visible_px_{view}": int(pixels[k]) for view, pixels in frame.visible_px.items()})
+        if estimate is not None:
+            row.update({f"est_{name}": float(estimate[k, i]) for i, name in enumerate(PARAM_NAMES)})
+            distance = np.linalg.norm(estimated_points[k] - true_points[k], axis=1)
+            row["surface_error_mm"] = 1e3 * float(distance.mean())
+        if isinstance(result, AbisResult):
+            row.update(_abis_columns(result, k))
+        row.update(timing_columns)
+        rows.append(row)
+    return rows
+
+
+def _abis_columns(result: AbisResult, part: int) -> dict[str, Any]:
+    columns: dict[str, Any] = {}
+    for index, name in enumerate(COUNT_NAMES):
+        per_view = {view: int(counts[part, index]) for view, counts in result.counts.items()}
+        columns[name] = sum(per_view.values())
+        columns.update({f"{name}_{view}": value for view, value in per_view.items()})
+    columns["pairs"] = int(sum(pairs[part] for pairs in result.pairs.values()))
+    columns["cost"] = float(result.cost[part])
+    columns["iterations"] = int(result.iterations[part])
+    columns["failure"] = result.failure or ""
+    return columns
+
+
+def accuracy(table: pd.DataFrame) -> dict[str, Any]:
+    """RMS error of every parameter of every part (angles in degrees), paper 1's part-2 figures, surface error."""
+    if "est_a" not in table.columns or table.empty:
+        return {}
+    rms: dict[str, dict[str, float]] = {}
+    for part, rows in table.groupby("part", sort=False):
+        rms[part] = {}
+        for name in PARAM_NAMES:
+            error = rows[f"est_{name}"].to_numpy() - rows[f"truth_{name}"].to_numpy()
+            if name in ANGLE_NAMES:
+                error = np.degrees(np.angle(np.exp(1j * error)))  # wrapped to (-180, 180]
+            rms[part][f"{name}_deg" if name in ANGLE_NAMES else name] = float(np.sqrt(np.mean(error**2)))
+    parts = list(rms)
+    paper_part = table[table["part"] == parts[PAPER_PART]] if len(parts) > PAPER_PART else table.iloc[:0]
+    figures: dict[str, Any] = {
+        "rms": rms,
+        "mean_surface_error_mm": float(table["surface_error_mm"].mean()),
+    }
+    if not paper_part.empty:
+        figures["part2_b1_rms"] = rms[parts[PAPER_PART]]["b1"]
+        figures["part2_b1_range"] = float(np.ptp(paper_part["truth_b1"].to_numpy()))
+        figures["part2_r2_rms_deg"] = rms[parts[PAPER_PART]]["r2_deg"]
+    if "failure" in table.columns:
+        failed = table.loc[table["failure"] != "", ["frame", "failure"]].drop_duplicates("frame")
+        figures["failed_frames"] = len(failed)
+        if len(failed):
+            figures["first_failure"] = f"frame {int(failed.iloc[0]['frame'])}: {failed.iloc[0]['failure']}"
+    return figures

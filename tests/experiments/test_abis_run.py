@@ -1,0 +1,49 @@
+import json
+
+import numpy as np
+import pandas as pd
+from rerun.chunk import RrdReader
+
+from tests.experiments.test_run import PARTS, VIEWS, frames_by_entity
+from tracker.abis.correspondences import COUNT_NAMES
+from tracker.models.dsq import PARAM_NAMES
+
+
+def test_frames_table_has_estimates_counts_and_costs(abis_run):
+    table = pd.read_parquet(abis_run / "frames.parquet")
+    assert len(table) == 10 * 3
+    for name in PARAM_NAMES:
+        assert {f"truth_{name}", f"est_{name}"} <= set(table.columns)
+    for count in COUNT_NAMES:
+        assert count in table.columns and {f"{count}_{view}" for view in VIEWS} <= set(table.columns)
+        np.testing.assert_array_equal(table[count], sum(table[f"{count}_{view}"] for view in VIEWS))
+    assert {"pairs", "cost", "iterations", "surface_error_mm", "estimate_ms", "estimate_fit_ms"} <= set(table.columns)
+    forearm = table[table["part"] == "forearm"]
+    assert (forearm["iterations"].iloc[1:] > 0).all() and (forearm["cost"].iloc[1:] > 0).all()
+
+
+def test_metrics_report_the_issue_figures(abis_run):
+    metrics = json.loads((abis_run / "metrics.json").read_text())
+    assert metrics["status"] == "ok" and metrics["tracker"] == "abis"
+    assert set(metrics["rms"]) == set(PARTS) and "r2_deg" in metrics["rms"]["forearm"]
+    table = pd.read_parquet(abis_run / "frames.parquet")
+    forearm = table[table["part"] == "forearm"]
+    independent = np.sqrt(np.mean((forearm["est_b1"] - forearm["truth_b1"]) ** 2))
+    assert metrics["part2_b1_rms"] == independent
+    assert metrics["part2_b1_range"] == np.ptp(forearm["truth_b1"])
+    assert metrics["part2_r2_rms_deg"] < 3.0 and metrics["part2_b1_rms"] < 0.1 * 0.08
+    assert metrics["failed_frames"] == 0 and metrics["timing"]["estimate_ms_median"] > 0
+
+
+def test_recording_has_the_count_series_features_and_estimate(abis_run):
+    frames = frames_by_entity(abis_run / "run.rrd")
+    every_frame = list(range(10))
+    for part in PARTS:
+        for count in COUNT_NAMES:
+            assert frames[f"/metrics/correspondences/{part}/{count}"] == every_frame
+        assert frames[f"/metrics/params/{part}/r2/estimate"] == every_frame
+        assert frames[f"/world/estimate/{part}"] == every_frame
+    for view in VIEWS:
+        assert frames[f"/world/cameras/{view}/image/features"] == every_frame
+        assert frames[f"/world/cameras/{view}/image/estimate"] == every_frame
+    assert RrdReader(abis_run / "run.rrd").recordings()
