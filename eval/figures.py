@@ -18,11 +18,7 @@ log = logging.getLogger(__name__)
 
 def views_sheet(run_dir: str | Path, frames: Sequence[int] | None = None, out: str | Path | None = None) -> Path:
     """A PNG grid of the recorded RGB views: one column per view, one row per frame (default: 4 spread frames)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = _pyplot()
     run_dir = Path(run_dir)
     views = json.loads((run_dir / "metrics.json").read_text())["views"]
     images = {view: read_rgb_frames(run_dir / "run.rrd", view) for view in views}
@@ -39,12 +35,96 @@ def views_sheet(run_dir: str | Path, frames: Sequence[int] | None = None, out: s
                 axis.set_title(view)
             if column == 0:
                 axis.set_ylabel(f"frame {frame}")
+    return _save(plt, figure, Path(out) if out is not None else run_dir / "views.png")
+
+
+PAPER_PART = "forearm"  # paper 1's part 2
+
+
+def fig8_part2_b1_r2(run_dir: str | Path, out: str | Path | None = None) -> Path:
+    """Paper 1, Fig 8: part 2's bending b1 and rotation r2, estimated and true, over the frames."""
+    plt = _pyplot()
+    run_dir = Path(run_dir)
+    rows = _paper_part_rows(run_dir)
+    figure, (bend, turn) = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
+    bend.plot(rows["frame"], rows["truth_b1"], "k-", label="true")
+    bend.plot(rows["frame"], rows["est_b1"], "C1.-", markersize=3, label="estimated")
+    bend.set_ylabel("b1 (m)")
+    turn.plot(rows["frame"], np.degrees(rows["truth_r2"]), "k-", label="true")
+    turn.plot(rows["frame"], np.degrees(rows["est_r2"]), "C0.-", markersize=3, label="estimated")
+    turn.set_ylabel("r2 (degrees)")
+    turn.set_xlabel("frame")
+    _shade_hidden(bend, rows), _shade_hidden(turn, rows)
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    bend.set_title(f"part 2 ({PAPER_PART}): b1 RMS {metrics['part2_b1_rms'] * 1e3:.1f} mm "
+                   f"(range {metrics['part2_b1_range'] * 1e3:.0f} mm), r2 RMS {metrics['part2_r2_rms_deg']:.2f} deg, "
+                   f"optimizer {metrics['config']['tracker']['fit']['optimizer']}", fontsize=9)  # fmt: skip
+    bend.legend(loc="upper right", fontsize=8)
+    return _save(plt, figure, Path(out) if out else run_dir / "fig8_part2_b1_r2.png")
+
+
+def fig9_part2_correspondences(run_dir: str | Path, out: str | Path | None = None) -> Path:
+    """Paper 1, Fig 9: part 2's new, discarded and tracked pairs per frame (all views)."""
+    plt = _pyplot()
+    run_dir = Path(run_dir)
+    rows = _paper_part_rows(run_dir)
+    figure, axis = plt.subplots(figsize=(7, 3.8))
+    styles = {"tracked": "C2-", "new": "C0-", "discarded_occlusion": "C3-", "discarded_error": "C1--", "lost": "C7:"}
+    for count, style in styles.items():
+        axis.plot(rows["frame"], rows[count], style, label=count.replace("_", " "))
+    _shade_hidden(axis, rows)
+    axis.set_xlabel("frame")
+    axis.set_ylabel("pairs of part 2")
+    axis.legend(fontsize=8, ncol=3)
+    return _save(plt, figure, Path(out) if out else run_dir / "fig9_part2_correspondences.png")
+
+
+def _paper_part_rows(run_dir: Path):
+    import pandas as pd
+
+    table = pd.read_parquet(run_dir / "frames.parquet")
+    if "est_b1" not in table.columns:
+        raise ValueError(f"{run_dir} has no estimates (run it with tracker=abis)")
+    return table[table["part"] == PAPER_PART].sort_values("frame")
+
+
+def _shade_hidden(axis, rows) -> None:
+    """Grey where part 2 is mostly hidden in some view (under 20% of its largest visible area there)."""
+    columns = [c for c in rows.columns if c.startswith("visible_px_")]
+    hidden = np.zeros(len(rows), bool)
+    for column in columns:
+        pixels = rows[column].to_numpy()
+        hidden |= pixels < 0.2 * max(pixels.max(), 1)
+    frames = rows["frame"].to_numpy()
+    for frame in frames[hidden]:
+        axis.axvspan(frame - 0.5, frame + 0.5, color="0.9", linewidth=0, zorder=0)
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _save(plt, figure, out: Path) -> Path:
     figure.tight_layout()
-    out = Path(out) if out is not None else run_dir / "views.png"
     with atomic_path(out) as temporary:
-        figure.savefig(temporary, format="png", dpi=80)
+        figure.savefig(temporary, format="png", dpi=100)
     plt.close(figure)
     return out
+
+
+def write_figures(run_dir: str | Path) -> list[Path]:
+    """Every figure the run supports: the views sheet, and Fig 8 and Fig 9 for an AbIS run."""
+    run_dir = Path(run_dir)
+    written = [views_sheet(run_dir)]
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    if metrics.get("tracker") == "abis":
+        written += [fig8_part2_b1_r2(run_dir), fig9_part2_correspondences(run_dir)]
+    return written
 
 
 def main() -> None:
@@ -52,7 +132,8 @@ def main() -> None:
     parser.add_argument("run_dir", type=Path)
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(message)s")
-    log.info("wrote %s", views_sheet(args.run_dir))
+    for path in write_figures(args.run_dir):
+        log.info("wrote %s", path)
 
 
 if __name__ == "__main__":

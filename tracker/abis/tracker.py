@@ -175,7 +175,7 @@ class AbisTracker:
                 self._estimate = estimate
 
         start = time.perf_counter()  # 3. visibility of the new estimate
-        zbuffers = self._renderer.render_depth_labels(self.cameras, self.model.surface_meshes(self._estimate))
+        zbuffers = self._renderer.render_depth_labels(self.cameras, self.model.zbuffer_meshes(self._estimate))
         samples = self.model.sample_points(self._estimate)
         visible = {c.name: visible_samples(c, zbuffers[c.name], samples) for c in self.cameras}
         timings["visibility"] = _ms(start)

@@ -59,10 +59,12 @@ class DSQArm:
     parts: Sequence[ArmPart]
     mesh: Resolution = field(default_factory=lambda: Resolution(40, 48))
     samples: Resolution = field(default_factory=lambda: Resolution(16, 24))
+    zbuffer: Resolution = field(default_factory=lambda: Resolution(24, 32))  # visibility mesh
     seed: int = 0
     # Derived in __post_init__:
     tree: KinematicTree = field(init=False, repr=False)
     topology: MeshTopology = field(init=False, repr=False)  # of the render mesh
+    zbuffer_topology: MeshTopology = field(init=False, repr=False)
     sample_grid: SampleGrid = field(init=False, repr=False)  # model samples for fitting
     textures: list[np.ndarray] = field(init=False, repr=False)  # one per part
 
@@ -74,6 +76,7 @@ class DSQArm:
             raise ValueError(f"arm part names must be unique, got {names}")
         self.tree = KinematicTree(tuple(names), (None, *range(len(self.parts) - 1)))
         self.topology = mesh_topology(self.mesh.n_eta, self.mesh.n_omega)
+        self.zbuffer_topology = mesh_topology(self.zbuffer.n_eta, self.zbuffer.n_omega)
         self.sample_grid = sample_grid(self.samples.n_eta, self.samples.n_omega)
         seeds = np.random.SeedSequence(self.seed).spawn(len(self.parts))  # one stream per part
         self.textures = [
@@ -130,8 +133,7 @@ class DSQArm:
         world = self.world_transforms(params)
         meshes = []
         for k, part in enumerate(self.parts):
-            local = dsq_points(params[k], self.topology.eta, self.topology.omega)
-            vertices = transform_points(world[k], local)
+            vertices = transform_points(world[k], dsq_points(params[k], self.topology.eta, self.topology.omega))
             meshes.append(
                 SurfaceMesh(
                     key=part.name,
@@ -145,6 +147,22 @@ class DSQArm:
                 )
             )
         return meshes
+
+    def zbuffer_meshes(self, params: np.ndarray) -> list[SurfaceMesh]:
+        """Coarser, unlit meshes (labels 1..n) for visibility: a z-buffer needs neither texture nor normals."""
+        world = self.world_transforms(params)
+        topology = self.zbuffer_topology
+        return [
+            SurfaceMesh(
+                key=f"{part.name}/zbuffer",
+                label=k + 1,
+                vertices=transform_points(world[k], dsq_points(params[k], topology.eta, topology.omega)),
+                faces=topology.faces,
+                normals=None,
+                color=part.tint,
+            )
+            for k, part in enumerate(self.parts)
+        ]
 
 
 def build_arm(

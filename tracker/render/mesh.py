@@ -11,17 +11,18 @@ import numpy as np
 class SurfaceMesh:
     """One part's mesh, world frame.
 
-    vertices, normals: ``(n, 3)`` float64; faces: ``(m, 3)`` int, counter-clockwise seen from outside;
-    uv: ``(n, 2)`` texture coordinates in [0, 1] (or None); texture: ``(h, w, 3)`` uint8 (or None);
-    color: ``(3,)`` uint8 base colour used when there is no texture; label: the value this part takes in the
-    label image (1..255). ``key`` names the part across frames so the renderer uploads its texture once.
+    vertices, normals: ``(n, 3)`` float64 (normals may be None for unlit use: z-buffer, labels);
+    faces: ``(m, 3)`` int, counter-clockwise seen from outside; uv: ``(n, 2)`` texture coordinates in [0, 1]
+    (or None); texture: ``(h, w, 3)`` uint8 (or None); color: ``(3,)`` uint8 base colour used when there is no
+    texture; label: the value this part takes in the label image (1..255). ``key`` names the part across frames
+    so the renderer uploads its texture once.
     """
 
     key: str
     label: int
     vertices: np.ndarray
     faces: np.ndarray
-    normals: np.ndarray
+    normals: np.ndarray | None  # None: unlit use only (z-buffer, labels)
     color: tuple[int, int, int]
     uv: np.ndarray | None = None
     texture: np.ndarray | None = None

@@ -140,7 +140,7 @@ class SceneRenderer:
         for mesh in meshes:
             primitive = pr.Primitive(
                 positions=mesh.vertices.astype(np.float32),
-                normals=mesh.normals.astype(np.float32),
+                normals=None if mesh.normals is None else mesh.normals.astype(np.float32),
                 texcoord_0=None if mesh.uv is None else mesh.uv.astype(np.float32),
                 indices=mesh.faces.astype(np.uint32),
                 material=self._material(mesh),

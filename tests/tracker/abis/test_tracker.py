@@ -77,3 +77,19 @@ def test_initial_noise_is_seeded_and_keeps_joints_connected(arm, motion):
     np.testing.assert_array_equal(a, b)
     assert np.abs(a - truth).max() > 0
     np.testing.assert_allclose(arm.connect(a), a)
+
+
+def test_a_frame_with_nothing_to_see_is_a_recorded_failure_not_a_crash(arm, motion, rig, renderer):
+    frames = list(simulate(arm, motion, rig, renderer, 3))
+    blank = {name: type(view)(view.rgb * 0, view.depth, view.labels) for name, view in frames[2].views.items()}
+    tracker = AbisTracker()
+    tracker.start(arm, rig, frames[0].truth, np.random.default_rng(0))
+    try:
+        tracker.step(frames[0])
+        before = tracker.step(frames[1]).estimate
+        result = tracker.step(type(frames[2])(2, frames[2].truth, frames[2].meshes, blank, frames[2].visible_px))
+    finally:
+        tracker.close()
+    assert result.failure == "all pairs lost"
+    assert sum(counts[:, LOST].sum() for counts in result.counts.values()) > 0
+    np.testing.assert_array_equal(result.estimate, before)  # nothing to fit: the estimate holds
