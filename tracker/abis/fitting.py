@@ -175,7 +175,8 @@ def fit_part(q0: np.ndarray, problem: PartProblem, settings: FitSettings = FitSe
         if improvement <= settings.relative_tolerance * max(evaluation.cost, 1e-12):
             current = evaluation
             break
-        current = problem.evaluate(q, settings)
+        # LM's trial points come with their Jacobian (most are accepted); SD's do not (Armijo rejects many).
+        current = evaluation if evaluation.jacobian is not None else problem.evaluate(q, settings)
     return FitResult(q, cost_start, current.cost, accepted, current.view_residuals)
 
 
@@ -193,7 +194,7 @@ def _lm_step(q, problem, current, settings, state):
             state["damping"] *= 10
             continue
         candidate = _apply(q, problem.free, delta)
-        evaluation = problem.evaluate(candidate, settings, with_jacobian=False)
+        evaluation = problem.evaluate(candidate, settings)
         if evaluation.cost < current.cost:
             state["damping"] = max(state["damping"] / 3, 1e-9)
             return candidate, evaluation

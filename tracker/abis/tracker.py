@@ -235,10 +235,11 @@ class AbisTracker:
         """Discard hidden and false pairs, pair the unpaired features; returns the discarded features' ids."""
         n_parts = len(self.model.parts)
         pairs = self._pairs[camera.name]
+        world = self.model.world_transforms(self._estimate)
         seen, uv = np.zeros(len(pairs), bool), np.zeros((len(pairs), 2))
         for part in range(n_parts):
             mine = pairs.parts == part
-            points = self.model.part_points(self._estimate, part, pairs.eta[mine], pairs.omega[mine])
+            points = self.model.part_points(self._estimate, part, pairs.eta[mine], pairs.omega[mine], world)
             seen[mine], uv[mine] = visible_mask(camera, zbuffer, part, points)
         counts[:, DISCARDED_OCCLUSION] = pairs.subset(~seen).count_by_part(n_parts)
         residual = np.linalg.norm(uv - _rows(features, pairs.feature_ids), axis=1)
@@ -267,7 +268,7 @@ class AbisTracker:
             mine = new.parts == part
 
             def surface(eta, omega, part=part):
-                return self.model.part_points(self._estimate, part, eta, omega)
+                return self.model.part_points(self._estimate, part, eta, omega, world)
 
             new.eta[mine], new.omega[mine], distance = refine_surface_coordinates(
                 surface, camera, new.eta[mine], new.omega[mine], _rows(features, new.feature_ids[mine]))

@@ -118,9 +118,13 @@ class DSQArm:
         ]
         return np.array(joints).reshape(-1, 3)
 
-    def part_points(self, params: np.ndarray, part: int, eta: np.ndarray, omega: np.ndarray) -> np.ndarray:
-        """World points ``(n, 3)`` of part ``part`` at surface coordinates (eta, omega)."""
-        return transform_points(self.world_transforms(params)[part], dsq_points(params[part], eta, omega))
+    def part_points(
+        self, params: np.ndarray, part: int, eta: np.ndarray, omega: np.ndarray, world: np.ndarray | None = None
+    ) -> np.ndarray:
+        """World points ``(n, 3)`` of part ``part`` at surface coordinates (eta, omega). Pass ``world`` (the
+        parts' `world_transforms` for ``params``) when calling repeatedly for the same parameters."""
+        world = self.world_transforms(params) if world is None else world
+        return transform_points(world[part], dsq_points(params[part], eta, omega))
 
     def sample_points(self, params: np.ndarray) -> list[np.ndarray]:
         """Per part, the world positions ``(n_samples, 3)`` of its model samples (row k is sample id k)."""
