@@ -59,22 +59,23 @@ def part_world_points(
         rotation_derivatives = local_rotation_derivatives(rotation)
     else:
         rotation_derivatives = euler_to_matrix_derivatives(q[_R])
+    is_root = parent_world is None
+    if not is_root:  # the child's bottom pole (its joint) rides along as the last point: one call, not two
+        eta, omega = np.append(eta, _BOTTOM_POLE[0]), np.append(omega, _BOTTOM_POLE[1])
     local = dsq_points(q, eta, omega)
     local_jacobian = dsq_points_jacobian(q, eta, omega)  # (n, 3, 11)
-    if parent_world is None:
+    if is_root:
         points = local @ rotation.T + q[_C]
         shape_jacobian = np.einsum("ij,njk->nik", rotation, local_jacobian)
         translation_jacobian = np.broadcast_to(np.eye(3), (len(local), 3, 3))
         rotation_jacobian = np.einsum("kij,nj->nik", rotation_derivatives, local)
         return points, np.concatenate([shape_jacobian, translation_jacobian, rotation_jacobian], axis=2)
 
-    joint_in_child = dsq_points(q, *_BOTTOM_POLE)[0]
-    joint_jacobian = dsq_points_jacobian(q, *_BOTTOM_POLE)[0]  # (3, 11)
-    relative = local - joint_in_child
+    relative = local[:-1] - local[-1]
     in_parent = relative @ rotation.T + joint_in_parent
     parent_rotation = parent_world[:3, :3]
     points = in_parent @ parent_rotation.T + parent_world[:3, 3]
-    shape_jacobian = np.einsum("ij,njk->nik", parent_rotation @ rotation, local_jacobian - joint_jacobian)
+    shape_jacobian = np.einsum("ij,njk->nik", parent_rotation @ rotation, local_jacobian[:-1] - local_jacobian[-1])
     rotation_jacobian = np.einsum("ij,kjl,nl->nik", parent_rotation, rotation_derivatives, relative)
     return points, np.concatenate([shape_jacobian, rotation_jacobian], axis=2)
 
@@ -82,10 +83,10 @@ def part_world_points(
 def _world_points(q, eta, omega, parent_world, joint_in_parent) -> np.ndarray:
     """The points of `part_world_points` alone."""
     rotation = euler_to_matrix(q[_R])
-    local = dsq_points(q, eta, omega)
     if parent_world is None:
-        return local @ rotation.T + q[_C]
-    in_parent = (local - dsq_points(q, *_BOTTOM_POLE)[0]) @ rotation.T + joint_in_parent
+        return dsq_points(q, eta, omega) @ rotation.T + q[_C]
+    local = dsq_points(q, np.append(eta, _BOTTOM_POLE[0]), np.append(omega, _BOTTOM_POLE[1]))
+    in_parent = (local[:-1] - local[-1]) @ rotation.T + joint_in_parent
     return in_parent @ parent_world[:3, :3].T + parent_world[:3, 3]
 
 
