@@ -14,6 +14,7 @@ import uuid
 from collections.abc import Sequence
 from pathlib import Path
 
+import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
@@ -118,16 +119,8 @@ class RunRecording:
                 log(f"{image_path}/labels", rr.SegmentationImage(rendered.labels, opacity=0.35))
             for part, pixels in zip(self.part_names, frame.visible_px[view], strict=True):
                 log(f"metrics/visible_px/{view}/{part}", rr.Scalars(float(pixels)))
-        for mesh in frame.meshes:
-            path = f"world/truth/{mesh.key}"
-            if path not in self._meshes_logged:
-                log(path, rr.Mesh3D.from_fields(triangle_indices=mesh.faces, albedo_factor=[*mesh.color, 255]),
-                    static=True)
-                self._meshes_logged.add(path)
-            log(path, rr.Mesh3D.from_fields(vertex_positions=mesh.vertices, vertex_normals=mesh.normals))
-        for k, part in enumerate(self.part_names):
-            for index, name in enumerate(self.param_names):
-                log(f"metrics/params/{part}/{name}/truth", rr.Scalars(float(frame.truth[k, index])))
+        self._log_meshes("truth", frame.meshes)
+        self._log_params("truth", frame.truth)
 
     def log_estimate(self, result: AbisResult, model) -> None:
         """An AbIS frame: features by state and the estimate's visible samples over each view, the estimated
@@ -137,20 +130,30 @@ class RunRecording:
             image_path = f"world/cameras/{view}/image"
             log(f"{image_path}/features", rr.Points2D(seen.features.points, class_ids=seen.feature_states, radii=1.5))
             log(f"{image_path}/estimate", rr.Points2D(seen.visible.uv, colors=[255, 255, 0], radii=0.6))
-        for mesh in model.surface_meshes(result.estimate):
-            path = f"world/estimate/{mesh.key}"
-            if path not in self._meshes_logged:
-                log(path, rr.Mesh3D.from_fields(triangle_indices=mesh.faces, albedo_factor=[255, 255, 0, 120]),
-                    static=True)
-                self._meshes_logged.add(path)
-            log(path, rr.Mesh3D.from_fields(vertex_positions=mesh.vertices, vertex_normals=mesh.normals))
+        self._log_meshes("estimate", model.surface_meshes(result.estimate), rgba=(255, 255, 0, 120))
+        self._log_params("estimate", result.estimate)
         for k, part in enumerate(self.part_names):
-            for index, name in enumerate(self.param_names):
-                log(f"metrics/params/{part}/{name}/estimate", rr.Scalars(float(result.estimate[k, index])))
             for index, count in enumerate(COUNT_NAMES):
                 total = sum(int(counts[k, index]) for counts in result.counts.values())
                 log(f"metrics/correspondences/{part}/{count}", rr.Scalars(float(total)))
             log(f"metrics/cost/{part}", rr.Scalars(float(result.cost[k])))
+
+    def _log_meshes(self, kind: str, meshes, rgba: tuple[int, int, int, int] | None = None) -> None:
+        """``world/<kind>/<part>``: faces and colour once (static), vertices every frame."""
+        for mesh in meshes:
+            path = f"world/{kind}/{mesh.key}"
+            if path not in self._meshes_logged:
+                colour = rgba if rgba is not None else (*mesh.color, 255)
+                self.stream.log(path, rr.Mesh3D.from_fields(triangle_indices=mesh.faces, albedo_factor=colour),
+                                static=True)  # fmt: skip
+                self._meshes_logged.add(path)
+            self.stream.log(path, rr.Mesh3D.from_fields(vertex_positions=mesh.vertices, vertex_normals=mesh.normals))
+
+    def _log_params(self, kind: str, params: np.ndarray) -> None:
+        """``metrics/params/<part>/<name>/<kind>`` for every part and parameter."""
+        for k, part in enumerate(self.part_names):
+            for index, name in enumerate(self.param_names):
+                self.stream.log(f"metrics/params/{part}/{name}/{kind}", rr.Scalars(float(params[k, index])))
 
     def log_timings(self, frame: int, timings_ms: dict[str, float]) -> None:
         self.stream.set_time(TIMELINE, sequence=frame)

@@ -41,18 +41,20 @@ def run_cli(run_dir, *overrides, cwd):
     )  # fmt: skip
 
 
-@pytest.fixture(scope="session")
-def five_frame_run(tmp_path_factory):
-    root = tmp_path_factory.mktemp("run")
-    result = run_cli(root / "out", "model=dsq_arm", "frames=5", cwd=root)
+def _cli_run(tmp_path_factory, name: str, *overrides: str):
+    root = tmp_path_factory.mktemp(name)
+    result = run_cli(root / "out", *overrides, cwd=root)
     assert result.returncode == 0, result.stderr
     return root / "out"
+
+
+@pytest.fixture(scope="session")
+def five_frame_run(tmp_path_factory):
+    """A 5-frame render-only run of the default scene through the real CLI."""
+    return _cli_run(tmp_path_factory, "run", "model=dsq_arm", "frames=5")
 
 
 @pytest.fixture(scope="session")
 def abis_run(tmp_path_factory):
     """A 10-frame AbIS run of the default scene through the real CLI."""
-    root = tmp_path_factory.mktemp("abis")
-    result = run_cli(root / "out", "tracker=abis", "frames=10", cwd=root)
-    assert result.returncode == 0, result.stderr
-    return root / "out"
+    return _cli_run(tmp_path_factory, "abis", "tracker=abis", "frames=10")
