@@ -152,7 +152,7 @@ class AbisTracker:
         n_parts = len(self.model.parts)
         names = [camera.name for camera in self.cameras]
         counts = {name: np.zeros((n_parts, len(COUNT_NAMES)), int) for name in names}
-        discarded = {name: np.empty(0, np.int64) for name in names}
+        discarded: dict[str, np.ndarray] = {}
         timings: dict[str, float] = {}
         failure = None
         cost, iterations = np.zeros(n_parts), np.zeros(n_parts, int)
@@ -194,7 +194,7 @@ class AbisTracker:
             pairs={name: self._pairs[name].count_by_part(n_parts) for name in names},
             cost=cost,
             iterations=iterations,
-            views={name: ViewResult(features[name], self._feature_states(name, features[name], counts, discarded),
+            views={name: ViewResult(features[name], self._feature_states(name, features[name], discarded[name]),
                                     visible[name]) for name in names},  # fmt: skip
             timings_ms=timings,
             failure=failure,
@@ -278,12 +278,13 @@ class AbisTracker:
         self._pairs[camera.name] = pairs.extend(new)
         return discarded
 
-    def _feature_states(self, name: str, features: FeatureFrame, counts, discarded: Mapping[str, np.ndarray]):
+    def _feature_states(self, name: str, features: FeatureFrame, discarded: np.ndarray) -> np.ndarray:
+        """Each feature's index into FEATURE_STATES after this frame's upkeep in view ``name``."""
         states = np.full(len(features.ids), FEATURE_STATES.index("unpaired"))
         paired = np.isin(features.ids, self._pairs[name].feature_ids)
         states[paired & features.tracked] = FEATURE_STATES.index("tracked")
         states[paired & features.new] = FEATURE_STATES.index("new")
-        states[np.isin(features.ids, discarded[name])] = FEATURE_STATES.index("discarded")
+        states[np.isin(features.ids, discarded)] = FEATURE_STATES.index("discarded")
         return states
 
 
