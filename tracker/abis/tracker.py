@@ -180,9 +180,10 @@ class AbisTracker:
         visible = {c.name: visible_samples(c, zbuffers[c.name], samples) for c in self.cameras}
         timings["visibility"] = _ms(start)
         start = time.perf_counter()  # 4. pair upkeep
+        world = self.model.world_transforms(self._estimate)
         for camera in self.cameras:
             discarded[camera.name] = self._upkeep(camera, features[camera.name], zbuffers[camera.name],
-                                                  visible[camera.name], counts[camera.name])
+                                                  visible[camera.name], world, counts[camera.name])
         timings["pairing"] = _ms(start)
         if failure is None and all(len(pairs) == 0 for pairs in self._pairs.values()):
             failure = "all pairs lost"
@@ -231,11 +232,12 @@ class AbisTracker:
         return estimate, cost, iterations, None
 
     def _upkeep(self, camera: Camera, features: FeatureFrame, zbuffer: DepthLabels, visible: VisibleSamples,
-                counts: np.ndarray) -> np.ndarray:
-        """Discard hidden and false pairs, pair the unpaired features; returns the discarded features' ids."""
+                world: np.ndarray, counts: np.ndarray) -> np.ndarray:
+        """Discard hidden and false pairs, pair the unpaired features; returns the discarded features' ids.
+
+        ``world``: the estimate's part -> world transforms (the same for every view)."""
         n_parts = len(self.model.parts)
         pairs = self._pairs[camera.name]
-        world = self.model.world_transforms(self._estimate)
         seen, uv = np.zeros(len(pairs), bool), np.zeros((len(pairs), 2))
         for part in range(n_parts):
             mine = pairs.parts == part
