@@ -32,10 +32,16 @@ from tracker.sequence import simulate
 log = logging.getLogger(__name__)
 
 
-def bench_render(frames: int, width: int, height: int) -> dict[str, float]:
+def default_scene(width: int, height: int):
+    """The configured default arm, its motion and the orthogonal rig at ``width`` x ``height``."""
     arm = build_arm(**option_values("model", "dsq_arm"), seed=0)
     motion = ArmSwing(**option_values("scene", "arm_swing"))
     rig = orthogonal3(**{**option_values("rig", "orthogonal3"), "width": width, "height": height})
+    return arm, motion, rig
+
+
+def bench_render(frames: int, width: int, height: int) -> dict[str, float]:
+    arm, motion, rig = default_scene(width, height)
     frame_ms, rgb_ms, label_ms, pose_ms = [], [], [], []
     with SceneRenderer(width, height) as renderer:
         renderer.render(rig, arm.surface_meshes(motion.params(arm, 0)))  # warm-up: shader compilation, uploads
@@ -71,15 +77,13 @@ def _resident_mb() -> float:
 def bench_abis(frames: int, width: int, height: int) -> dict[str, dict[str, float]]:
     """AbIS estimation time per frame (features, fit, visibility z-buffer, pairing; the synthetic input's own
     rendering excluded) for `lm` and `sd`, on the same rendered frames, after frame 0."""
-    arm = build_arm(**option_values("model", "dsq_arm"), seed=0)
-    motion = ArmSwing(**option_values("scene", "arm_swing"))
-    rig = orthogonal3(**{**option_values("rig", "orthogonal3"), "width": width, "height": height})
+    arm, motion, rig = default_scene(width, height)
     with SceneRenderer(width, height) as renderer:
         inputs = list(simulate(arm, motion, rig, renderer, frames))
     results = {}
     for optimizer in ("lm", "sd"):
-        tracker = AbisTracker.from_config(**{**option_values("tracker", "abis"), "fit": {
-            **option_values("tracker", "abis")["fit"], "optimizer": optimizer}})  # fmt: skip
+        settings = option_values("tracker", "abis")
+        tracker = AbisTracker.from_config(**{**settings, "fit": {**settings["fit"], "optimizer": optimizer}})
         tracker.start(arm, rig, inputs[0].truth, np.random.default_rng([0, 1]))
         per_frame, stages, estimates = [], {}, []
         try:
