@@ -156,7 +156,7 @@ class PriorSchema:
     scale: float = allowed(POSITIVE, default=0.002)
     roundness: float = allowed(POSITIVE, default=0.01)
     tapering: float = allowed(POSITIVE, default=0.01)
-    bending: float = allowed(POSITIVE, default=0.01)
+    bending: float = allowed(POSITIVE, default=0.005)
     translation_m: float = allowed(POSITIVE, default=0.01)
     rotation_rad: float = allowed(POSITIVE, default=0.1)
 

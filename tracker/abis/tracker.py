@@ -53,7 +53,9 @@ class PriorSigmas:
     scale: float = 0.002  # a (m) and a1..a3
     roundness: float = 0.01  # eps1, eps2
     tapering: float = 0.01  # t1, t2
-    bending: float = 0.01  # b1 (m), b2, b3
+    # b1 (m), b2, b3. Bending trades against the rotation about the joint (both swing the far end), so a loose
+    # prior lets b1 wander with r. 5 mm is a little above the arm-swing scene's fastest b1 change (3.9 mm/frame).
+    bending: float = 0.005
     translation_m: float = 0.01  # the root's c
     rotation_rad: float = 0.1  # r
 
