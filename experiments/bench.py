@@ -35,7 +35,7 @@ log = logging.getLogger(__name__)
 def default_scene(width: int, height: int):
     """The configured default arm, its motion and the orthogonal rig at ``width`` x ``height``."""
     arm = build_arm(**option_values("model", "dsq_arm"), seed=0)
-    motion = ArmSwing(**option_values("scene", "arm_swing"))
+    motion = ArmSwing(**option_values("scene", "arm_swing")["arm"])
     rig = orthogonal3(**{**option_values("rig", "orthogonal3"), "width": width, "height": height})
     return arm, motion, rig
 

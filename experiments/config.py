@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any, Optional
 
 from hydra.core.config_store import ConfigStore
-from omegaconf import MISSING, DictConfig, ListConfig, OmegaConf, open_dict
+from omegaconf import II, MISSING, DictConfig, ListConfig, OmegaConf, open_dict
 
 from tracker.models.dsq import PARAM_RANGES, SHAPE_NAMES, DSQShape
 from tracker.ranges import ANY, NON_NEGATIVE, POSITIVE, Range, check_in_range
@@ -80,11 +80,21 @@ class DSQArmSchema:
     parts: list[ArmPartSchema] = MISSING
     mesh: ResolutionSchema = field(default_factory=lambda: ResolutionSchema(40, 48))
     samples: ResolutionSchema = field(default_factory=lambda: ResolutionSchema(16, 24))
+    seed: int = II("seed")  # the parts' textures
+
+
+@dataclass
+class BodyMeshSchema:
+    """Paper 2's skinned body (tracker/models/body_mesh.py), decimated to about ``triangles`` faces."""
+
+    _target_: str = "tracker.models.body_mesh.build_body"
+    triangles: int = allowed(Range(500, 30000), default=4500)
 
 
 @dataclass
 class ArmSwingSchema:
-    _target_: str = "tracker.motion.arm_swing.ArmSwing"
+    """Paper 1's elbow swing of the DSQ arm (tracker/motion/arm_swing.py)."""
+
     period_frames: float = allowed(POSITIVE, default=48.0)
     elbow_swing: float = allowed(Range(-math.pi, math.pi), default=1.2)
     bend_amplitude: float = allowed(ANY, default=0.04)
@@ -92,6 +102,38 @@ class ArmSwingSchema:
     wrist_rock: float = allowed(Range(-math.pi, math.pi), default=0.35)
     shoulder_sway: float = allowed(Range(-math.pi, math.pi), default=0.06)
     shoulder: list[float] = allowed(ANY, each=True, length=3, default=[0.0, 0.0, 0.0])
+
+
+@dataclass
+class BodySwingSchema:
+    """Paper 2's experiment A: the body's right arm swings forward and back (tracker/motion/body_swing.py)."""
+
+    period_frames: float = allowed(POSITIVE, default=40.0)
+    forward_deg: float = allowed(Range(0.0, 180.0), default=60.0)
+    backward_deg: float = allowed(Range(0.0, 90.0), default=40.0)
+    abduction_deg: float = allowed(Range(0.0, 90.0), default=8.0)
+    yaw_deg: float = allowed(ANY, default=-90.0)
+
+
+@dataclass
+class ArmSwingSceneSchema:
+    """``scene=arm_swing``: the block for the chosen model drives it (tracker/motion/scenes.py)."""
+
+    _target_: str = "tracker.motion.scenes.ArmSwingScene.from_config"
+    arm: ArmSwingSchema = field(default_factory=ArmSwingSchema)
+    body: BodySwingSchema = field(default_factory=BodySwingSchema)
+
+
+@dataclass
+class BvhSceneSchema:
+    """``scene=bvh``: a CMU-style BVH clip drives the body (tracker/motion/mocap.py)."""
+
+    _target_: str = "tracker.motion.mocap.MocapScene"
+    path: str = MISSING
+    start_s: float = allowed(NON_NEGATIVE, default=0.0)
+    fps: float = allowed(Range(1.0, 1000.0), default=30.0)
+    yaw_deg: float = allowed(ANY, default=-90.0)
+    center: bool = True
 
 
 @dataclass
@@ -221,8 +263,26 @@ class RecordSchema:
 
 @dataclass
 class RenderSchema:
+    """The synthetic camera. noise_std, gain_*: sensor noise and illumination change (tracker/render/nuisance.py);
+    0 leaves the rendered image as it is."""
+
     background_rgb: list[int] = allowed(BYTE, each=True, length=3, default=[40, 40, 48])
     ambient: float = allowed(Range(0.0, 1.0), default=0.35)
+    noise_std: float = allowed(Range(0.0, 64.0), default=0.0)
+    gain_amplitude: float = allowed(Range(0.0, 0.5), default=0.0)
+    gain_period_frames: float = allowed(POSITIVE, default=150.0)
+
+
+@dataclass
+class SilhouetteSchema:
+    """Background subtraction for body scenes (tracker/observe/silhouettes.py), learnt from
+    ``background_frames`` frames of the empty scene."""
+
+    chroma_threshold: float = allowed(POSITIVE, default=5.0)
+    color_threshold: float = allowed(POSITIVE, default=60.0)
+    min_chroma_std: float = allowed(POSITIVE, default=0.004)
+    cleanup_px: int = allowed(Range(0, 15), default=3)
+    background_frames: int = allowed(Range(2, 1000), default=20)
 
 
 @dataclass
@@ -236,13 +296,14 @@ class RunSchema:
     frames: int = allowed(COUNT, default=60)
     seed: int = allowed(Range(0, 2**32 - 1), default=0)
     render: RenderSchema = field(default_factory=RenderSchema)
+    silhouette: SilhouetteSchema = field(default_factory=SilhouetteSchema)
     record: RecordSchema = field(default_factory=RecordSchema)
 
 
 GROUP_SCHEMAS: dict[str, dict[str, type]] = {
-    "model": {"dsq_arm": DSQArmSchema, "body_mesh": PlannedSchema},
-    "scene": {"arm_swing": ArmSwingSchema},
-    "rig": {"orthogonal3": Orthogonal3Schema, "mono": MonoSchema},
+    "model": {"dsq_arm": DSQArmSchema, "body_mesh": BodyMeshSchema},
+    "scene": {"arm_swing": ArmSwingSceneSchema, "bvh": BvhSceneSchema},
+    "rig": {"orthogonal3": Orthogonal3Schema, "mono": MonoSchema, "body_side": MonoSchema, "body_front": MonoSchema},
     "tracker": {"render_only": RenderOnlySchema, "abis": AbisSchema, "tbf": PlannedSchema},
     "cost": {"xor": CostSchema, "wxor": CostSchema, "nwxor": CostSchema},
     "motion": {"dm1": MotionModelSchema, "dm2": MotionModelSchema},
@@ -314,6 +375,30 @@ def check_config(cfg: DictConfig, choices: dict[str, str]) -> None:
             raise ConfigError(
                 f"{group}={choices.get(group, '?')} is planned ({node.planned_in}: {node.what}) and cannot run yet"
             )
+    if choices.get("scene") == "bvh":
+        check_bvh_scene(cfg, choices)
+
+
+def check_bvh_scene(cfg: DictConfig, choices: dict[str, str]) -> None:
+    """scene=bvh: it drives the body, its file is a readable CMU-style clip long enough for ``frames``."""
+    from tracker.models.body_mesh import JOINT_NAMES
+    from tracker.motion.bvh import BvhError, read_bvh
+    from tracker.motion.mocap import available_frames
+
+    if choices.get("model") != "body_mesh":
+        raise ConfigError(f"scene=bvh drives the body: it needs model=body_mesh, not model={choices.get('model')}")
+    path = cfg.scene.path
+    try:
+        clip = read_bvh(path)
+        missing = [name for name in JOINT_NAMES if name not in clip.names]
+        if missing:
+            raise BvhError(f"{path}: not a CMU-style skeleton, missing joints {', '.join(missing)}")
+        available = available_frames(clip, cfg.scene.start_s, cfg.scene.fps)
+    except BvhError as error:
+        raise ConfigError(f"scene.path={path}: {error}") from None
+    if cfg.frames > available:
+        raise ConfigError(f"frames={cfg.frames}: scene.path={path} has {available} frames at {cfg.scene.fps:g} fps "
+                          f"from scene.start_s={cfg.scene.start_s}; allowed at most {available}")  # fmt: skip
 
 
 def check_known_keys(node: Any, path: str = "") -> None:

@@ -25,12 +25,14 @@ from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
 
 from experiments.config import check_config
-from experiments.outputs import accuracy, frame_rows
+from experiments.outputs import accuracy, frame_rows, silhouette_quality
 from experiments.recording import RunRecording
 from tracker.atomic import write_json, write_parquet
-from tracker.models.dsq import PARAM_NAMES
+from tracker.models.body_mesh import BodyMesh
+from tracker.observe.silhouettes import SilhouetteCapture, SilhouetteSettings
+from tracker.render.nuisance import SensorNuisance
 from tracker.render.offscreen import Lighting, SceneRenderer
-from tracker.sequence import simulate
+from tracker.sequence import background_frames, simulate
 
 log = logging.getLogger(__name__)
 
@@ -51,7 +53,7 @@ class Components:
 
 def build(cfg: DictConfig) -> Components:
     return Components(
-        model=instantiate(cfg.model, seed=cfg.seed, _convert_="all"),
+        model=instantiate(cfg.model, _convert_="all"),
         motion=instantiate(cfg.scene, _convert_="all"),
         cameras=instantiate(cfg.rig, _convert_="all"),
         tracker=instantiate(cfg.tracker),
@@ -70,15 +72,18 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
     try:
         components = build(cfg)
         model, cameras = components.model, components.cameras
+        silhouettes = isinstance(model, BodyMesh)  # paper 2's observation: background-subtraction silhouettes
         recording = RunRecording(
             output_dir / "run.rrd",
             cameras=cameras,
             part_names=model.part_names,
-            part_colors=[part.tint for part in model.parts],
-            param_names=PARAM_NAMES,
+            part_colors=model.part_colors,
             jpeg_quality=cfg.record.jpeg_quality,
             images=cfg.record.images,
+            silhouettes=silhouettes,
         )
+        nuisance = camera_nuisance(cfg)
+        nuisance_rng = np.random.default_rng([cfg.seed, 2])  # the camera's own stream (1: the tracker's)
         renderer = SceneRenderer(
             cameras[0].width,
             cameras[0].height,
@@ -89,20 +94,32 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
         # The tracker's own random stream (stream 1 of the run's seed; the model's textures use others).
         tracker.start(model, cameras, components.motion.params(model, 0), np.random.default_rng([cfg.seed, 1]))
         with renderer:
-            frames = simulate(model, components.motion, cameras, renderer, cfg.frames)
+            capture = None
+            if silhouettes:
+                empty = background_frames(cameras, renderer, cfg.silhouette.background_frames, nuisance, nuisance_rng)
+                settings = {k: v for k, v in cfg.silhouette.items() if k != "background_frames"}
+                capture = SilhouetteCapture.learn(empty, SilhouetteSettings(**settings))
+            frames = simulate(model, components.motion, cameras, renderer, cfg.frames, nuisance, nuisance_rng)
             for frame in tqdm(frames, total=cfg.frames, desc="frames", disable=not sys.stderr.isatty()):
+                captured = None
+                if capture is not None:
+                    captured = capture.step({name: view.rgb for name, view in frame.views.items()},
+                                            {name: view.labels > 0 for name, view in frame.views.items()})
+                    frame.timings_ms["capture"] = captured.ms
                 start = time.perf_counter()
                 result = tracker.step(frame)
                 estimated = time.perf_counter()
                 if result is not None:
                     frame.timings_ms["estimate"] = 1e3 * (estimated - start)
                     frame.timings_ms.update({f"estimate_{k}": v for k, v in result.timings_ms.items()})
-                recording.log_frame(frame)
+                recording.log_frame(frame, model)
+                if captured is not None:
+                    recording.log_capture(captured)
                 if result is not None:
                     recording.log_estimate(result, model)
                 frame.timings_ms["record"] = 1e3 * (time.perf_counter() - estimated)
                 recording.log_timings(frame.frame, frame.timings_ms)
-                rows.extend(frame_rows(frame, model, result))
+                rows.extend(frame_rows(frame, model, result, captured))
                 timings.append(frame.timings_ms)
                 if stop.requested:
                     break
@@ -197,8 +214,17 @@ def summarize(
         metrics["timing"]["render_ms_per_view_median"] = metrics["timing"]["render_ms_median"] / len(components.views)
     if not table.empty:
         metrics["min_visible_fraction"] = min_visible_fraction(table, components.views)
+        metrics.update(silhouette_quality(table))
         metrics.update(accuracy(table))
     return metrics
+
+
+def camera_nuisance(cfg: DictConfig) -> SensorNuisance | None:
+    """The configured sensor noise and illumination change, or None when both are off."""
+    render = cfg.render
+    if render.noise_std == 0 and render.gain_amplitude == 0:
+        return None
+    return SensorNuisance(render.noise_std, render.gain_amplitude, render.gain_period_frames)
 
 
 def min_visible_fraction(table: pd.DataFrame, views: list[str]) -> dict[str, dict[str, float]]:

@@ -1,10 +1,12 @@
 """A run's tables and summary: frame results -> ``frames.parquet`` rows, and the rows -> ``metrics.json`` figures.
 
-Rows: one per frame and part. Columns: ``truth_<param>``; ``visible_px_<view>``; frame-level stage timings
-``<stage>_ms`` (repeated on each part's row). With an estimating tracker also ``est_<param>``,
-``surface_error_mm`` (mean distance between the part's estimated and true model samples) and, for AbIS, the pair
-counts ``<count>`` (all views) and ``<count>_<view>``, ``pairs``, ``cost`` (eq 8 at the end of the fit),
-``iterations`` and ``failure``. Angles are radians here; the summary reports their errors in degrees.
+Rows: one per frame and part. Columns: for the DSQ arm ``truth_<param>``, for the body ``truth_pose`` (the pose
+vector, a list; the same on each part's row); ``visible_px_<view>``; frame-level stage timings ``<stage>_ms``
+(repeated on each part's row); for body scenes ``silhouette_iou_<view>`` (extracted silhouette vs render mask).
+With an estimating tracker also ``est_<param>``, ``surface_error_mm`` (mean distance between the part's
+estimated and true model samples, matched by their surface coordinates) and, for AbIS, the pair counts
+``<count>`` (all views) and ``<count>_<view>``, ``pairs``, ``cost`` (eq 8 at the end of the fit), ``iterations``
+and ``failure``. Angles are radians here; the summary reports their errors in degrees.
 """
 
 from __future__ import annotations
@@ -16,22 +18,30 @@ import pandas as pd
 
 from tracker.abis.correspondences import COUNT_NAMES
 from tracker.abis.tracker import AbisResult
+from tracker.models.body_mesh import BodyMesh
 from tracker.models.dsq import ANGLE_NAMES, PARAM_NAMES
+from tracker.observe.silhouettes import CapturedFrame
 from tracker.sequence import FrameInput
 
 PAPER_PART = 1  # paper 1's "part 2" (1-based), our index 1: the forearm
 
 
-def frame_rows(frame: FrameInput, model: Any, result: object | None) -> list[dict[str, Any]]:
+def frame_rows(frame: FrameInput, model: Any, result: object | None,
+               captured: CapturedFrame | None = None) -> list[dict[str, Any]]:  # fmt: skip
     """One row per part for ``frame`` (and the tracker's ``result`` for it, if any)."""
     timing_columns = {f"{stage}_ms": ms for stage, ms in frame.timings_ms.items()}
+    if captured is not None:
+        timing_columns.update({f"silhouette_iou_{view}": value for view, value in captured.iou.items()})
     estimate = getattr(result, "estimate", None)
     if estimate is not None:
         true_points, estimated_points = model.sample_points(frame.truth), model.sample_points(estimate)
     rows = []
     for k, part in enumerate(model.part_names):
         row: dict[str, Any] = {"frame": frame.frame, "part": part}
-        row.update({f"truth_{name}": float(frame.truth[k, i]) for i, name in enumerate(PARAM_NAMES)})
+        if isinstance(model, BodyMesh):
+            row["truth_pose"] = frame.truth.tolist()
+        else:
+            row.update({f"truth_{name}": float(frame.truth[k, i]) for i, name in enumerate(PARAM_NAMES)})
         row.update({f"visible_px_{view}": int(pixels[k]) for view, pixels in frame.visible_px.items()})
         if estimate is not None:
             row.update({f"est_{name}": float(estimate[k, i]) for i, name in enumerate(PARAM_NAMES)})
@@ -55,6 +65,15 @@ def _abis_columns(result: AbisResult, part: int) -> dict[str, Any]:
     columns["iterations"] = int(result.iterations[part])
     columns["failure"] = result.failure or ""
     return columns
+
+
+def silhouette_quality(table: pd.DataFrame) -> dict[str, Any]:
+    """Per view, the mean and the worst IoU of the extracted silhouettes against the render masks."""
+    columns = [c for c in table.columns if c.startswith("silhouette_iou_")]
+    frames = table.drop_duplicates("frame")
+    return {"silhouette_iou": {c.removeprefix("silhouette_iou_"): {"mean": float(frames[c].mean()),
+                                                                  "min": float(frames[c].min())} for c in columns}
+            } if columns else {}  # fmt: skip
 
 
 def accuracy(table: pd.DataFrame) -> dict[str, Any]:

@@ -2,10 +2,13 @@
 
 Entity paths (DESIGN.md): ``world/cameras/<view>`` (Transform3D + Pinhole, static),
 ``world/cameras/<view>/image/{rgb,labels}``, ``world/truth/<part>`` (Mesh3D), and time series
-``metrics/params/<part>/<name>/truth``, ``metrics/visible_px/<view>/<part>``, ``metrics/timing/<stage>_ms``;
-timeline ``frame``. Each recording has its own ``recording_id`` and a default blueprint. The file is written
-under a temporary name and renamed to its target by `RunRecording.close`, so a crashed run leaves no partial
-``run.rrd``.
+``metrics/params/<name>/truth`` (the model's `parameter_series`: ``<part>/<param>`` for the DSQ arm, root and
+joint angles for the body), ``metrics/visible_px/<view>/<part>``, ``metrics/timing/<stage>_ms``; timeline
+``frame``. Body scenes add ``capture/<view>/silhouette`` (the extracted silhouette), ``capture/<view>/weights/
+{wxor,nwxor}`` (the weight maps d_P of paper 2's eq 8 and 9, float images) and
+``metrics/silhouette_iou/<view>``. Each recording has its own ``recording_id`` and a default blueprint. The file
+is written under a temporary name and renamed to its target by `RunRecording.close`, so a crashed run leaves no
+partial ``run.rrd``.
 """
 
 from __future__ import annotations
@@ -22,19 +25,31 @@ from tracker.abis.correspondences import COUNT_NAMES
 from tracker.abis.tracker import FEATURE_STATES, AbisResult
 from tracker.atomic import AtomicFile
 from tracker.geometry.cameras import Camera
+from tracker.observe.silhouettes import CapturedFrame
 from tracker.sequence import FrameInput
+from tracker.tbf.distances import weight_map
 
 APPLICATION_ID = "articulated-tracking"
 FEATURE_COLORS = {"tracked": (0, 220, 0), "new": (0, 160, 255), "discarded": (255, 40, 40), "unpaired": (150, 150, 150)}
 TIMELINE = "frame"
 
 
-def default_blueprint(view_names: Sequence[str], part_names: Sequence[str]) -> rrb.Blueprint:
-    """Views with their label overlays on top; the 3-D scene and the key time series below."""
-    series = [rrb.TimeSeriesView(name=f"{part} truth", origin=f"metrics/params/{part}") for part in part_names]
+def default_blueprint(view_names: Sequence[str], part_names: Sequence[str], silhouettes: bool = False) -> rrb.Blueprint:
+    """Views with their label overlays on top (body scenes: with the silhouette and weight maps beside them);
+    the 3-D scene and the key time series below."""
+    if silhouettes:
+        series = [rrb.TimeSeriesView(name="silhouette IoU", origin="metrics/silhouette_iou"),
+                  rrb.TimeSeriesView(name="joint angles", origin="metrics/params/joints")]  # fmt: skip
+        views = [rrb.Spatial2DView(name=name, origin=f"{root}/{v}{leaf}") for v in view_names for name, root, leaf in
+                 ((v, "world/cameras", "/image"), (f"{v} silhouette", "capture", "/silhouette"),
+                  (f"{v} wXOR weights", "capture", "/weights/wxor"),
+                  (f"{v} nwXOR weights", "capture", "/weights/nwxor"))]  # fmt: skip
+    else:
+        series = [rrb.TimeSeriesView(name=f"{part} truth", origin=f"metrics/params/{part}") for part in part_names]
+        views = [rrb.Spatial2DView(name=v, origin=f"world/cameras/{v}/image") for v in view_names]
     return rrb.Blueprint(
         rrb.Vertical(
-            rrb.Horizontal(*[rrb.Spatial2DView(name=v, origin=f"world/cameras/{v}/image") for v in view_names]),
+            rrb.Horizontal(*views),
             rrb.Horizontal(
                 rrb.Spatial3DView(name="3-D scene", origin="world"),
                 rrb.Tabs(
@@ -60,19 +75,18 @@ class RunRecording:
         cameras: Sequence[Camera],
         part_names: Sequence[str],
         part_colors: Sequence[Sequence[int]],
-        param_names: Sequence[str],
         jpeg_quality: int = 90,
         images: bool = True,
+        silhouettes: bool = False,
     ) -> None:
         self.path = Path(path)
         self.recording_id = str(uuid.uuid4())
         self.part_names = list(part_names)
-        self.param_names = list(param_names)
         self.jpeg_quality = jpeg_quality
         self.images = images
         self._file: AtomicFile | None = AtomicFile(self.path)
         self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=self.recording_id)
-        blueprint = default_blueprint([camera.name for camera in cameras], part_names)
+        blueprint = default_blueprint([camera.name for camera in cameras], part_names, silhouettes)
         self.stream.save(self._file.temporary, default_blueprint=blueprint)
         self._log_static(cameras, part_colors)
         self._meshes_logged: set[str] = set()
@@ -107,7 +121,7 @@ class RunRecording:
                 static=True,
             )
 
-    def log_frame(self, frame: FrameInput) -> None:
+    def log_frame(self, frame: FrameInput, model) -> None:
         """Images, truth meshes, truth parameters and label areas of one frame (timings: `log_timings`)."""
         self.stream.set_time(TIMELINE, sequence=frame.frame)
         log = self.stream.log
@@ -120,7 +134,20 @@ class RunRecording:
             for part, pixels in zip(self.part_names, frame.visible_px[view], strict=True):
                 log(f"metrics/visible_px/{view}/{part}", rr.Scalars(float(pixels)))
         self._log_meshes("truth", frame.meshes)
-        self._log_params("truth", frame.truth)
+        self._log_params("truth", model.parameter_series(frame.truth))
+
+    def log_capture(self, captured: CapturedFrame) -> None:
+        """Body scenes: each view's extracted silhouette, its wXOR / nwXOR weight maps (eq 8-9 over the whole
+        image), and its IoU against the render mask (call after `log_frame`)."""
+        log = self.stream.log
+        for view, silhouette in captured.silhouettes.items():
+            if self.images:
+                log(f"capture/{view}/silhouette", rr.Image(silhouette.astype(np.uint8) * 255))
+                if silhouette.any():
+                    for cost in ("wxor", "nwxor"):
+                        log(f"capture/{view}/weights/{cost}", rr.Image(weight_map(cost, silhouette).astype(np.float32)))
+            if view in captured.iou:
+                log(f"metrics/silhouette_iou/{view}", rr.Scalars(captured.iou[view]))
 
     def log_estimate(self, result: AbisResult, model) -> None:
         """An AbIS frame: features by state and the estimate's visible samples over each view, the estimated
@@ -131,7 +158,7 @@ class RunRecording:
             log(f"{image_path}/features", rr.Points2D(seen.features.points, class_ids=seen.feature_states, radii=1.5))
             log(f"{image_path}/estimate", rr.Points2D(seen.visible.uv, colors=[255, 255, 0], radii=0.6))
         self._log_meshes("estimate", model.surface_meshes(result.estimate), rgba=(255, 255, 0, 120))
-        self._log_params("estimate", result.estimate)
+        self._log_params("estimate", model.parameter_series(result.estimate))
         for k, part in enumerate(self.part_names):
             for index, count in enumerate(COUNT_NAMES):
                 total = sum(int(counts[k, index]) for counts in result.counts.values())
@@ -149,11 +176,10 @@ class RunRecording:
                 self._meshes_logged.add(path)
             self.stream.log(path, rr.Mesh3D.from_fields(vertex_positions=mesh.vertices, vertex_normals=mesh.normals))
 
-    def _log_params(self, kind: str, params: np.ndarray) -> None:
-        """``metrics/params/<part>/<name>/<kind>`` for every part and parameter."""
-        for k, part in enumerate(self.part_names):
-            for index, name in enumerate(self.param_names):
-                self.stream.log(f"metrics/params/{part}/{name}/{kind}", rr.Scalars(float(params[k, index])))
+    def _log_params(self, kind: str, series: dict[str, float]) -> None:
+        """``metrics/params/<name>/<kind>`` for every named parameter."""
+        for name, value in series.items():
+            self.stream.log(f"metrics/params/{name}/{kind}", rr.Scalars(value))
 
     def log_timings(self, frame: int, timings_ms: dict[str, float]) -> None:
         self.stream.set_time(TIMELINE, sequence=frame)

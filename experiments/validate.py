@@ -11,7 +11,7 @@ from pathlib import Path
 from hydra import compose, initialize_config_dir
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.errors import HydraException, MissingConfigException, OverrideParseException
-from omegaconf.errors import ConfigAttributeError, ConfigKeyError, OmegaConfBaseException
+from omegaconf.errors import ConfigAttributeError, ConfigKeyError, MissingMandatoryValue, OmegaConfBaseException
 
 from experiments.config import GROUP_SCHEMAS, ConfigError, check_config
 
@@ -80,6 +80,8 @@ def _describe(error: OmegaConfBaseException) -> str:
     if isinstance(error, (ConfigAttributeError, ConfigKeyError)) and dataclasses.is_dataclass(schema):  # unknown key
         known = [f.name for f in dataclasses.fields(schema) if not f.name.startswith("_")]
         return f"{key}: unknown key, allowed keys here: {', '.join(known)}"
+    if isinstance(error, MissingMandatoryValue):
+        return f"{key}: missing value, it is required (add {key}=...)"
     message = getattr(error, "msg", None) or str(error)
     return f"{key}: {message.strip().splitlines()[0] if message.strip() else type(error).__name__}"
 

@@ -2,6 +2,7 @@
 
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -9,6 +10,8 @@ from experiments.config import option_values
 from tracker.geometry.rigs import orthogonal3
 from tracker.models.dsq_arm import DSQArm, build_arm
 from tracker.motion.arm_swing import ArmSwing
+
+MOCAP_DIR = Path(__file__).resolve().parent.parent / "data" / "mocap"
 
 
 @pytest.fixture(scope="session")
@@ -18,12 +21,19 @@ def arm() -> DSQArm:
 
 @pytest.fixture(scope="session")
 def motion() -> ArmSwing:
-    return ArmSwing(**option_values("scene", "arm_swing"))
+    return ArmSwing(**option_values("scene", "arm_swing")["arm"])
 
 
 @pytest.fixture(scope="session")
 def rig():
     return orthogonal3(**option_values("rig", "orthogonal3"))
+
+
+@pytest.fixture(scope="session")
+def body():
+    from tracker.models.body_mesh import build_body
+
+    return build_body()
 
 
 @pytest.fixture(scope="session")

@@ -15,6 +15,7 @@ import numpy as np
 
 from tracker.geometry.cameras import Camera
 from tracker.render.mesh import SurfaceMesh
+from tracker.render.nuisance import SensorNuisance
 from tracker.render.offscreen import RenderedView, SceneRenderer
 
 
@@ -46,24 +47,46 @@ class FrameInput:
 
 
 def simulate(
-    model: Model, motion: Motion, cameras: Sequence[Camera], renderer: SceneRenderer, frames: int
+    model: Model,
+    motion: Motion,
+    cameras: Sequence[Camera],
+    renderer: SceneRenderer,
+    frames: int,
+    nuisance: SensorNuisance | None = None,
+    rng: np.random.Generator | None = None,
 ) -> Iterator[FrameInput]:
-    """Yield frames ``0 .. frames - 1`` of ``motion`` applied to ``model``, rendered from every camera."""
+    """Yield frames ``0 .. frames - 1`` of ``motion`` applied to ``model``, rendered from every camera; with a
+    ``nuisance`` (and its ``rng``) the RGB images are what a real camera would give (depth and labels stay exact)."""
+    n_parts = len(model.part_names)
     for frame in range(frames):
         start = time.perf_counter()
         truth = motion.params(model, frame)
         meshes = model.surface_meshes(truth)
         posed = time.perf_counter()
         views = renderer.render(cameras, meshes)
+        if nuisance is not None:
+            views = {name: RenderedView(nuisance.apply(view.rgb, frame, rng), view.depth, view.labels)
+                     for name, view in views.items()}  # fmt: skip
         rendered = time.perf_counter()
         yield FrameInput(
             frame=frame,
             truth=truth,
             meshes=meshes,
             views=views,
-            visible_px={name: label_areas(view.labels, len(meshes)) for name, view in views.items()},
+            visible_px={name: label_areas(view.labels, n_parts) for name, view in views.items()},
             timings_ms={"pose": 1e3 * (posed - start), "render": 1e3 * (rendered - posed)},
         )
+
+
+def background_frames(
+    cameras: Sequence[Camera], renderer: SceneRenderer, count: int, nuisance: SensorNuisance | None,
+    rng: np.random.Generator | None,
+) -> dict[str, np.ndarray]:  # fmt: skip
+    """Per camera ``(count, h, w, 3)`` images of the empty scene (frames -count .. -1): what a background model
+    learns from before the subject walks in."""
+    empty = renderer.render(cameras, [])
+    return {name: np.stack([view.rgb if nuisance is None else nuisance.apply(view.rgb, frame, rng)
+                            for frame in range(-count, 0)]) for name, view in empty.items()}  # fmt: skip
 
 
 def label_areas(labels: np.ndarray, n_parts: int) -> np.ndarray:

@@ -10,13 +10,17 @@ from hydra.utils import instantiate
 
 from experiments.config import CONFIG_DIR, GROUP_SCHEMAS, PLANNED_TARGET, ConfigError, check_config
 from experiments.validate import sweep_combinations, validate_command_line
+from tests.conftest import MOCAP_DIR
 from tracker.abis.tracker import AbisTracker
 from tracker.geometry.cameras import Camera
+from tracker.models.body_mesh import BodyMesh
 from tracker.models.dsq_arm import DSQArm
-from tracker.motion.arm_swing import ArmSwing
+from tracker.motion.mocap import MocapScene
+from tracker.motion.scenes import ArmSwingScene
 from tracker.sequence import RenderOnly
 
 OPTIONS = sorted((p.parent.name, p.stem) for p in CONFIG_DIR.glob("*/*.yaml") if p.parent.name != "experiment")
+CLIP, SHORT_CLIP = MOCAP_DIR / "69_20.bvh", MOCAP_DIR / "143_33.bvh"
 PRESETS = sorted(p.stem for p in (CONFIG_DIR / "experiment").glob("*.yaml"))
 
 
@@ -33,14 +37,16 @@ def test_every_option_file_has_a_schema_and_every_schema_a_file():
 
 @pytest.mark.parametrize("group, option", OPTIONS)
 def test_every_group_option_composes_and_instantiates(group, option):
-    cfg, choices = compose_run([f"{group}={option}"])
+    needs = {("scene", "bvh"): ["model=body_mesh", f"scene.path={MOCAP_DIR / '69_20.bvh'}"]}
+    cfg, choices = compose_run([f"{group}={option}", *needs.get((group, option), [])])
     if cfg[group]._target_ == PLANNED_TARGET:
         with pytest.raises(ConfigError, match=rf"^{group}={option} is planned \(issue \d"):
             check_config(cfg, choices)
         return
     check_config(cfg, choices)
-    built = instantiate(cfg[group], **({"seed": 0} if group == "model" else {}), _convert_="all")
-    expected_type = {"model": DSQArm, "scene": ArmSwing, "rig": tuple,
+    built = instantiate(cfg[group], _convert_="all")
+    expected_type = {"model": {"dsq_arm": DSQArm, "body_mesh": BodyMesh}.get(option),
+                     "scene": {"arm_swing": ArmSwingScene, "bvh": MocapScene}.get(option), "rig": tuple,
                      "tracker": {"render_only": RenderOnly, "abis": AbisTracker}.get(option)}[group]  # fmt: skip
     assert isinstance(built, expected_type)
     if group == "rig":
@@ -54,9 +60,9 @@ def test_experiment_presets_compose_and_validate(preset):
 
 def test_composed_defaults_build_what_the_yaml_files_say(arm, motion):
     cfg, _ = compose_run([])  # schema defaults + YAML, through Hydra; the fixtures read the YAML alone
-    built = instantiate(cfg.model, seed=0, _convert_="all")
+    built = instantiate(cfg.model, _convert_="all")
     assert built.parts == arm.parts and built.mesh == arm.mesh and built.samples == arm.samples
-    assert instantiate(cfg.scene, _convert_="all") == motion
+    assert instantiate(cfg.scene, _convert_="all").arm == motion
     np.testing.assert_array_equal(built.textures[1], arm.textures[1])  # textures follow the seed
 
 
@@ -73,7 +79,15 @@ BAD_OVERRIDES = [
     (["rig.fov=3"], r"^rig\.fov: unknown key, allowed keys here: target, front_distance"),
     (["rig.width=8"], r"^rig\.width=8 is out of range: allowed in \[16, 4096\]$"),
     (["rig.target=[1,2]"], r"^rig\.target=\[1\.0, 2\.0\] has 2 values: allowed exactly 3$"),
-    (["scene.period_frames=nan"], r"period_frames=nan is out of range: allowed > 0"),
+    (["scene.arm.period_frames=nan"], r"^scene\.arm\.period_frames=nan is out of range: allowed > 0$"),
+    (["model=body_mesh", "scene=bvh"], r"^scene\.path: missing value"),
+    (["scene=bvh", f"scene.path={CLIP}"], r"^scene=bvh drives the body: it needs model=body_mesh, not model=dsq_arm$"),
+    (["model=body_mesh", "scene=bvh", "scene.path=nope.bvh"],
+     r"^scene\.path=nope\.bvh: cannot read BVH file nope\.bvh"),
+    (["model=body_mesh", "scene=bvh", f"scene.path={SHORT_CLIP}", "frames=1000"],
+     rf"^frames=1000: scene\.path={re.escape(str(SHORT_CLIP))} has 90 frames at 30 fps from scene\.start_s=0\.0; "
+     r"allowed at most 90$"),  # 360 steps of .0083333 s = 2.99999 s: 89 steps of 1/30 s
+    (["model=body_mesh", "model.triangles=10"], r"^model\.triangles=10 is out of range"),
     (["seed=-1"], r"^seed=-1 is out of range: allowed in \[0, 4294967295\]$"),
     (["motion=dm2", "motion.m=0.5"], r"^motion\.m=0\.5 is out of range: allowed >= 1$"),
     (["motion=dm1", "motion.sigma=-0.1"], r"^motion\.sigma=-0\.1 is out of range: allowed > 0$"),

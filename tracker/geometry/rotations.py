@@ -43,6 +43,25 @@ def rotation_vector_to_matrix(vector: np.ndarray) -> np.ndarray:
     return np.eye(3) + np.sin(angle) / angle * cross + (1 - np.cos(angle)) / angle**2 * (cross @ cross)
 
 
+def rotation_vectors_to_matrices(vectors: np.ndarray) -> np.ndarray:
+    """``(n, 3)`` rotation vectors -> ``(n, 3, 3)`` rotations (Rodrigues, batched)."""
+    vectors = np.asarray(vectors, dtype=np.float64).reshape(-1, 3)
+    angle = np.linalg.norm(vectors, axis=1)[:, None, None]
+    cross = np.zeros((len(vectors), 3, 3))
+    cross[:, 0, 1], cross[:, 0, 2], cross[:, 1, 2] = -vectors[:, 2], vectors[:, 1], -vectors[:, 0]
+    cross -= cross.transpose(0, 2, 1)
+    small = angle < 1e-8
+    safe = np.where(small, 1.0, angle)
+    first = np.where(small, 1.0 - angle**2 / 6, np.sin(safe) / safe)
+    second = np.where(small, 0.5 - angle**2 / 24, (1 - np.cos(safe)) / safe**2)
+    return np.eye(3) + first * cross + second * (cross @ cross)
+
+
+def matrices_to_rotation_vectors(rotations: np.ndarray) -> np.ndarray:
+    """``(n, 3, 3)`` rotations -> ``(n, 3)`` rotation vectors, angle in [0, pi] (`matrix_to_rotation_vector`)."""
+    return np.array([matrix_to_rotation_vector(rotation) for rotation in np.asarray(rotations).reshape(-1, 3, 3)])
+
+
 def matrix_to_rotation_vector(rotation: np.ndarray) -> np.ndarray:
     """Inverse of `rotation_vector_to_matrix`, angle in [0, pi]."""
     cos_angle = np.clip((np.trace(rotation) - 1.0) / 2.0, -1.0, 1.0)

@@ -18,6 +18,7 @@ from tracker.geometry.rotations import euler_to_matrix, transform_points
 from tracker.models.articulated import KinematicTree, forward_kinematics, jointed_translation, local_transforms
 from tracker.models.dsq import (
     PARAM_INDEX,
+    PARAM_NAMES,
     DSQShape,
     MeshTopology,
     SampleGrid,
@@ -87,6 +88,15 @@ class DSQArm:
     @property
     def part_names(self) -> tuple[str, ...]:
         return self.tree.names
+
+    @property
+    def part_colors(self) -> list[tuple[int, int, int]]:
+        return [part.tint for part in self.parts]
+
+    def parameter_series(self, params: np.ndarray) -> dict[str, float]:
+        """Named scalars of ``params`` for time series: ``<part>/<parameter>``."""
+        return {f"{part}/{name}": float(params[k, i])
+                for k, part in enumerate(self.part_names) for i, name in enumerate(PARAM_NAMES)}  # fmt: skip
 
     def rest_params(self) -> np.ndarray:
         """``(n_parts, 17)``: every part's rest shape with zero rotation, joints connected."""

@@ -1,0 +1,55 @@
+"""Procedural truth motion of the body (paper 2, experiment A): the right arm swings forward and back.
+
+The body stands in its T-pose with both arms lowered to the sides (``abduction_deg`` away from the trunk); the
+right upper arm swings about the body's left-right axis between ``forward_deg`` in front and ``backward_deg``
+behind the vertical with a triangle wave, so at constant angular speed, one forward-and-back cycle every
+``period_frames`` (frame 0: arm down, moving forward). Seen side-on from the body's left (rig ``body_side``), the
+right arm passes behind the torso twice per swing. Pose vectors follow `tracker.models.body_mesh`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from tracker.geometry.rotations import matrix_to_rotation_vector, rotation_x, rotation_y, rotation_z
+from tracker.models.body_mesh import JOINT_INDEX, BodyMesh
+
+# The T-pose's arms hang this far below the horizontal already (frame 0 of the CMU clips).
+_T_POSE_DROOP_DEG = 8.0
+
+
+@dataclass(frozen=True)
+class BodySwing:
+    period_frames: float = 40.0
+    forward_deg: float = 60.0
+    backward_deg: float = 40.0
+    abduction_deg: float = 8.0
+    yaw_deg: float = -90.0  # the direction the body faces, world xy angle from +x (-90: facing -y)
+
+    def swing_angle_deg(self, frame: float) -> float:
+        """The right arm's elevation in the sagittal plane: + in front of the vertical, - behind."""
+        span = self.forward_deg + self.backward_deg
+        # One cycle walks 0 -> forward -> -backward -> 0, a path of 2 * span degrees at constant speed.
+        walked = (frame / self.period_frames) % 1.0 * 2 * span
+        if walked <= self.forward_deg:
+            return walked
+        if walked <= self.forward_deg + span:
+            return self.forward_deg - (walked - self.forward_deg)
+        return -self.backward_deg + (walked - self.forward_deg - span)
+
+    def params(self, body: BodyMesh, frame: int) -> np.ndarray:
+        pose = body.rest_pose()
+        lower = math.radians(90.0 - _T_POSE_DROOP_DEG - self.abduction_deg)
+        swing = math.radians(self.swing_angle_deg(frame))
+        _set(pose, "LeftArm", rotation_y(lower))
+        _set(pose, "RightArm", rotation_x(-swing) @ rotation_y(-lower))
+        _set(pose, "Hips", rotation_z(math.radians(self.yaw_deg + 90.0)))
+        return pose
+
+
+def _set(pose: np.ndarray, joint: str, rotation: np.ndarray) -> None:
+    start = 3 + 3 * JOINT_INDEX[joint]
+    pose[start : start + 3] = matrix_to_rotation_vector(rotation)

@@ -1,0 +1,211 @@
+"""BVH motion files (Biovision hierarchy), as the CMU clips of ``data/mocap`` use them.
+
+`read_bvh` parses the hierarchy (joint names, parents, offsets, channel order) and the motion block into one
+``(frames, channels)`` float64 array; `BvhClip.global_rotations` and `BvhClip.root_positions` turn a frame range
+into world rotations and root positions in the file's own frame and units (the CMU clips: Y up, facing +Z at the
+T-pose of frame 0, 1 unit = 1/0.45 inch). Rotation channels are degrees, applied in the order listed, each about
+the joint's parent-frame axis composed intrinsically: ``Zrotation Yrotation Xrotation`` means
+``R = Rz(z) @ Ry(y) @ Rx(x)``. End sites carry no channels and are dropped.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+
+class BvhError(ValueError):
+    """A BVH file that cannot be read: the message names the file and what is wrong."""
+
+
+_AXES = {"X": 0, "Y": 1, "Z": 2}
+
+
+@dataclass(frozen=True, eq=False)
+class BvhClip:
+    """One BVH file. ``channels[j]`` lists joint j's channel names in file order; ``motion[:, columns[j]]`` are
+    their values (positions in file units, rotations in degrees)."""
+
+    path: Path
+    names: tuple[str, ...]
+    parents: np.ndarray  # (J,) index of the parent joint, -1 for the root
+    offsets: np.ndarray  # (J, 3) joint position in the parent's frame at zero rotation
+    channels: tuple[tuple[str, ...], ...]
+    columns: tuple[np.ndarray, ...]
+    frame_time: float  # seconds
+    motion: np.ndarray  # (frames, channel count)
+
+    @property
+    def frames(self) -> int:
+        return len(self.motion)
+
+    def index(self, name: str) -> int:
+        try:
+            return self.names.index(name)
+        except ValueError:
+            raise BvhError(f"{self.path}: no joint {name!r}; joints are {', '.join(self.names)}") from None
+
+    def local_rotations(self, frames: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """``(n, J, 3, 3)`` each joint's rotation relative to its parent at ``frames``."""
+        motion = self.motion[frames]
+        rotations = np.broadcast_to(np.eye(3), (len(motion), len(self.names), 3, 3)).copy()
+        for joint, (names, columns) in enumerate(zip(self.channels, self.columns, strict=True)):
+            for name, column in zip(names, columns, strict=True):
+                if name.endswith("rotation"):
+                    rotations[:, joint] = rotations[:, joint] @ axis_rotations(_AXES[name[0]], motion[:, column])
+        return rotations
+
+    def global_rotations(self, frames: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """``(n, J, 3, 3)`` each joint's rotation in the file's world frame at ``frames``."""
+        local = self.local_rotations(frames)
+        world = np.empty_like(local)
+        for joint, parent in enumerate(self.parents):  # parents come before children in a BVH file
+            world[:, joint] = local[:, joint] if parent < 0 else world[:, parent] @ local[:, joint]
+        return world
+
+    def root_positions(self, frames: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """``(n, 3)`` the root joint's position (file units) at ``frames``: its offset plus its position channels."""
+        motion = self.motion[frames]
+        position = np.broadcast_to(self.offsets[0], (len(motion), 3)).copy()
+        for name, column in zip(self.channels[0], self.columns[0], strict=True):
+            if name.endswith("position"):
+                position[:, _AXES[name[0]]] += motion[:, column]
+        return position
+
+    def joint_positions(self, frames: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """``(n, J, 3)`` every joint's world position (file units) at ``frames``, by forward kinematics."""
+        world = self.global_rotations(frames)
+        positions = np.empty((len(world), len(self.names), 3))
+        positions[:, 0] = self.root_positions(frames)
+        for joint, parent in enumerate(self.parents[1:], start=1):
+            positions[:, joint] = positions[:, parent] + world[:, parent] @ self.offsets[joint]
+        return positions
+
+
+def axis_rotations(axis: int, degrees: np.ndarray) -> np.ndarray:
+    """``(n, 3, 3)`` rotations by ``degrees`` about the x (0), y (1) or z (2) axis."""
+    angle = np.radians(np.asarray(degrees, dtype=np.float64))
+    c, s = np.cos(angle), np.sin(angle)
+    rotations = np.zeros((len(angle), 3, 3))
+    i, j = [(1, 2), (2, 0), (0, 1)][axis]
+    rotations[:, axis, axis] = 1.0
+    rotations[:, i, i], rotations[:, i, j], rotations[:, j, i], rotations[:, j, j] = c, -s, s, c
+    return rotations
+
+
+def read_bvh(path: str | Path) -> BvhClip:
+    """Parse a BVH file; any problem raises `BvhError` naming the file and what is wrong."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as error:
+        raise BvhError(f"cannot read BVH file {path}: {error.strerror or error}") from None
+    except UnicodeDecodeError:
+        raise BvhError(f"{path} is not a BVH file (not text)") from None
+    head, _, body = text.partition("MOTION")
+    if not body:
+        raise BvhError(f"{path} is not a BVH file: no MOTION section")
+    names, parents, offsets, channels = _parse_hierarchy(path, head.split())
+    bounds = np.cumsum([0] + [len(c) for c in channels])
+    columns = tuple(np.arange(start, end) for start, end in zip(bounds[:-1], bounds[1:], strict=True))
+    frames, frame_time, motion = _parse_motion(path, body, int(bounds[-1]))
+    if frames != len(motion):
+        raise BvhError(f"{path}: header says {frames} frames, the file holds {len(motion)} (truncated?)")
+    return BvhClip(path, tuple(names), np.array(parents), np.array(offsets, dtype=np.float64), tuple(channels),
+                   columns, frame_time, motion)  # fmt: skip
+
+
+def _parse_hierarchy(path: Path, tokens: list[str]):
+    names: list[str] = []
+    parents: list[int] = []
+    offsets: list[list[float]] = []
+    channels: list[tuple[str, ...]] = []
+    stack: list[int | None] = []  # the open blocks: joint index, or None for an end site
+    pending: int | None = None
+    position = 0
+
+    def take(count: int) -> list[str]:
+        nonlocal position
+        if position + count > len(tokens):
+            raise BvhError(f"{path}: the HIERARCHY section ends early")
+        values = tokens[position : position + count]
+        position += count
+        return values
+
+    if not tokens or tokens[0] != "HIERARCHY":
+        raise BvhError(f"{path} is not a BVH file: it does not start with HIERARCHY")
+    take(1)
+    while position < len(tokens):
+        token = take(1)[0]
+        if token in ("ROOT", "JOINT"):
+            if token == "ROOT" and names:
+                raise BvhError(f"{path}: more than one ROOT")
+            parent = next((joint for joint in reversed(stack) if joint is not None), -1)
+            names.append(take(1)[0])
+            parents.append(parent)
+            offsets.append([0.0, 0.0, 0.0])
+            channels.append(())
+            pending = len(names) - 1
+        elif token == "End":
+            take(1)  # "Site"
+            pending = None
+        elif token == "{":
+            stack.append(pending)
+        elif token == "}":
+            if not stack:
+                raise BvhError(f"{path}: unbalanced braces in HIERARCHY")
+            stack.pop()
+        elif token == "OFFSET":
+            values = _floats(path, take(3), "OFFSET")
+            if stack and stack[-1] is not None:
+                offsets[stack[-1]] = values
+        elif token == "CHANNELS":
+            count = _int(path, take(1)[0], "CHANNELS count")
+            names_ = tuple(take(count))
+            bad = [n for n in names_ if n not in {f"{a}{kind}" for a in "XYZ" for kind in ("position", "rotation")}]
+            if bad or not stack or stack[-1] is None:
+                raise BvhError(f"{path}: bad CHANNELS {' '.join(names_)}")
+            channels[stack[-1]] = names_
+        else:
+            raise BvhError(f"{path}: unexpected {token!r} in HIERARCHY")
+    if not names or stack:
+        raise BvhError(f"{path}: the HIERARCHY section is incomplete")
+    return names, parents, offsets, channels
+
+
+def _parse_motion(path: Path, body: str, width: int) -> tuple[int, float, np.ndarray]:
+    lines = body.strip().splitlines()
+    if len(lines) < 2 or not lines[0].startswith("Frames:") or not lines[1].startswith("Frame Time:"):
+        raise BvhError(f"{path}: the MOTION section must start with 'Frames:' and 'Frame Time:'")
+    frames = _int(path, lines[0].split(":", 1)[1].strip(), "Frames")
+    frame_time = _floats(path, [lines[1].split(":", 1)[1].strip()], "Frame Time")[0]
+    if not (frame_time > 0 and math.isfinite(frame_time)):
+        raise BvhError(f"{path}: Frame Time must be a positive number, got {frame_time}")
+    rows = [line.split() for line in lines[2:] if line.strip()]
+    lengths = sorted({len(row) for row in rows})
+    if any(length != width for length in lengths):
+        raise BvhError(f"{path}: every MOTION line must hold {width} values, found lines of {lengths}")
+    try:
+        motion = np.array(rows, dtype=np.float64).reshape(len(rows), width)
+    except ValueError:
+        raise BvhError(f"{path}: a MOTION line holds something that is not a number") from None
+    if not np.isfinite(motion).all():
+        raise BvhError(f"{path}: the MOTION section holds NaN or infinite values")
+    return frames, frame_time, motion
+
+
+def _floats(path: Path, values: list[str], what: str) -> list[float]:
+    try:
+        return [float(value) for value in values]
+    except ValueError:
+        raise BvhError(f"{path}: {what} must be numbers, got {' '.join(values)}") from None
+
+
+def _int(path: Path, value: str, what: str) -> int:
+    try:
+        return int(value)
+    except ValueError:
+        raise BvhError(f"{path}: {what} must be an integer, got {value!r}") from None

@@ -1,0 +1,139 @@
+"""Motion capture clips (BVH) as body pose vectors (`tracker.models.body_mesh` conventions).
+
+A CMU clip's frame 0 is a T-pose added by the conversion (its README); the body's zero rotations are that
+T-pose too, so each joint's rotation is taken relative to frame 0: ``W_j(t) = G_j(t) G_j(0)^T`` in the file's
+frame, turned into the body frame (`BVH_TO_BODY`) and made relative to the parent. The root moves by the clip's
+root displacement from frame 0, scaled so that the clip's leg length becomes the body's.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from tracker.models.body_mesh import BVH_TO_BODY, JOINT_INDEX, JOINT_NAMES, POSE_SIZE, BodyMesh
+from tracker.motion.bvh import BvhClip, BvhError, read_bvh
+
+_LEG = ("LeftUpLeg", "LeftLeg", "LeftFoot")
+
+
+@dataclass(frozen=True)
+class ClipSelection:
+    """Which part of a clip to use: from ``start`` (seconds after the T-pose frame) for ``frames`` frames at
+    ``fps`` (``frames=None``: to the end)."""
+
+    start_s: float = 0.0
+    frames: int | None = None
+    fps: float = 30.0
+
+
+def clip_poses(clip: BvhClip, body: BodyMesh, selection: ClipSelection = ClipSelection()) -> np.ndarray:
+    """``(n, POSE_SIZE)`` body pose vectors of ``clip`` resampled at ``selection.fps`` (slerp between frames)."""
+    missing = [name for name in JOINT_NAMES if name not in clip.names]
+    if missing:
+        raise BvhError(f"{clip.path}: not a CMU-style skeleton, missing joints {', '.join(missing)}")
+    if clip.frames < 2:
+        raise BvhError(f"{clip.path}: needs the T-pose frame and at least one frame of motion, has {clip.frames}")
+    times = _sample_times(clip, selection)
+    order = np.array([clip.index(name) for name in JOINT_NAMES])
+    before = np.clip(np.floor(times / clip.frame_time).astype(int), 1, clip.frames - 1)
+    after = np.minimum(before + 1, clip.frames - 1)
+    fraction = np.clip(times / clip.frame_time - before, 0.0, 1.0)[:, None]
+    frames = np.unique(np.concatenate([[0], before, after]))
+    world = clip.global_rotations(frames)[:, order]  # (k, J, 3, 3) file frame
+    relative = world @ world[frames == 0].transpose(0, 1, 3, 2)  # from the T-pose, file frame
+    relative = BVH_TO_BODY @ relative @ BVH_TO_BODY.T
+    parents = body.parents
+    local = relative.copy()
+    local[:, 1:] = relative[:, parents[1:]].transpose(0, 1, 3, 2) @ relative[:, 1:]
+    root = (clip.root_positions(frames) - clip.root_positions([0])) @ BVH_TO_BODY.T * _scale(clip, body)
+
+    row = {frame: k for k, frame in enumerate(frames)}
+    first, second = np.array([row[f] for f in before]), np.array([row[f] for f in after])
+    poses = np.empty((len(times), POSE_SIZE))
+    poses[:, :3] = body.rest_heads[0] + (1 - fraction) * root[first] + fraction * root[second]
+    for joint in range(len(JOINT_NAMES)):
+        start, end = Rotation.from_matrix(local[first, joint]), Rotation.from_matrix(local[second, joint])
+        rotations = start * Rotation.from_rotvec(fraction * (start.inv() * end).as_rotvec())  # slerp
+        poses[:, 3 + 3 * joint : 6 + 3 * joint] = rotations.as_rotvec()
+    return poses
+
+
+def _sample_times(clip: BvhClip, selection: ClipSelection) -> np.ndarray:
+    """Times (s, from frame 0) of the wanted frames; the motion starts at frame 1."""
+    if selection.fps <= 0:
+        raise ValueError(f"fps={selection.fps}: must be > 0")
+    first = clip.frame_time * (1 + selection.start_s / clip.frame_time)
+    last = clip.frame_time * (clip.frames - 1)
+    if first > last:
+        raise BvhError(f"{clip.path}: start {selection.start_s} s is past the clip's end "
+                       f"({(clip.frames - 2) * clip.frame_time:.2f} s of motion)")  # fmt: skip
+    available = int(np.floor((last - first) * selection.fps + 1e-9)) + 1
+    count = available if selection.frames is None else selection.frames
+    if count > available:
+        raise BvhError(f"{clip.path}: {count} frames at {selection.fps:g} fps from {selection.start_s} s need "
+                       f"{(count - 1) / selection.fps:.2f} s of motion; the clip has {last - first:.2f} s from there")
+    return first + np.arange(count) / selection.fps
+
+
+def available_frames(clip: BvhClip, start_s: float, fps: float) -> int:
+    """How many frames at ``fps`` the clip holds from ``start_s`` (0 when it starts past the end)."""
+    try:
+        return len(_sample_times(clip, ClipSelection(start_s, None, fps)))
+    except BvhError:
+        return 0
+
+
+def _scale(clip: BvhClip, body: BodyMesh) -> float:
+    """Metres per clip unit: the body's hip-knee-ankle length over the clip's."""
+    clip_length = sum(np.linalg.norm(clip.offsets[clip.index(name)]) for name in _LEG[1:])
+    heads = body.rest_heads[[JOINT_INDEX[name] for name in _LEG]]
+    return float(np.linalg.norm(np.diff(heads, axis=0), axis=1).sum() / clip_length)
+
+
+@dataclass(frozen=True)
+class MocapScene:
+    """A BVH clip driving the body: ``frames`` at ``fps`` from ``start_s``; the body is turned about the vertical
+    so that it faces ``yaw_deg`` (world xy angle from +x; -90 faces -y) at the first frame, and with ``center``
+    its first-frame root stands over the world origin."""
+
+    path: str
+    start_s: float = 0.0
+    fps: float = 30.0
+    yaw_deg: float = -90.0
+    center: bool = True
+
+    def poses(self, body: BodyMesh, frames: int | None = None) -> np.ndarray:
+        """``(frames, POSE_SIZE)`` the scene's pose vectors (all the clip holds from ``start_s`` when None)."""
+        poses = clip_poses(read_bvh(self.path), body, ClipSelection(self.start_s, frames, self.fps))
+        return face(poses, self.yaw_deg, self.center)
+
+    def params(self, body: BodyMesh, frame: int) -> np.ndarray:
+        cached = _POSE_CACHE.get((self, id(body)))
+        if cached is None:
+            cached = _POSE_CACHE[(self, id(body))] = self.poses(body)
+        if frame >= len(cached):
+            raise BvhError(f"{self.path}: frame {frame} asked, the clip has {len(cached)} frames at {self.fps:g} fps "
+                           f"from {self.start_s} s")  # fmt: skip
+        return cached[frame]
+
+
+_POSE_CACHE: dict[tuple[MocapScene, int], np.ndarray] = {}
+
+
+def face(poses: np.ndarray, yaw_deg: float, center: bool) -> np.ndarray:
+    """``poses`` turned about the vertical through the first root position so that the body faces ``yaw_deg``
+    at the first frame (its facing: the root's -y axis projected on the ground); ``center`` moves the first
+    root over the origin."""
+    poses = np.array(poses, dtype=np.float64)
+    root = Rotation.from_rotvec(poses[:, 3:6])
+    facing = root[0].apply([0.0, -1.0, 0.0])
+    turn = Rotation.from_euler("z", math.radians(yaw_deg) - math.atan2(facing[1], facing[0]))
+    origin = poses[0, :3].copy()
+    target = np.array([0.0, 0.0, origin[2]]) if center else origin
+    poses[:, :3] = turn.apply(poses[:, :3] - origin) + target
+    poses[:, 3:6] = (turn * root).as_rotvec()
+    return poses

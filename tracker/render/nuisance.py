@@ -1,0 +1,36 @@
+"""What a real camera adds to the rendered image: sensor noise and a slow illumination change (paper 2's
+experiments run under controlled light in front of a blue backdrop; the background model must cope with both).
+
+`SensorNuisance.apply` turns a clean render into the image the tracker sees: ``gain(t) * rgb + noise``, with
+``gain(t) = 1 + gain_amplitude * sin(2 pi t / gain_period_frames)`` for the whole image (the light, not the
+scene) and independent Gaussian noise of ``noise_std`` 8-bit levels per pixel and channel, clipped to [0, 255].
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class SensorNuisance:
+    noise_std: float = 2.0
+    gain_amplitude: float = 0.04
+    gain_period_frames: float = 150.0
+
+    def __post_init__(self) -> None:
+        if self.noise_std < 0 or not 0 <= self.gain_amplitude < 1 or self.gain_period_frames <= 0:
+            raise ValueError(f"SensorNuisance needs noise_std >= 0, 0 <= gain_amplitude < 1 and "
+                             f"gain_period_frames > 0, got {self}")  # fmt: skip
+
+    def gain(self, frame: float) -> float:
+        return 1.0 + self.gain_amplitude * math.sin(2 * math.pi * frame / self.gain_period_frames)
+
+    def apply(self, rgb: np.ndarray, frame: float, rng: np.random.Generator) -> np.ndarray:
+        """The camera's ``(h, w, 3)`` uint8 image of the clean render ``rgb`` at ``frame``."""
+        image = rgb.astype(np.float32) * np.float32(self.gain(frame))
+        if self.noise_std > 0:
+            image += rng.normal(0.0, self.noise_std, rgb.shape).astype(np.float32)
+        return np.clip(np.rint(image), 0, 255).astype(np.uint8)

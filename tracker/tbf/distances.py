@@ -1,0 +1,139 @@
+"""Silhouette distances of paper 2 (5.2): XOR (eq 6), core-weighted XOR (wXOR, eq 7-8), normalised wXOR (eq 9).
+
+All three are ``d(P, Q) = (1/N_W) sum_{x in W} d_P(x) XOR(P(x), Q(x))`` for the observed silhouette P and a model
+silhouette Q over the window W (a rectangle holding every pose of the sample set; N_W its pixel count), with the
+weight map d_P of P alone:
+    xor    d_P = 1
+    wxor   d_P = D_P + w D_Pbar           D_P: distance of a pixel inside P to the nearest pixel outside it,
+                                          D_Pbar: distance of a pixel outside P (within W) to the nearest in it
+    nwxor  d_P = D_P / (D_P + D_Pmed) + w' D_Pbar
+                                          D_Pmed: distance to P's medial axis (the thinned silhouette); the inner
+                                          term is 1 on the axis of a thin limb and of the torso alike; w' makes the
+                                          outer term's maximum over W equal the inner one's (1)
+Distances are Euclidean, in pixels of the silhouette's resolution. Silhouettes are ``(h, w)`` bool; a window is
+``(u0, v0, u1, v1)``, half-open pixel bounds.
+
+Because d_P depends on P only, the distance is affine in Q's pixels: ``d = (c + sum_x a(x) Q(x)) / N_W`` with
+``a = d_P (1 - 2P)`` and ``c = sum d_P P``. `ObservationScorer` computes ``a`` and ``c`` once per observation and
+scores any number of model silhouettes with one sparse matrix-vector product (`SilhouetteStack`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import cv2
+import numpy as np
+import scipy.sparse
+from skimage.morphology import skeletonize
+
+COSTS = ("xor", "wxor", "nwxor")
+Window = tuple[int, int, int, int]
+
+
+class EmptySilhouette(ValueError):
+    """The observed silhouette has no pixel inside the window: the weighted costs are undefined."""
+
+
+def full_window(shape: tuple[int, int]) -> Window:
+    return (0, 0, shape[1], shape[0])
+
+
+def inside_distance(silhouette: np.ndarray) -> np.ndarray:
+    """D_P: per pixel of the silhouette, the Euclidean distance to the nearest pixel outside it (0 outside).
+    The image border counts as outside."""
+    padded = np.pad(silhouette.astype(np.uint8), 1)
+    return cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)[1:-1, 1:-1].astype(np.float64)
+
+
+def outside_distance(silhouette: np.ndarray) -> np.ndarray:
+    """D_Pbar: per pixel outside the silhouette, the Euclidean distance to the nearest silhouette pixel."""
+    if not silhouette.any():
+        raise EmptySilhouette("the silhouette is empty: no distance to it")
+    inverted = (~silhouette).astype(np.uint8)
+    return cv2.distanceTransform(inverted, cv2.DIST_L2, cv2.DIST_MASK_PRECISE).astype(np.float64)
+
+
+def medial_axis_distance(silhouette: np.ndarray) -> np.ndarray:
+    """D_Pmed: per pixel, the Euclidean distance to the silhouette's thinned centre line (skeleton)."""
+    axis = skeletonize(silhouette)
+    if not axis.any():
+        raise EmptySilhouette("the silhouette is empty: it has no medial axis")
+    return cv2.distanceTransform((~axis).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE).astype(np.float64)
+
+
+def weight_map(cost: str, observed: np.ndarray, window: Window | None = None, w: float = 1.0) -> np.ndarray:
+    """``(h, w)`` float64 d_P of ``cost`` for the observed silhouette, 0 outside the window. ``w`` is wXOR's
+    outside weight (eq 8); nwXOR sets its own w'."""
+    if cost not in COSTS:
+        raise ValueError(f"cost={cost!r}: allowed {', '.join(COSTS)}")
+    u0, v0, u1, v1 = window or full_window(observed.shape)
+    inside = np.asarray(observed, bool)[v0:v1, u0:u1]
+    weights = np.zeros(observed.shape)
+    if cost == "xor":
+        weights[v0:v1, u0:u1] = 1.0
+        return weights
+    if not inside.any():
+        raise EmptySilhouette(f"the observed silhouette has no pixel in the window {u0, v0, u1, v1}")
+    outer = outside_distance(inside)
+    if cost == "wxor":
+        weights[v0:v1, u0:u1] = inside_distance(inside) + w * outer
+        return weights
+    core = inside_distance(inside)
+    to_axis = medial_axis_distance(inside)
+    inner = np.divide(core, core + to_axis, out=np.zeros_like(core), where=inside)
+    largest_outer = outer.max()
+    w_prime = inner.max() / largest_outer if largest_outer > 0 else 0.0
+    weights[v0:v1, u0:u1] = inner + w_prime * outer
+    return weights
+
+
+def silhouette_distance(cost: str, observed: np.ndarray, model: np.ndarray, window: Window | None = None,
+                        w: float = 1.0) -> float:  # fmt: skip
+    """d(P, Q) for one pair, straight from the definition (the reference for `ObservationScorer`)."""
+    u0, v0, u1, v1 = window or full_window(observed.shape)
+    weights = weight_map(cost, observed, window, w)
+    differs = np.logical_xor(observed, model)[v0:v1, u0:u1]
+    return float((weights[v0:v1, u0:u1] * differs).sum() / ((u1 - u0) * (v1 - v0)))
+
+
+@dataclass(frozen=True, eq=False)
+class SilhouetteStack:
+    """Many model silhouettes of one resolution, cropped to a window: ``masks`` ``(n, v1 - v0, u1 - u0)`` bool."""
+
+    masks: np.ndarray
+    window: Window
+
+    @classmethod
+    def crop(cls, silhouettes: np.ndarray, window: Window) -> SilhouetteStack:
+        u0, v0, u1, v1 = window
+        return cls(np.ascontiguousarray(np.asarray(silhouettes, bool)[:, v0:v1, u0:u1]), window)
+
+    def __len__(self) -> int:
+        return len(self.masks)
+
+    @cached_property
+    def sparse(self) -> scipy.sparse.csr_matrix:
+        """The silhouettes as rows of a 0/1 sparse matrix over the window's pixels."""
+        return scipy.sparse.csr_matrix(self.masks.reshape(len(self.masks), -1), dtype=np.float64)
+
+
+class ObservationScorer:
+    """One observed silhouette's distance to many model silhouettes: ``scores(stack)`` equals
+    `silhouette_distance` for every member (to rounding), in one sparse matrix-vector product."""
+
+    def __init__(self, cost: str, observed: np.ndarray, window: Window, w: float = 1.0) -> None:
+        u0, v0, u1, v1 = window
+        self.window = window
+        self.weights = weight_map(cost, observed, window, w)
+        crop = self.weights[v0:v1, u0:u1]
+        inside = np.asarray(observed, bool)[v0:v1, u0:u1]
+        self._slope = (crop * np.where(inside, -1.0, 1.0)).ravel()
+        self._constant = float(crop[inside].sum())
+        self._pixels = (u1 - u0) * (v1 - v0)
+
+    def scores(self, stack: SilhouetteStack) -> np.ndarray:
+        if tuple(stack.window) != tuple(self.window):
+            raise ValueError(f"the stack's window {stack.window} is not the scorer's {self.window}")
+        return (self._constant + stack.sparse @ self._slope) / self._pixels

@@ -1,0 +1,234 @@
+"""Pose sample sets (paper 2, 3.1): body poses with their part-label images at several resolutions, cached.
+
+A sample set is built from pose vectors (`tracker.models.body_mesh`): near-duplicates are removed first (a pose
+with another kept pose within ``min_joint_deg`` in every joint, `remove_near_duplicates`), then every pose is
+rendered as a part-label image (0 background, part k+1) at each resolution of ``RESOLUTIONS``, cropped to the
+window W: the rectangle holding every pose's projection (the bounding box of all posed vertices, 1 px margin),
+which is also the window of the silhouette distances (`tracker.tbf.distances`). Each part's projected area A_j
+(eq 3) is counted at the first (finest) resolution.
+
+Cache: ``<cache_dir>/<key>/`` with ``meta.json`` and one ``.npy`` per array, the key a hash of everything that
+affects the content (the body's source key, the camera, the poses, the resolutions, the format). Written into a
+temporary folder and renamed when complete; on loading, the meta, shapes and SHA-256 of every array are checked,
+and anything stale or corrupt is rebuilt (with a warning), never used.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import shutil
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+from tqdm import tqdm
+
+from tracker.geometry.cameras import Camera, resized
+from tracker.models.body_mesh import JOINT_NAMES, PART_NAMES, BodyMesh
+from tracker.render.mesh import SurfaceMesh
+from tracker.tbf.distances import SilhouetteStack, Window
+
+log = logging.getLogger(__name__)
+
+RESOLUTIONS = ((320, 240), (160, 120), (80, 60))
+FORMAT_VERSION = 1
+
+
+def joint_angle_differences(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(..., J)`` degrees between the joint rotations of pose vectors ``a`` and ``b`` (broadcast)."""
+    qa, qb = _quaternions(a), _quaternions(b)
+    cosine = np.abs(np.einsum("...jk,...jk->...j", qa, qb))
+    return np.degrees(2 * np.arccos(np.clip(cosine, 0.0, 1.0)))
+
+
+def _quaternions(poses: np.ndarray) -> np.ndarray:
+    poses = np.asarray(poses, dtype=np.float64)
+    rotvecs = poses[..., 3:].reshape(*poses.shape[:-1], len(JOINT_NAMES), 3)
+    return Rotation.from_rotvec(rotvecs.reshape(-1, 3)).as_quat().reshape(*rotvecs.shape[:-1], 4)
+
+
+def remove_near_duplicates(poses: np.ndarray, min_joint_deg: float = 5.0) -> np.ndarray:
+    """Indices of the poses kept, in order: a pose is dropped when a kept one is within ``min_joint_deg`` in
+    every joint (the paper's rule). Root positions are not compared."""
+    quaternions = _quaternions(poses)  # (n, J, 4)
+    threshold = np.cos(np.radians(min_joint_deg) / 2)
+    kept: list[int] = []
+    kept_quaternions = np.empty((0, len(JOINT_NAMES), 4))
+    for index, q in enumerate(quaternions):
+        if len(kept):
+            close = np.abs(np.einsum("kjc,jc->kj", kept_quaternions, q)) >= threshold  # within the angle, per joint
+            if close.all(axis=1).any():
+                continue
+        kept.append(index)
+        kept_quaternions = np.concatenate([kept_quaternions, q[None]])
+    return np.array(kept, dtype=int)
+
+
+@dataclass(frozen=True, eq=False)
+class PoseSampleSet:
+    poses: np.ndarray  # (n, POSE_SIZE)
+    labels: dict[tuple[int, int], np.ndarray]  # (width, height) -> (n, v1 - v0, u1 - u0) uint8, cropped to W
+    windows: dict[tuple[int, int], Window]  # (width, height) -> W in that resolution's pixels
+    areas: np.ndarray  # (n, parts) pixels of each part at the finest resolution
+    key: str
+
+    def __len__(self) -> int:
+        return len(self.poses)
+
+    def silhouettes(self, resolution: tuple[int, int]) -> SilhouetteStack:
+        return SilhouetteStack(self.labels[resolution] > 0, self.windows[resolution])
+
+    def occluded(self, area_threshold_px: float) -> np.ndarray:
+        """``(n, parts)`` bool: eq 3's occlusion flags, part area below ``area_threshold_px``."""
+        return occlusion_flags(self.areas, area_threshold_px)
+
+
+def occlusion_flags(areas: np.ndarray, area_threshold_px: float) -> np.ndarray:
+    """Eq 3: part j is occluded when its projected area A_j is below T_A."""
+    if area_threshold_px < 0:
+        raise ValueError(f"T_A={area_threshold_px}: must be >= 0")
+    return np.asarray(areas) < area_threshold_px
+
+
+def cache_key(body: BodyMesh, camera: Camera, poses: np.ndarray, resolutions=RESOLUTIONS) -> str:
+    digest = hashlib.sha256()
+    for part in (f"v{FORMAT_VERSION}", body.source_key, repr(tuple(map(tuple, resolutions))),
+                 repr((camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy))):  # fmt: skip
+        digest.update(part.encode())
+    for array in (camera.rotation, camera.position, poses):
+        digest.update(np.ascontiguousarray(array, dtype=np.float64).tobytes())
+    return digest.hexdigest()[:20]
+
+
+def load_or_build(body: BodyMesh, camera: Camera, poses: np.ndarray, cache_dir: str | Path,
+                  resolutions=RESOLUTIONS, progress: bool | None = None) -> PoseSampleSet:  # fmt: skip
+    """The sample set of ``poses`` (already de-duplicated) seen by ``camera``: from the cache when it is intact,
+    else rendered (with a progress bar) and cached."""
+    poses = np.asarray(poses, dtype=np.float64)
+    key = cache_key(body, camera, poses, resolutions)
+    folder = Path(cache_dir) / key
+    if folder.exists():
+        try:
+            return _load(folder, key, resolutions)
+        except (OSError, ValueError, KeyError) as problem:
+            log.warning("sample cache %s is unusable (%s): rebuilding it", folder, problem)
+            shutil.rmtree(folder, ignore_errors=True)
+    start = time.perf_counter()
+    _build(body, camera, poses, folder, key, resolutions, progress)
+    log.info("built %d samples in %.1f s into %s", len(poses), time.perf_counter() - start, folder)
+    return _load(folder, key, resolutions)
+
+
+def _load(folder: Path, key: str, resolutions) -> PoseSampleSet:
+    meta = json.loads((folder / "meta.json").read_text())
+    if meta.get("key") != key or meta.get("format") != FORMAT_VERSION:
+        raise ValueError("its key or format does not match")
+    arrays = {}
+    for name, expected in meta["arrays"].items():
+        path = folder / f"{name}.npy"
+        if _sha256(path) != expected["sha256"]:
+            raise ValueError(f"{path.name} does not match its checksum")
+        arrays[name] = np.load(path, mmap_mode="r")
+        if list(arrays[name].shape) != expected["shape"]:
+            raise ValueError(f"{path.name} has shape {arrays[name].shape}, expected {expected['shape']}")
+    names = [_labels_name(resolution) for resolution in resolutions]
+    return PoseSampleSet(
+        poses=np.asarray(arrays["poses"]),
+        labels={tuple(res): arrays[name] for res, name in zip(resolutions, names, strict=True)},
+        windows={tuple(res): tuple(meta["windows"][name]) for res, name in zip(resolutions, names, strict=True)},
+        areas=np.asarray(arrays["areas"]),
+        key=key,
+    )
+
+
+def _build(body: BodyMesh, camera: Camera, poses: np.ndarray, folder: Path, key: str, resolutions,
+           progress: bool | None) -> None:  # fmt: skip
+    from tracker.render.offscreen import SceneRenderer
+
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    temporary = Path(tempfile.mkdtemp(prefix=f".{key}.", dir=folder.parent))
+    try:
+        cameras = [resized(camera, *resolution) for resolution in resolutions]
+        windows = _windows(body, poses, cameras)
+        labels = [np.lib.format.open_memmap(temporary / f"{_labels_name(res)}.npy", mode="w+", dtype=np.uint8,
+                                            shape=(len(poses), v1 - v0, u1 - u0))
+                  for res, (u0, v0, u1, v1) in zip(resolutions, windows, strict=True)]  # fmt: skip
+        areas = np.zeros((len(poses), len(PART_NAMES)), np.int64)
+        renderers = [SceneRenderer(view.width, view.height) for view in cameras]
+        show = sys.stderr.isatty() if progress is None else progress
+        try:
+            for index in tqdm(range(len(poses)), desc="rendering pose samples", disable=not show, unit="pose"):
+                meshes = _label_meshes(body, poses[index])
+                for view, renderer, (u0, v0, u1, v1), out in zip(cameras, renderers, windows, labels, strict=True):
+                    image = renderer.render_depth_labels([view], meshes)[view.name].labels
+                    out[index] = image[v0:v1, u0:u1]
+                    if out is labels[0]:
+                        areas[index] = np.bincount(image.ravel(), minlength=len(PART_NAMES) + 1)[1:]
+        finally:
+            for renderer in renderers:
+                renderer.close()
+        for out in labels:
+            out.flush()
+        del labels
+        np.save(temporary / "poses.npy", poses)
+        np.save(temporary / "areas.npy", areas)
+        names = ["poses", "areas", *(_labels_name(res) for res in resolutions)]
+        meta = {
+            "key": key,
+            "format": FORMAT_VERSION,
+            "samples": len(poses),
+            "parts": list(PART_NAMES),
+            "windows": {_labels_name(res): list(map(int, w)) for res, w in zip(resolutions, windows, strict=True)},
+            "arrays": {name: {"shape": list(np.load(temporary / f"{name}.npy", mmap_mode="r").shape),
+                              "sha256": _sha256(temporary / f"{name}.npy")} for name in names},
+        }  # fmt: skip
+        (temporary / "meta.json").write_text(json.dumps(meta, indent=2))
+        os.replace(temporary, folder)
+    finally:
+        shutil.rmtree(temporary, ignore_errors=True)
+
+
+def _labels_name(resolution: tuple[int, int]) -> str:
+    return f"labels_{resolution[0]}x{resolution[1]}"
+
+
+def _label_meshes(body: BodyMesh, pose: np.ndarray) -> list[SurfaceMesh]:
+    vertices = body.posed_vertices(pose)
+    return [SurfaceMesh(key=f"body_{name}", label=k + 1, vertices=vertices, faces=faces, normals=None,
+                        color=(255, 255, 255))
+            for k, (name, faces) in enumerate(zip(PART_NAMES, body.part_faces, strict=True)) if len(faces)]  # fmt: skip
+
+
+def _windows(body: BodyMesh, poses: np.ndarray, cameras: list[Camera]) -> list[Window]:
+    """Per camera, the pixel rectangle holding every pose's projected vertices, 1 px margin, inside the image."""
+    low, high = np.full((len(cameras), 2), np.inf), np.full((len(cameras), 2), -np.inf)
+    for pose in poses:
+        vertices = body.posed_vertices(pose)
+        for k, camera in enumerate(cameras):
+            uv, depth = camera.project(vertices)
+            if not (depth > 0).all():
+                raise ValueError("a pose sample reaches behind the camera")
+            low[k], high[k] = np.minimum(low[k], uv.min(axis=0)), np.maximum(high[k], uv.max(axis=0))
+    windows = []
+    for camera, lowest, highest in zip(cameras, low, high, strict=True):
+        u0, v0 = np.maximum(np.floor(lowest).astype(int) - 1, 0)
+        u1, v1 = np.minimum(np.ceil(highest).astype(int) + 2, [camera.width, camera.height])
+        if u1 <= u0 or v1 <= v0:
+            raise ValueError("the pose samples are not in the camera's view")
+        windows.append((int(u0), int(v0), int(u1), int(v1)))
+    return windows
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with path.open("rb") as file:
+        for block in iter(lambda: file.read(1 << 22), b""):
+            digest.update(block)
+    return digest.hexdigest()
