@@ -11,7 +11,18 @@ from rerun.chunk import RrdReader
 
 def read_rgb_frames(rrd_path: str | Path, view: str) -> dict[int, np.ndarray]:
     """Frame -> ``(h, w, 3)`` uint8 RGB of ``world/cameras/<view>/image/rgb``, JPEG-encoded or raw."""
-    entity = f"/world/cameras/{view}/image/rgb"
+    return read_images(rrd_path, f"/world/cameras/{view}/image/rgb")
+
+
+# Rerun's channel datatypes (rerun.datatypes.ChannelDatatype) and colour models (rerun.datatypes.ColorModel).
+_DTYPES = {6: np.uint8, 7: np.int8, 8: np.uint16, 9: np.int16, 10: np.uint32, 11: np.int32, 12: np.uint64,
+           13: np.int64, 33: np.float16, 34: np.float32, 35: np.float64}  # fmt: skip
+_CHANNELS = {1: 1, 2: 3, 3: 4, 4: 3, 5: 4}  # L, RGB, RGBA, BGR, BGRA
+
+
+def read_images(rrd_path: str | Path, entity: str) -> dict[int, np.ndarray]:
+    """Frame -> image logged at ``entity`` (an ``/``-rooted entity path): JPEG ones decoded to RGB, raw ones
+    in their own type, ``(h, w)`` for one channel."""
     images: dict[int, np.ndarray] = {}
     for chunk in RrdReader(rrd_path).stream().to_chunks():
         if chunk.entity_path != entity or chunk.is_static:
@@ -25,9 +36,12 @@ def read_rgb_frames(rrd_path: str | Path, view: str) -> dict[int, np.ndarray]:
                 bgr = cv2.imdecode(blob, cv2.IMREAD_COLOR)
                 images[frame] = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
             else:
-                buffer = batch.column("Image:buffer")[row].values[0].values.to_numpy(zero_copy_only=False)
+                raw = batch.column("Image:buffer")[row].values[0].values.to_numpy(zero_copy_only=False)
                 image_format = batch.column("Image:format")[row].values[0].as_py()
-                images[frame] = buffer.reshape(image_format["height"], image_format["width"], 3).copy()
+                channels = _CHANNELS[image_format["color_model"]]
+                pixels = np.frombuffer(raw.tobytes(), dtype=_DTYPES[image_format["channel_datatype"]])
+                shape = (image_format["height"], image_format["width"]) + ((channels,) if channels > 1 else ())
+                images[frame] = pixels.reshape(shape).copy()
     if not images:
         raise ValueError(f"{rrd_path} has no images at {entity}")
     return images

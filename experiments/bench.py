@@ -1,8 +1,13 @@
-"""Benchmarks, apart from the tests: ``python -m experiments.bench render|abis [--frames N] [--size WxH]``.
+"""Benchmarks, apart from the tests: ``python -m experiments.bench render|abis|silhouettes [--frames N] [--size WxH]``.
 
 ``render``: the paper-1 arm scene through the off-screen renderer, per frame and per view, split into the lit RGB
 + depth pass and the label pass, after a warm-up frame. Reports medians and the ratio of the two passes measured
 in the same run.
+
+``silhouettes`` (paper 2's observation and costs): builds a pose sample set of ``--samples`` poses (the right-arm
+grid, side-on) into a fresh cache and reports the build time per 1,000 samples; extracts the silhouette of a
+rendered frame under the nuisance model (ms and IoU); scores it against every sample at 80x60 with each cost
+(ms for the whole set, one sparse matrix-vector product), checked against the per-pair function on 100 samples.
 
 ``abis``: AbIS estimation per frame with ``lm`` and with ``sd`` on the same rendered frames (the rendering of the
 synthetic input excluded, the tracker's visibility z-buffer included), with their ratio measured in the same run.
@@ -22,7 +27,7 @@ import numpy as np
 
 from experiments.config import option_values
 from tracker.abis.tracker import AbisTracker
-from tracker.geometry.rigs import orthogonal3
+from tracker.geometry.rigs import mono, orthogonal3
 from tracker.models.dsq import PARAM_INDEX
 from tracker.models.dsq_arm import build_arm
 from tracker.motion.arm_swing import ArmSwing
@@ -109,6 +114,66 @@ def bench_abis(frames: int, width: int, height: int) -> dict[str, dict[str, floa
     return results
 
 
+def bench_silhouettes(samples: int) -> dict[str, float]:
+    """Sample-set build time, silhouette extraction, and scoring one observation against every sample at 80x60."""
+    import tempfile
+
+    from tracker.models.body_mesh import build_body
+    from tracker.motion.body_swing import BodySwing
+    from tracker.observe.silhouettes import SilhouetteCapture, resize_silhouette
+    from tracker.render.nuisance import SensorNuisance
+    from tracker.sequence import background_frames
+    from tracker.tbf.distances import COSTS, ObservationScorer, silhouette_distance
+    from tracker.tbf.pose_sets import arm_grid
+    from tracker.tbf.samples import load_or_build, remove_near_duplicates
+
+    body = build_body(**{k: v for k, v in option_values("model", "body_mesh")["model"].items() if k != "_target_"})
+    rig = mono(**option_values("rig", "body_side"))
+    left = (0.0, -30.0, 30.0, 60.0, 90.0, -60.0, 120.0)
+    poses = arm_grid(body, np.arange(-60.0, 121.0, 6.0), np.arange(0.0, 61.0, 10.0), np.arange(0.0, 101.0, 10.0),
+                     left_swing_deg=left[: max(1, -(-samples // 2387))])  # fmt: skip
+    start = time.perf_counter()
+    kept = remove_near_duplicates(poses)[:samples]
+    dedupe_s = time.perf_counter() - start
+    with tempfile.TemporaryDirectory() as cache:
+        start = time.perf_counter()
+        sample_set = load_or_build(body, rig[0], poses[kept], cache)
+        build_s = time.perf_counter() - start
+        stack = sample_set.silhouettes((80, 60))
+        nuisance = SensorNuisance(**{k: v for k, v in option_values("model", "body_mesh")["render"].items()
+                                     if k != "background_rgb"})  # fmt: skip
+        rng = np.random.default_rng(0)
+        render = option_values("model", "body_mesh")["render"]
+        with SceneRenderer(320, 240, background_rgb=tuple(render["background_rgb"])) as renderer:
+            capture = SilhouetteCapture.learn(background_frames(rig, renderer, 20, nuisance, rng))
+            view = renderer.render(rig, body.surface_meshes(BodySwing().params(body, 10)))["main"]
+        captured = [capture.step({"main": nuisance.apply(view.rgb, 10, rng)}, {"main": view.labels > 0})
+                    for _ in range(20)]  # fmt: skip
+        observed = resize_silhouette(captured[-1].silhouettes["main"], 80, 60)
+        assert stack.sparse.shape[0] == len(stack)  # the sparse matrix is built once per sample set, not timed
+        results = {"samples": len(sample_set), "grid_poses": len(poses), "dedupe_s": dedupe_s,
+                   "build_s_per_1000": 1e3 * build_s / len(sample_set), "window_80x60": stack.window,
+                   "capture_ms": statistics.median(c.ms for c in captured),
+                   "capture_iou": captured[-1].iou["main"]}  # fmt: skip
+        for cost in COSTS:
+            times = []
+            for _ in range(7):
+                start = time.perf_counter()
+                scores = ObservationScorer(cost, observed, stack.window).scores(stack)
+                times.append(1e3 * (time.perf_counter() - start))
+            reference = [silhouette_distance(cost, observed, np.pad(mask, _padding(stack.window, (80, 60))),
+                                             stack.window) for mask in stack.masks[:100]]  # fmt: skip
+            results[f"{cost}_ms"] = statistics.median(times)
+            relative = np.abs(scores[:100] - reference) / np.maximum(np.abs(reference), 1e-300)
+            results[f"{cost}_max_relative_difference"] = float(relative.max())
+    return results
+
+
+def _padding(window, size):
+    u0, v0, u1, v1 = window
+    return ((v0, size[1] - v1), (u0, size[0] - u1))
+
+
 def report_abis(results: dict[str, dict[str, float]], frames: int, width: int, height: int) -> None:
     log.info("AbIS estimation, paper-1 arm, 3 views at %dx%d, median over frames 1..%d:", width, height, frames - 1)
     for optimizer, figures in results.items():
@@ -126,12 +191,26 @@ def _report_machine() -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("target", choices=["render", "abis"])
+    parser.add_argument("target", choices=["render", "abis", "silhouettes"])
     parser.add_argument("--frames", type=int, default=60)
+    parser.add_argument("--samples", type=int, default=10_000, help="pose samples (silhouettes)")
     parser.add_argument("--size", default="320x240", help="WIDTHxHEIGHT of every view")
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     width, height = (int(v) for v in args.size.lower().split("x"))
+    if args.target == "silhouettes":
+        figures = bench_silhouettes(args.samples)
+        _report_machine()
+        log.info("paper 2 body, side-on camera:")
+        log.info("  sample set: %d samples (of %d grid poses, de-duplicated in %.1f s), built in %.2f s per 1,000",
+                 figures["samples"], figures["grid_poses"], figures["dedupe_s"], figures["build_s_per_1000"])
+        log.info("  silhouette extraction 320x240: %.2f ms (median of 20), IoU %.4f against the render mask",
+                 figures["capture_ms"], figures["capture_iou"])
+        for cost in ("xor", "wxor", "nwxor"):
+            log.info("  %-5s one observation vs %d samples at 80x60 (window %s): %.2f ms; max relative difference "
+                     "to the per-pair function %.1e", cost, figures["samples"], figures["window_80x60"],
+                     figures[f"{cost}_ms"], figures[f"{cost}_max_relative_difference"])
+        return
     if args.target == "abis":
         results = bench_abis(args.frames, width, height)
         _report_machine()  # after the run: loading the renderer sets the OpenGL platform

@@ -237,10 +237,12 @@ class PlannedSchema:
 
 
 @dataclass
-class CostSchema(PlannedSchema):
-    """Silhouette distance (paper 2, eq 6-10). ``w``: wXOR outside weight; ``likelihood_sigma``: eq 10's sigma."""
+class CostSchema:
+    """Silhouette distance (paper 2, eq 6-10; tracker/tbf/distances.py). ``w``: wXOR's outside weight;
+    ``likelihood_sigma``: eq 10's sigma."""
 
-    kind: str = MISSING
+    _target_: str = "tracker.tbf.distances.SilhouetteCost"
+    kind: str = allowed(("xor", "wxor", "nwxor"), default=MISSING)
     w: float = allowed(NON_NEGATIVE, default=1.0)
     likelihood_sigma: float = allowed(POSITIVE, default=0.05)
 
@@ -377,6 +379,9 @@ def check_config(cfg: DictConfig, choices: dict[str, str]) -> None:
             )
     if choices.get("scene") == "bvh":
         check_bvh_scene(cfg, choices)
+    if choices.get("cost") and choices.get("model") != "body_mesh":
+        raise ConfigError(f"cost={choices['cost']} compares silhouettes of the body: it needs model=body_mesh, "
+                          f"not model={choices.get('model')}")  # fmt: skip
 
 
 def check_bvh_scene(cfg: DictConfig, choices: dict[str, str]) -> None:

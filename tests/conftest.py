@@ -68,3 +68,9 @@ def five_frame_run(tmp_path_factory):
 def abis_run(tmp_path_factory):
     """A 10-frame AbIS run of the default scene through the real CLI."""
     return _cli_run(tmp_path_factory, "abis", "tracker=abis", "frames=10")
+
+
+@pytest.fixture(scope="session")
+def body_swing_run(tmp_path_factory):
+    """A 4-frame render-only run of the body's arm swing through the real CLI (blue backdrop, nuisance)."""
+    return _cli_run(tmp_path_factory, "body", "model=body_mesh", "scene=arm_swing", "frames=4")

@@ -18,6 +18,7 @@ from tracker.models.dsq_arm import DSQArm
 from tracker.motion.mocap import MocapScene
 from tracker.motion.scenes import ArmSwingScene
 from tracker.sequence import RenderOnly
+from tracker.tbf.distances import COSTS, SilhouetteCost
 
 OPTIONS = sorted((p.parent.name, p.stem) for p in CONFIG_DIR.glob("*/*.yaml") if p.parent.name != "experiment")
 CLIP, SHORT_CLIP = MOCAP_DIR / "69_20.bvh", MOCAP_DIR / "143_33.bvh"
@@ -37,7 +38,8 @@ def test_every_option_file_has_a_schema_and_every_schema_a_file():
 
 @pytest.mark.parametrize("group, option", OPTIONS)
 def test_every_group_option_composes_and_instantiates(group, option):
-    needs = {("scene", "bvh"): ["model=body_mesh", f"scene.path={MOCAP_DIR / '69_20.bvh'}"]}
+    needs = {("scene", "bvh"): ["model=body_mesh", f"scene.path={CLIP}"],
+             **{("cost", kind): ["model=body_mesh"] for kind in COSTS}}
     cfg, choices = compose_run([f"{group}={option}", *needs.get((group, option), [])])
     if cfg[group]._target_ == PLANNED_TARGET:
         with pytest.raises(ConfigError, match=rf"^{group}={option} is planned \(issue \d"):
@@ -47,7 +49,8 @@ def test_every_group_option_composes_and_instantiates(group, option):
     built = instantiate(cfg[group], _convert_="all")
     expected_type = {"model": {"dsq_arm": DSQArm, "body_mesh": BodyMesh}.get(option),
                      "scene": {"arm_swing": ArmSwingScene, "bvh": MocapScene}.get(option), "rig": tuple,
-                     "tracker": {"render_only": RenderOnly, "abis": AbisTracker}.get(option)}[group]  # fmt: skip
+                     "tracker": {"render_only": RenderOnly, "abis": AbisTracker}.get(option),
+                     "cost": SilhouetteCost}[group]  # fmt: skip
     assert isinstance(built, expected_type)
     if group == "rig":
         assert all(isinstance(camera, Camera) for camera in built)
@@ -88,6 +91,10 @@ BAD_OVERRIDES = [
      rf"^frames=1000: scene\.path={re.escape(str(SHORT_CLIP))} has 90 frames at 30 fps from scene\.start_s=0\.0; "
      r"allowed at most 90$"),  # 360 steps of .0083333 s = 2.99999 s: 89 steps of 1/30 s
     (["model=body_mesh", "model.triangles=10"], r"^model\.triangles=10 is out of range"),
+    (["cost=nwxor"], r"^cost=nwxor compares silhouettes of the body: it needs model=body_mesh, not model=dsq_arm$"),
+    (["model=body_mesh", "cost=wxor", "cost.w=-1"], r"^cost\.w=-1\.0 is out of range: allowed >= 0$"),
+    (["model=body_mesh", "cost=xor", "cost.kind=and"], r"^cost\.kind='and' is not allowed: allowed xor, wxor, nwxor$"),
+    (["model=body_mesh", "render.noise_std=-2"], r"^render\.noise_std=-2\.0 is out of range"),
     (["seed=-1"], r"^seed=-1 is out of range: allowed in \[0, 4294967295\]$"),
     (["motion=dm2", "motion.m=0.5"], r"^motion\.m=0\.5 is out of range: allowed >= 1$"),
     (["motion=dm1", "motion.sigma=-0.1"], r"^motion\.sigma=-0\.1 is out of range: allowed > 0$"),

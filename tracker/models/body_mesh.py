@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tracker.geometry.rotations import rotation_vectors_to_matrices
+from tracker.geometry.rotations import matrices_to_rotation_vectors, rotation_vectors_to_matrices
 from tracker.render.mesh import SurfaceMesh
 
 # The CMU BVH joints in file order (parents first); the rig says LeftHandFinger1 where the BVH says LeftHandIndex1.
@@ -131,6 +131,16 @@ class BodyMesh:
         """The pose vector of the T-pose with the root at its rest position."""
         pose = np.zeros(POSE_SIZE)
         pose[:3] = self.rest_heads[0]
+        return pose
+
+    def mesh_rest_pose(self) -> np.ndarray:
+        """The pose vector that reproduces the mesh as modelled (arms lowered): every bone's rotation from rest is
+        the identity, so each joint's rotation from the T-pose undoes its alignment."""
+        undo = np.transpose(self.t_pose_alignment, (0, 2, 1))  # world rotation from the T-pose, per joint
+        local = undo.copy()
+        local[1:] = np.transpose(undo[self.parents[1:]], (0, 2, 1)) @ undo[1:]
+        pose = self.rest_pose()
+        pose[3:] = matrices_to_rotation_vectors(local).ravel()
         return pose
 
     def bone_transforms(self, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

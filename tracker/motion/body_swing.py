@@ -41,13 +41,22 @@ class BodySwing:
         return -self.backward_deg + (walked - self.forward_deg - span)
 
     def params(self, body: BodyMesh, frame: int) -> np.ndarray:
-        pose = body.rest_pose()
-        lower = math.radians(90.0 - _T_POSE_DROOP_DEG - self.abduction_deg)
-        swing = math.radians(self.swing_angle_deg(frame))
-        _set(pose, "LeftArm", rotation_y(lower))
-        _set(pose, "RightArm", rotation_x(-swing) @ rotation_y(-lower))
-        _set(pose, "Hips", rotation_z(math.radians(self.yaw_deg + 90.0)))
-        return pose
+        return arms_pose(body, right=(self.swing_angle_deg(frame), self.abduction_deg, 0.0),
+                         left=(0.0, self.abduction_deg, 0.0), yaw_deg=self.yaw_deg)  # fmt: skip
+
+
+def arms_pose(body: BodyMesh, right: tuple[float, float, float], left: tuple[float, float, float],
+              yaw_deg: float = -90.0) -> np.ndarray:  # fmt: skip
+    """The standing body with each arm at ``(swing, abduction, elbow)`` degrees: swing in the sagittal plane
+    (+ in front of the vertical), abduction out from the trunk, elbow flexion (+ brings the forearm forward);
+    facing ``yaw_deg`` (world xy angle from +x; -90 faces -y)."""
+    pose = body.rest_pose()
+    for side, (swing, abduction, elbow), sign in (("Right", right, -1.0), ("Left", left, 1.0)):
+        lower = math.radians(90.0 - _T_POSE_DROOP_DEG - abduction)
+        _set(pose, f"{side}Arm", rotation_x(-math.radians(swing)) @ rotation_y(sign * lower))
+        _set(pose, f"{side}ForeArm", rotation_z(-sign * math.radians(elbow)))
+    _set(pose, "Hips", rotation_z(math.radians(yaw_deg + 90.0)))
+    return pose
 
 
 def _set(pose: np.ndarray, joint: str, rotation: np.ndarray) -> None:

@@ -103,3 +103,9 @@ class SilhouetteCapture:
         ms = 1e3 * (time.perf_counter() - start)
         scores = {name: iou(silhouettes[name], mask) for name, mask in (masks or {}).items()}
         return CapturedFrame(silhouettes, scores, ms)
+
+
+def resize_silhouette(silhouette: np.ndarray, width: int, height: int) -> np.ndarray:
+    """The silhouette at ``width`` x ``height``: a pixel is in when at least half of the area it covers is."""
+    coverage = cv2.resize(silhouette.astype(np.float32), (width, height), interpolation=cv2.INTER_AREA)
+    return coverage >= 0.5

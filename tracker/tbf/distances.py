@@ -119,6 +119,27 @@ class SilhouetteStack:
         return scipy.sparse.csr_matrix(self.masks.reshape(len(self.masks), -1), dtype=np.float64)
 
 
+@dataclass(frozen=True)
+class SilhouetteCost:
+    """A configured distance: which one (`COSTS`), wXOR's ``w``, and eq 10's likelihood sigma."""
+
+    kind: str
+    w: float = 1.0
+    likelihood_sigma: float = 0.05
+
+    def __post_init__(self) -> None:
+        if self.kind not in COSTS:
+            raise ValueError(f"kind={self.kind!r}: allowed {', '.join(COSTS)}")
+        if self.w < 0 or self.likelihood_sigma <= 0:
+            raise ValueError(f"w={self.w} must be >= 0 and likelihood_sigma={self.likelihood_sigma} > 0")
+
+    def weight_map(self, observed: np.ndarray, window: Window | None = None) -> np.ndarray:
+        return weight_map(self.kind, observed, window, self.w)
+
+    def scorer(self, observed: np.ndarray, window: Window) -> ObservationScorer:
+        return ObservationScorer(self.kind, observed, window, self.w)
+
+
 class ObservationScorer:
     """One observed silhouette's distance to many model silhouettes: ``scores(stack)`` equals
     `silhouette_distance` for every member (to rounding), in one sparse matrix-vector product."""

@@ -2,10 +2,12 @@
 
 A sample set is built from pose vectors (`tracker.models.body_mesh`): near-duplicates are removed first (a pose
 with another kept pose within ``min_joint_deg`` in every joint, `remove_near_duplicates`), then every pose is
-rendered as a part-label image (0 background, part k+1) at each resolution of ``RESOLUTIONS``, cropped to the
-window W: the rectangle holding every pose's projection (the bounding box of all posed vertices, 1 px margin),
-which is also the window of the silhouette distances (`tracker.tbf.distances`). Each part's projected area A_j
-(eq 3) is counted at the first (finest) resolution.
+rendered as a part-label image (0 background, part k+1) at the finest resolution of ``RESOLUTIONS`` and reduced
+to the others by blocks (`reduce_labels`: a coarse pixel is in the silhouette when at least half of it is, as
+`tracker.observe.silhouettes.resize_silhouette` does for observed silhouettes, and takes the part covering most
+of it). Images are cropped to the window W: the rectangle holding every pose's projection (the bounding box of all
+posed vertices, 1 px margin, widened to whole coarsest pixels), which is also the window of the silhouette
+distances (`tracker.tbf.distances`). Each part's projected area A_j (eq 3) is counted at the finest resolution.
 
 Cache: ``<cache_dir>/<key>/`` with ``meta.json`` and one ``.npy`` per array, the key a hash of everything that
 affects the content (the body's source key, the camera, the poses, the resolutions, the format). Written into a
@@ -38,7 +40,7 @@ from tracker.tbf.distances import SilhouetteStack, Window
 log = logging.getLogger(__name__)
 
 RESOLUTIONS = ((320, 240), (160, 120), (80, 60))
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 
 
 def joint_angle_differences(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -152,28 +154,25 @@ def _build(body: BodyMesh, camera: Camera, poses: np.ndarray, folder: Path, key:
            progress: bool | None) -> None:  # fmt: skip
     from tracker.render.offscreen import SceneRenderer
 
+    finest = resized(camera, *resolutions[0])
+    factors = [_factor(resolutions[0], resolution) for resolution in resolutions]
     folder.parent.mkdir(parents=True, exist_ok=True)
     temporary = Path(tempfile.mkdtemp(prefix=f".{key}.", dir=folder.parent))
     try:
-        cameras = [resized(camera, *resolution) for resolution in resolutions]
-        windows = _windows(body, poses, cameras)
+        u0, v0, u1, v1 = _window(body, poses, finest, max(factors))
+        windows = [(u0 // f, v0 // f, u1 // f, v1 // f) for f in factors]
         labels = [np.lib.format.open_memmap(temporary / f"{_labels_name(res)}.npy", mode="w+", dtype=np.uint8,
-                                            shape=(len(poses), v1 - v0, u1 - u0))
-                  for res, (u0, v0, u1, v1) in zip(resolutions, windows, strict=True)]  # fmt: skip
+                                            shape=(len(poses), w[3] - w[1], w[2] - w[0]))
+                  for res, w in zip(resolutions, windows, strict=True)]  # fmt: skip
         areas = np.zeros((len(poses), len(PART_NAMES)), np.int64)
-        renderers = [SceneRenderer(view.width, view.height) for view in cameras]
         show = sys.stderr.isatty() if progress is None else progress
-        try:
+        with SceneRenderer(finest.width, finest.height) as renderer:
             for index in tqdm(range(len(poses)), desc="rendering pose samples", disable=not show, unit="pose"):
-                meshes = _label_meshes(body, poses[index])
-                for view, renderer, (u0, v0, u1, v1), out in zip(cameras, renderers, windows, labels, strict=True):
-                    image = renderer.render_depth_labels([view], meshes)[view.name].labels
-                    out[index] = image[v0:v1, u0:u1]
-                    if out is labels[0]:
-                        areas[index] = np.bincount(image.ravel(), minlength=len(PART_NAMES) + 1)[1:]
-        finally:
-            for renderer in renderers:
-                renderer.close()
+                image = renderer.render_depth_labels([finest], _label_meshes(body, poses[index]))[finest.name].labels
+                areas[index] = np.bincount(image.ravel(), minlength=len(PART_NAMES) + 1)[1:]
+                crop = image[v0:v1, u0:u1]
+                for factor, out in zip(factors, labels, strict=True):
+                    out[index] = reduce_labels(crop, factor, len(PART_NAMES))
         for out in labels:
             out.flush()
         del labels
@@ -195,6 +194,27 @@ def _build(body: BodyMesh, camera: Camera, poses: np.ndarray, folder: Path, key:
         shutil.rmtree(temporary, ignore_errors=True)
 
 
+def reduce_labels(labels: np.ndarray, factor: int, n_parts: int) -> np.ndarray:
+    """A label image ``factor`` times smaller: each block is background unless at least half of it is covered,
+    else the part covering most of it (ties: the lower label). Sides must be multiples of ``factor``."""
+    if factor == 1:
+        return labels.copy()
+    height, width = labels.shape
+    rows, cols = height // factor, width // factor
+    block = (np.arange(height)[:, None] // factor) * cols + np.arange(width)[None, :] // factor
+    counts = np.bincount((block * (n_parts + 1) + labels).ravel(), minlength=rows * cols * (n_parts + 1))
+    counts = counts.reshape(rows, cols, n_parts + 1)
+    covered = (factor * factor - counts[..., 0]) * 2 >= factor * factor
+    return np.where(covered, np.argmax(counts[..., 1:], axis=2) + 1, 0).astype(np.uint8)
+
+
+def _factor(finest: tuple[int, int], resolution: tuple[int, int]) -> int:
+    factor = finest[0] // resolution[0]
+    if factor * resolution[0] != finest[0] or factor * resolution[1] != finest[1]:
+        raise ValueError(f"resolution {resolution} is not the finest {finest} divided by a whole number")
+    return factor
+
+
 def _labels_name(resolution: tuple[int, int]) -> str:
     return f"labels_{resolution[0]}x{resolution[1]}"
 
@@ -206,24 +226,20 @@ def _label_meshes(body: BodyMesh, pose: np.ndarray) -> list[SurfaceMesh]:
             for k, (name, faces) in enumerate(zip(PART_NAMES, body.part_faces, strict=True)) if len(faces)]  # fmt: skip
 
 
-def _windows(body: BodyMesh, poses: np.ndarray, cameras: list[Camera]) -> list[Window]:
-    """Per camera, the pixel rectangle holding every pose's projected vertices, 1 px margin, inside the image."""
-    low, high = np.full((len(cameras), 2), np.inf), np.full((len(cameras), 2), -np.inf)
+def _window(body: BodyMesh, poses: np.ndarray, camera: Camera, align: int) -> Window:
+    """The pixel rectangle holding every pose's projected vertices, 1 px margin, widened to multiples of
+    ``align`` and kept inside the image."""
+    low, high = np.full(2, np.inf), np.full(2, -np.inf)
     for pose in poses:
-        vertices = body.posed_vertices(pose)
-        for k, camera in enumerate(cameras):
-            uv, depth = camera.project(vertices)
-            if not (depth > 0).all():
-                raise ValueError("a pose sample reaches behind the camera")
-            low[k], high[k] = np.minimum(low[k], uv.min(axis=0)), np.maximum(high[k], uv.max(axis=0))
-    windows = []
-    for camera, lowest, highest in zip(cameras, low, high, strict=True):
-        u0, v0 = np.maximum(np.floor(lowest).astype(int) - 1, 0)
-        u1, v1 = np.minimum(np.ceil(highest).astype(int) + 2, [camera.width, camera.height])
-        if u1 <= u0 or v1 <= v0:
-            raise ValueError("the pose samples are not in the camera's view")
-        windows.append((int(u0), int(v0), int(u1), int(v1)))
-    return windows
+        uv, depth = camera.project(body.posed_vertices(pose))
+        if not (depth > 0).all():
+            raise ValueError("a pose sample reaches behind the camera")
+        low, high = np.minimum(low, uv.min(axis=0)), np.maximum(high, uv.max(axis=0))
+    u0, v0 = (np.maximum(np.floor(low).astype(int) - 1, 0) // align) * align
+    u1, v1 = np.minimum(-(-(np.ceil(high).astype(int) + 2) // align) * align, [camera.width, camera.height])
+    if u1 <= u0 or v1 <= v0:
+        raise ValueError("the pose samples are not in the camera's view")
+    return int(u0), int(v0), int(u1), int(v1)
 
 
 def _sha256(path: Path) -> str:

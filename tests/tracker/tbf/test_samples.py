@@ -1,0 +1,108 @@
+import logging
+
+import numpy as np
+import pytest
+
+from tracker.geometry.rigs import mono
+from tracker.motion.body_swing import BodySwing
+from tracker.tbf.samples import (
+    RESOLUTIONS,
+    cache_key,
+    joint_angle_differences,
+    load_or_build,
+    occlusion_flags,
+    reduce_labels,
+    remove_near_duplicates,
+)
+
+CAMERA = mono(position=(4.0, 0.0, 0.9), target=(0.0, 0.0, 0.9), focal_px=480.0, width=320, height=240)[0]
+
+
+@pytest.fixture(scope="module")
+def swing_poses(body):
+    swing = BodySwing(period_frames=100)
+    return np.array([swing.params(body, frame) for frame in range(100)])  # 2 degrees apart
+
+
+def test_duplicates_removal_keeps_no_pair_within_5_degrees_in_every_joint(swing_poses):
+    rng = np.random.default_rng(0)
+    poses = np.concatenate([swing_poses, swing_poses[rng.integers(0, 100, 30)]])  # exact repeats too
+    poses[:, 3:] += rng.normal(0, 0.01, poses[:, 3:].shape)
+    kept = remove_near_duplicates(poses, 5.0)
+    differences = joint_angle_differences(poses[kept][:, None], poses[kept][None])  # (k, k, J)
+    close = (differences <= 5.0).all(axis=2) & ~np.eye(len(kept), dtype=bool)
+    assert not close.any()
+    dropped = np.setdiff1d(np.arange(len(poses)), kept)
+    nearest = joint_angle_differences(poses[dropped][:, None], poses[kept][None]).max(axis=2).min(axis=1)
+    assert (nearest <= 5.0).all()  # everything dropped has a kept pose within 5 degrees in every joint
+    assert 8 <= len(kept) <= 40  # a 200-degree path of the arm in steps of a little over 5 degrees
+
+
+def test_joint_angles_by_hand(body):
+    a = body.rest_pose()
+    b = a.copy()
+    b[3 + 3 * 5 : 6 + 3 * 5] = [0.0, np.radians(7.0), 0.0]
+    differences = joint_angle_differences(a, b)
+    assert differences[5] == pytest.approx(7.0) and np.delete(differences, 5).max() == 0.0
+
+
+def test_a_sample_set_is_rendered_cached_and_reloaded(body, swing_poses, tmp_path):
+    poses = swing_poses[::10]
+    built = load_or_build(body, CAMERA, poses, tmp_path, progress=False)
+    assert len(built) == 10
+    full = built.labels[RESOLUTIONS[0]]
+    np.testing.assert_array_equal(built.areas, [np.bincount(image.ravel(), minlength=16)[1:] for image in full])
+    u0, v0, u1, v1 = built.windows[(80, 60)]
+    assert built.labels[(80, 60)].shape == (10, v1 - v0, u1 - u0)
+    coarse_area = (built.labels[(80, 60)] > 0).sum(axis=(1, 2)) * 16
+    np.testing.assert_allclose(coarse_area, (full > 0).sum(axis=(1, 2)), rtol=0.12)  # same body, 1/16 the pixels
+    right_arm = list(body.part_names).index("right_upper_arm")
+    assert built.occluded(50)[0, right_arm]  # arm down: behind the torso, side-on
+    assert not built.occluded(50)[3, right_arm]  # swung 60 degrees forward: in view
+    again = load_or_build(body, CAMERA, poses, tmp_path, progress=False)
+    assert again.key == built.key
+    np.testing.assert_array_equal(again.labels[(160, 120)], built.labels[(160, 120)])
+
+
+def test_a_corrupt_cache_is_rebuilt_not_used(body, swing_poses, tmp_path, caplog):
+    poses = swing_poses[:3]
+    built = load_or_build(body, CAMERA, poses, tmp_path, progress=False)
+    original = np.array(built.labels[(160, 120)])  # a copy: the loaded arrays map the files
+    array = tmp_path / built.key / "labels_160x120.npy"
+    data = bytearray(array.read_bytes())
+    data[-1] ^= 0xFF  # one flipped byte
+    array.write_bytes(bytes(data))
+    with caplog.at_level(logging.WARNING):
+        again = load_or_build(body, CAMERA, poses, tmp_path, progress=False)
+    assert "does not match its checksum" in caplog.text and "rebuilding" in caplog.text
+    np.testing.assert_array_equal(again.labels[(160, 120)], original)
+    (tmp_path / built.key / "areas.npy").write_bytes(b"truncated")
+    assert load_or_build(body, CAMERA, poses, tmp_path, progress=False).areas.shape == (3, 15)
+
+
+def test_the_cache_key_changes_with_the_camera_the_poses_and_the_resolutions(body, swing_poses):
+    key = cache_key(body, CAMERA, swing_poses)
+    moved = mono(position=(4.0, 0.1, 0.9), target=(0.0, 0.0, 0.9), focal_px=480.0, width=320, height=240)[0]
+    zoomed = mono(position=(4.0, 0.0, 0.9), target=(0.0, 0.0, 0.9), focal_px=481.0, width=320, height=240)[0]
+    others = {cache_key(body, moved, swing_poses), cache_key(body, zoomed, swing_poses),
+              cache_key(body, CAMERA, swing_poses[1:]), cache_key(body, CAMERA, swing_poses, RESOLUTIONS[:2])}
+    assert key not in others and len(others) == 4
+    assert cache_key(body, CAMERA, swing_poses.copy()) == key
+
+
+def test_occlusion_flags_are_eq_3():
+    areas = np.array([[0, 49, 50, 500]])
+    np.testing.assert_array_equal(occlusion_flags(areas, 50), [[True, True, False, False]])
+    with pytest.raises(ValueError, match="T_A=-1"):
+        occlusion_flags(areas, -1)
+
+
+def test_label_reduction_by_hand():
+    labels = np.array([[1, 1, 0, 0, 2, 2],
+                       [1, 2, 0, 3, 2, 0],
+                       [0, 0, 3, 3, 0, 0],
+                       [0, 1, 3, 0, 0, 0]], np.uint8)  # fmt: skip
+    # Blocks of 2x2: {1,1,1,2} -> 1; {0,0,0,3} -> background (1 of 4 covered); {2,2,2,0} -> 2;
+    # {0,0,0,1} -> 0; {3,3,3,0} -> 3; {0,0,0,0} -> 0.
+    np.testing.assert_array_equal(reduce_labels(labels, 2, 3), [[1, 0, 2], [0, 3, 0]])
+    np.testing.assert_array_equal(reduce_labels(np.array([[1, 2], [0, 0]], np.uint8), 2, 2), [[1]])  # tie: lower

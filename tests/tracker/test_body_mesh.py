@@ -1,0 +1,72 @@
+import numpy as np
+import pytest
+
+from tracker.geometry.rotations import matrix_to_rotation_vector, rotation_z
+from tracker.models.body_mesh import JOINT_INDEX, PART_NAMES, POSE_SIZE, T_POSE_DIRECTIONS, BodyDataError, build_body
+
+
+def test_the_mesh_is_decimated_to_the_papers_polygon_count_with_valid_weights(body):
+    assert abs(len(body.faces) - 4500) <= 50
+    assert body.weights.min() >= 0 and np.allclose(body.weights.sum(axis=1), 1.0)
+    assert body.faces.max() < len(body.rest_vertices)
+    assert set(np.unique(body.face_parts)) == set(range(len(PART_NAMES)))  # every part has faces
+
+
+def test_body_frame_metres_z_up_feet_on_the_floor_facing_minus_y(body):
+    low, high = body.rest_vertices.min(axis=0), body.rest_vertices.max(axis=0)
+    assert low[2] == pytest.approx(0.0) and 1.5 < high[2] < 1.9  # a standing adult, in metres
+    head, left_hand = body.rest_heads[JOINT_INDEX["Head"]], body.rest_heads[JOINT_INDEX["LeftHand"]]
+    assert head[2] > 1.4 and left_hand[0] > 0.3  # left is +x
+    nose_side = body.rest_vertices[body.rest_vertices[:, 2] > head[2]]
+    assert nose_side[:, 1].min() < head[1] - 0.08  # the face sticks out towards -y
+
+
+def test_the_rest_pose_reproduces_the_mesh(body):
+    np.testing.assert_allclose(body.posed_vertices(body.mesh_rest_pose()), body.rest_vertices, atol=1e-12)
+
+
+def test_a_90_degree_elbow_bend_turns_the_forearm_about_the_elbow(body):
+    pose = body.mesh_rest_pose()
+    elbow, shoulder = JOINT_INDEX["RightForeArm"], JOINT_INDEX["RightArm"]
+    bend = rotation_z(np.pi / 2)  # about the vertical through the elbow, in the world
+    # Joint rotations are relative to the parent's (here the upper arm's) world rotation from the T-pose, which
+    # at the mesh's rest undoes the upper arm's T-pose alignment A: the world bend reads A bend A^T locally.
+    align = body.t_pose_alignment[shoulder]
+    local = slice(3 + 3 * elbow, 6 + 3 * elbow)
+    pose[local] = matrix_to_rotation_vector(align @ bend @ align.T @ _rotation(pose[local]))
+    forearm_only = body.weights[:, elbow] > 0.999
+    assert forearm_only.sum() >= 5
+    centre = body.rest_heads[elbow]
+    expected = (body.rest_vertices[forearm_only] - centre) @ bend.T + centre  # by hand: a rigid turn
+    np.testing.assert_allclose(body.posed_vertices(pose)[forearm_only], expected, atol=1e-12)
+    untouched = body.weights[:, JOINT_INDEX["Spine1"]] > 0.999
+    np.testing.assert_allclose(body.posed_vertices(pose)[untouched], body.rest_vertices[untouched], atol=1e-12)
+
+
+def test_the_t_pose_points_the_limbs_as_the_cmu_t_pose(body):
+    heads = body.t_pose_heads
+    for bone, child in (("RightArm", "RightForeArm"), ("LeftForeArm", "LeftHand"), ("LeftUpLeg", "LeftLeg")):
+        direction = heads[JOINT_INDEX[child]] - heads[JOINT_INDEX[bone]]
+        target = np.asarray(T_POSE_DIRECTIONS[bone]) / np.linalg.norm(T_POSE_DIRECTIONS[bone])
+        cosine = np.clip(direction @ target / np.linalg.norm(direction), -1.0, 1.0)
+        assert np.degrees(np.arccos(cosine)) < 0.5
+
+
+def test_joints_stay_at_their_rest_distance_from_the_parent_in_any_pose(body):
+    pose = body.rest_pose() + np.r_[np.zeros(3), np.random.default_rng(0).normal(0, 0.5, POSE_SIZE - 3)]
+    posed, rest = body.joint_positions(pose), body.rest_heads
+    child = np.arange(1, len(rest))
+    parent = body.parents[child]
+    np.testing.assert_allclose(np.linalg.norm(posed[child] - posed[parent], axis=1),
+                               np.linalg.norm(rest[child] - rest[parent], axis=1), atol=1e-12)  # fmt: skip
+
+
+def test_missing_data_files_give_a_clear_error(tmp_path):
+    with pytest.raises(BodyDataError, match=r"missing body data file .*base\.obj: run `make setup`"):
+        build_body(data_dir=tmp_path)
+
+
+def _rotation(vector):
+    from tracker.geometry.rotations import rotation_vector_to_matrix
+
+    return rotation_vector_to_matrix(vector)
