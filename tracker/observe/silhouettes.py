@@ -53,10 +53,11 @@ class BackgroundModel:
         if rgb.shape != self.color_mean.shape:
             raise ValueError(f"image of shape {rgb.shape}, the background model is {self.color_mean.shape}")
         s = self.settings
-        z = (normalised_colour(rgb) - self.chroma_mean) * self.chroma_inverse_std
-        unlikely = np.einsum("hwc,hwc->hw", z, z) > s.chroma_threshold**2
-        difference = rgb.astype(np.float32) - self.color_mean
-        different = np.einsum("hwc,hwc->hw", difference, difference) > s.color_threshold**2
+        colour = rgb.astype(np.float32)
+        z = (_normalise(colour) - self.chroma_mean) * self.chroma_inverse_std
+        unlikely = _channel_sum(z * z) > s.chroma_threshold**2
+        difference = colour - self.color_mean
+        different = _channel_sum(difference * difference) > s.color_threshold**2
         mask = (unlikely | different).astype(np.uint8)
         if s.cleanup_px > 1:
             kernel = np.ones((s.cleanup_px, s.cleanup_px), np.uint8)
@@ -65,10 +66,20 @@ class BackgroundModel:
 
 
 def normalised_colour(rgb: np.ndarray) -> np.ndarray:
-    """``(..., 3)`` float32 colour divided by its sum R + G + B (black counts as grey)."""
-    rgb = rgb.astype(np.float32)
-    total = rgb.sum(axis=-1, keepdims=True)
-    return np.where(total > 0, rgb / np.maximum(total, 1e-6), np.float32(1 / 3))
+    """``(..., 3)`` float32 colour divided by its sum R + G + B (black stays 0)."""
+    colour = np.asarray(rgb, dtype=np.float32)
+    return _normalise(colour.reshape(-1, *colour.shape[-2:]) if colour.ndim > 3 else colour).reshape(colour.shape)
+
+
+def _normalise(colour: np.ndarray) -> np.ndarray:
+    """``(h, w, 3)`` float32 colour over its channel sum (at least 1: 8-bit levels)."""
+    return colour * (1.0 / np.maximum(_channel_sum(colour), 1.0))[..., None]
+
+
+def _channel_sum(image: np.ndarray) -> np.ndarray:
+    """``(h, w, 3)`` float32 -> ``(h, w)``: the sum over channels (OpenCV: numpy's reduction over the last axis
+    of an interleaved image is several times slower)."""
+    return cv2.transform(image, np.ones((1, 3), np.float32))
 
 
 def iou(a: np.ndarray, b: np.ndarray) -> float:

@@ -63,30 +63,53 @@ def medial_axis_distance(silhouette: np.ndarray) -> np.ndarray:
     return cv2.distanceTransform((~axis).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE).astype(np.float64)
 
 
+def xor_weights(observed: np.ndarray, window: Window | None = None) -> np.ndarray:
+    """Eq 6's d_P: 1 inside the window, 0 outside it."""
+    u0, v0, u1, v1 = window or full_window(observed.shape)
+    weights = np.zeros(observed.shape)
+    weights[v0:v1, u0:u1] = 1.0
+    return weights
+
+
+def wxor_weights(observed: np.ndarray, window: Window | None = None, w: float = 1.0) -> np.ndarray:
+    """Eq 8's d_P = D_P + w D_Pbar inside the window, 0 outside it."""
+    inside, (u0, v0, u1, v1) = _window_crop(observed, window)
+    weights = np.zeros(observed.shape)
+    weights[v0:v1, u0:u1] = inside_distance(inside) + w * outside_distance(inside)
+    return weights
+
+
+def nwxor_weights(observed: np.ndarray, window: Window | None = None) -> np.ndarray:
+    """Eq 9's d_P = D_P / (D_P + D_Pmed) + w' D_Pbar inside the window (w' equalises the two terms' maxima),
+    0 outside it."""
+    inside, (u0, v0, u1, v1) = _window_crop(observed, window)
+    core, to_axis, outer = inside_distance(inside), medial_axis_distance(inside), outside_distance(inside)
+    inner = np.divide(core, core + to_axis, out=np.zeros_like(core), where=inside)
+    w_prime = inner.max() / outer.max() if outer.max() > 0 else 0.0
+    weights = np.zeros(observed.shape)
+    weights[v0:v1, u0:u1] = inner + w_prime * outer
+    return weights
+
+
 def weight_map(cost: str, observed: np.ndarray, window: Window | None = None, w: float = 1.0) -> np.ndarray:
     """``(h, w)`` float64 d_P of ``cost`` for the observed silhouette, 0 outside the window. ``w`` is wXOR's
     outside weight (eq 8); nwXOR sets its own w'."""
-    if cost not in COSTS:
-        raise ValueError(f"cost={cost!r}: allowed {', '.join(COSTS)}")
-    u0, v0, u1, v1 = window or full_window(observed.shape)
-    inside = np.asarray(observed, bool)[v0:v1, u0:u1]
-    weights = np.zeros(observed.shape)
     if cost == "xor":
-        weights[v0:v1, u0:u1] = 1.0
-        return weights
-    if not inside.any():
-        raise EmptySilhouette(f"the observed silhouette has no pixel in the window {u0, v0, u1, v1}")
-    outer = outside_distance(inside)
+        return xor_weights(observed, window)
     if cost == "wxor":
-        weights[v0:v1, u0:u1] = inside_distance(inside) + w * outer
-        return weights
-    core = inside_distance(inside)
-    to_axis = medial_axis_distance(inside)
-    inner = np.divide(core, core + to_axis, out=np.zeros_like(core), where=inside)
-    largest_outer = outer.max()
-    w_prime = inner.max() / largest_outer if largest_outer > 0 else 0.0
-    weights[v0:v1, u0:u1] = inner + w_prime * outer
-    return weights
+        return wxor_weights(observed, window, w)
+    if cost == "nwxor":
+        return nwxor_weights(observed, window)
+    raise ValueError(f"cost={cost!r}: allowed {', '.join(COSTS)}")
+
+
+def _window_crop(observed: np.ndarray, window: Window | None) -> tuple[np.ndarray, Window]:
+    window = window or full_window(observed.shape)
+    u0, v0, u1, v1 = window
+    inside = np.asarray(observed, bool)[v0:v1, u0:u1]
+    if not inside.any():
+        raise EmptySilhouette(f"the observed silhouette has no pixel in the window {window}")
+    return inside, window
 
 
 def silhouette_distance(cost: str, observed: np.ndarray, model: np.ndarray, window: Window | None = None,
