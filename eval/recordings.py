@@ -21,8 +21,8 @@ _CHANNELS = {1: 1, 2: 3, 3: 4, 4: 3, 5: 4}  # L, RGB, RGBA, BGR, BGRA
 
 
 def read_images(rrd_path: str | Path, entity: str) -> dict[int, np.ndarray]:
-    """Frame -> image logged at ``entity`` (an ``/``-rooted entity path): JPEG ones decoded to RGB, raw ones
-    in their own type, ``(h, w)`` for one channel."""
+    """Frame -> image logged at ``entity`` (an ``/``-rooted entity path): encoded ones (JPEG, PNG) decoded
+    (colour to RGB), raw ones in their own type; ``(h, w)`` for one channel."""
     images: dict[int, np.ndarray] = {}
     for chunk in RrdReader(rrd_path).stream().to_chunks():
         if chunk.entity_path != entity or chunk.is_static:
@@ -33,8 +33,8 @@ def read_images(rrd_path: str | Path, entity: str) -> dict[int, np.ndarray]:
         for row, frame in enumerate(frames):
             if "EncodedImage:blob" in names:
                 blob = batch.column("EncodedImage:blob")[row].values[0].values.to_numpy(zero_copy_only=False)
-                bgr = cv2.imdecode(blob, cv2.IMREAD_COLOR)
-                images[frame] = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+                decoded = cv2.imdecode(blob, cv2.IMREAD_UNCHANGED)
+                images[frame] = cv2.cvtColor(decoded, cv2.COLOR_BGR2RGB) if decoded.ndim == 3 else decoded
             else:
                 raw = batch.column("Image:buffer")[row].values[0].values.to_numpy(zero_copy_only=False)
                 image_format = batch.column("Image:format")[row].values[0].as_py()

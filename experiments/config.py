@@ -20,7 +20,6 @@ from omegaconf import II, MISSING, DictConfig, ListConfig, OmegaConf, open_dict
 from tracker.models.dsq import PARAM_RANGES, SHAPE_NAMES, DSQShape
 from tracker.ranges import ANY, NON_NEGATIVE, POSITIVE, Range, check_in_range
 
-PLANNED_TARGET = "experiments.config.planned"
 CONFIG_DIR = Path(__file__).resolve().parent.parent / "conf"
 CONFIG_NAME = "config"
 
@@ -89,6 +88,8 @@ class BodyMeshSchema:
 
     _target_: str = "tracker.models.body_mesh.build_body"
     triangles: int = allowed(Range(500, 30000), default=4500)
+    height: float = allowed(Range(0.5, 2.0), default=1.0)  # the subject's scale against the standard body
+    girth: float = allowed(Range(0.5, 2.0), default=1.0)
 
 
 @dataclass
@@ -228,38 +229,74 @@ class AbisSchema:
 
 
 @dataclass
-class PlannedSchema:
-    """A group option whose capability a later issue builds; it composes (its values are checked) but cannot run."""
-
-    _target_: str = PLANNED_TARGET
-    planned_in: str = MISSING
-    what: str = MISSING
-
-
-@dataclass
 class CostSchema:
-    """Silhouette distance (paper 2, eq 6-10; tracker/tbf/distances.py). ``w``: wXOR's outside weight;
-    ``likelihood_sigma``: eq 10's sigma."""
+    """Silhouette distance (paper 2, eq 6-9; tracker/tbf/distances.py). ``w``: wXOR's outside weight."""
 
     _target_: str = "tracker.tbf.distances.SilhouetteCost"
     kind: str = allowed(("xor", "wxor", "nwxor"), default=MISSING)
     w: float = allowed(NON_NEGATIVE, default=1.0)
-    likelihood_sigma: float = allowed(POSITIVE, default=0.05)
 
 
 @dataclass
-class MotionModelSchema(PlannedSchema):
-    """Random-walk motion (paper 2, eq 4-5). ``sigma``: per-joint step (radians); ``m``: DM2's occluded factor."""
+class MotionModelSchema:
+    """Random-walk motion over pose samples (paper 2, eq 3-5; tracker/tbf/motion.py). ``sigma``: per-joint step
+    (radians per frame); ``m``: DM2's factor for occluded parts; ``occlusion_area_px``: T_A."""
 
-    kind: str = MISSING
+    _target_: str = "tracker.tbf.motion.MotionModel"
+    kind: str = allowed(("dm1", "dm2"), default=MISSING)
     sigma: float = allowed(POSITIVE, default=0.1)
     m: float = allowed(Range(1.0, math.inf), default=1.0)
     occlusion_area_px: float = allowed(NON_NEGATIVE, default=50.0)
+    sigma_root_m: float = allowed(POSITIVE, default=0.02)
+
+
+@dataclass
+class GridSchema:
+    """The right-arm pose grid: ``[start, stop, step]`` degrees (stop included); lists for the left arm's swing
+    and the body's yaw (tracker/tbf/tracker.py GridSpec)."""
+
+    swing_deg: list[float] = allowed(ANY, each=True, length=3, default=[-60.0, 120.0, 6.0])
+    abduction_deg: list[float] = allowed(ANY, each=True, length=3, default=[0.0, 40.0, 8.0])
+    elbow_deg: list[float] = allowed(ANY, each=True, length=3, default=[0.0, 60.0, 30.0])
+    left_swing_deg: list[float] = allowed(ANY, each=True, default=[0.0, 20.0])
+    yaw_deg: list[float] = allowed(ANY, each=True, default=[-100.0, -90.0, -80.0])
+
+
+@dataclass
+class SamplesSchema:
+    grid: Optional[GridSchema] = field(default_factory=GridSchema)  # noqa: UP045 (OmegaConf needs it)
+    clips: list[str] = field(default_factory=list)
+    clip_fps: float = allowed(POSITIVE, default=10.0)
+    min_joint_deg: float = allowed(NON_NEGATIVE, default=5.0)
+
+
+@dataclass
+class FilterSchema:
+    """tracker/tbf/filter.py: eq 10's sigma in units of the cost's neighbour step, the pruning threshold (of
+    a level's best posterior), frame 0's prior width (radians)."""
+
+    likelihood_sigma: float = allowed(POSITIVE, default=1.0)
+    prune_fraction: float = allowed(Range(0.0, 1.0, high_open=True), default=0.01)
+    initial_sigma: float = allowed(POSITIVE, default=0.3)
+
+
+@dataclass
+class TbfSchema:
+    """Paper 2's silhouette tree-based filter (tracker/tbf/tracker.py); needs cost=... and motion=..."""
+
+    _target_: str = "tracker.tbf.tracker.TbfTracker.from_config"
+    samples: SamplesSchema = field(default_factory=SamplesSchema)
+    thresholds: list[float] = allowed(POSITIVE, each=True, length=3, default=[0.006, 0.002, 0.001])
+    filter: FilterSchema = field(default_factory=FilterSchema)
+    initial_yaw_deg: float = allowed(ANY, default=-90.0)
+    cache_dir: str = ".cache/tbf"
+    body_triangles: int = allowed(Range(500, 30000), default=4500)
 
 
 @dataclass
 class RecordSchema:
     images: bool = True
+    weight_maps: bool = True  # body scenes: the wXOR / nwXOR weight maps as float images (600 KB a frame)
     jpeg_quality: int = allowed(Range(0, 100), default=90)  # 0 stores RGB losslessly
 
 
@@ -306,7 +343,7 @@ GROUP_SCHEMAS: dict[str, dict[str, type]] = {
     "model": {"dsq_arm": DSQArmSchema, "body_mesh": BodyMeshSchema},
     "scene": {"arm_swing": ArmSwingSceneSchema, "bvh": BvhSceneSchema},
     "rig": {"orthogonal3": Orthogonal3Schema, "mono": MonoSchema, "body_side": MonoSchema, "body_front": MonoSchema},
-    "tracker": {"render_only": RenderOnlySchema, "abis": AbisSchema, "tbf": PlannedSchema},
+    "tracker": {"render_only": RenderOnlySchema, "abis": AbisSchema, "tbf": TbfSchema},
     "cost": {"xor": CostSchema, "wxor": CostSchema, "nwxor": CostSchema},
     "motion": {"dm1": MotionModelSchema, "dm2": MotionModelSchema},
 }
@@ -365,23 +402,31 @@ def _check_field(key: str, value: Any, metadata: dict) -> None:
 
 
 def check_config(cfg: DictConfig, choices: dict[str, str]) -> None:
-    """What composition cannot check: numeric ranges, and group options whose capability is not built yet."""
+    """What composition cannot check: numeric ranges, and which options go together (scene=bvh, tracker=tbf)."""
     run_cfg = cfg.copy()  # keeps the schema type (a masked copy would not)
     with open_dict(run_cfg):
         run_cfg.pop("hydra", None)
     check_known_keys(run_cfg)
     check_ranges(OmegaConf.to_object(run_cfg))
-    for group in GROUP_SCHEMAS:
-        node = cfg.get(group)
-        if isinstance(node, DictConfig) and node.get("_target_") == PLANNED_TARGET:
-            raise ConfigError(
-                f"{group}={choices.get(group, '?')} is planned ({node.planned_in}: {node.what}) and cannot run yet"
-            )
     if choices.get("scene") == "bvh":
         check_bvh_scene(cfg, choices)
-    if choices.get("cost") and choices.get("model") != "body_mesh":
-        raise ConfigError(f"cost={choices['cost']} compares silhouettes of the body: it needs model=body_mesh, "
-                          f"not model={choices.get('model')}")  # fmt: skip
+    check_tbf_choices(choices)
+
+
+def check_tbf_choices(choices: dict[str, str]) -> None:
+    """tracker=tbf tracks the body with a cost and a motion model; those two serve nothing else."""
+    tracker, cost, motion, model = (choices.get(k) for k in ("tracker", "cost", "motion", "model"))
+    if tracker == "tbf":
+        if model != "body_mesh":
+            raise ConfigError(f"tracker=tbf tracks the body: it needs model=body_mesh, not model={model}")
+        if not cost or not motion:
+            raise ConfigError(f"tracker=tbf needs a cost and a motion model: add{'' if cost else ' cost=nwxor'}"
+                              f"{'' if motion else ' motion=dm2'} (allowed cost=xor|wxor|nwxor, motion=dm1|dm2)")
+    else:
+        for group, option in (("cost", cost), ("motion", motion)):
+            if option:
+                raise ConfigError(f"{group}={option} serves tracker=tbf only, not tracker={tracker}: add "
+                                  f"tracker=tbf (and model=body_mesh)")  # fmt: skip
 
 
 def check_bvh_scene(cfg: DictConfig, choices: dict[str, str]) -> None:
@@ -421,8 +466,3 @@ def check_known_keys(node: Any, path: str = "") -> None:
     elif isinstance(node, ListConfig):
         for index in range(len(node)):
             check_known_keys(node._get_node(index), f"{path[:-1]}[{index}].")
-
-
-def planned(**_: Any) -> None:
-    """The `_target_` of planned options; `check_config` rejects them before anything is instantiated."""
-    raise ConfigError("this option is planned and cannot be instantiated yet")

@@ -8,6 +8,7 @@ A failure inside the loop is recorded as ``status: "failed: <reason>"`` with eve
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import signal
 import sys
@@ -25,7 +26,7 @@ from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
 
 from experiments.config import check_config
-from experiments.outputs import accuracy, frame_rows, silhouette_quality
+from experiments.outputs import accuracy, body_tracking, frame_rows, silhouette_quality
 from experiments.recording import RunRecording
 from tracker.atomic import write_json, write_parquet
 from tracker.models.body_mesh import BodyMesh
@@ -52,11 +53,14 @@ class Components:
 
 
 def build(cfg: DictConfig) -> Components:
+    # tracker=tbf takes the chosen silhouette cost and motion model (their own config groups).
+    extras = {"cost": instantiate(cfg.cost), "motion": instantiate(cfg.motion)} if cfg.get("cost") else {}
     return Components(
         model=instantiate(cfg.model, _convert_="all"),
         motion=instantiate(cfg.scene, _convert_="all"),
         cameras=instantiate(cfg.rig, _convert_="all"),
-        tracker=instantiate(cfg.tracker),
+        # (passed to the partial: instantiate would turn dataclass objects given as arguments into dicts)
+        tracker=instantiate(cfg.tracker, _convert_="all", _partial_=True)(**extras),
     )
 
 
@@ -81,6 +85,7 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
             jpeg_quality=cfg.record.jpeg_quality,
             images=cfg.record.images,
             silhouettes=silhouettes,
+            weight_maps=cfg.record.weight_maps,
         )
         nuisance = camera_nuisance(cfg)
         nuisance_rng = np.random.default_rng([cfg.seed, 2])  # the camera's own stream (1: the tracker's)
@@ -106,6 +111,7 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
                     captured = capture.step({name: view.rgb for name, view in frame.views.items()},
                                             {name: view.labels > 0 for name, view in frame.views.items()})
                     frame.timings_ms["capture"] = captured.ms
+                    frame = dataclasses.replace(frame, silhouettes=captured.silhouettes)
                 start = time.perf_counter()
                 result = tracker.step(frame)
                 estimated = time.perf_counter()
@@ -215,6 +221,7 @@ def summarize(
     if not table.empty:
         metrics["min_visible_fraction"] = min_visible_fraction(table, components.views)
         metrics.update(silhouette_quality(table))
+        metrics.update(body_tracking(table))
         metrics.update(accuracy(table))
     return metrics
 

@@ -22,6 +22,8 @@ from tracker.models.body_mesh import BodyMesh
 from tracker.models.dsq import ANGLE_NAMES, PARAM_NAMES
 from tracker.observe.silhouettes import CapturedFrame
 from tracker.sequence import FrameInput
+from tracker.tbf.evaluation import joint_error_mm, right_arm_swing_deg, score_swings
+from tracker.tbf.tracker import TbfResult
 
 PAPER_PART = 1  # paper 1's "part 2" (1-based), our index 1: the forearm
 
@@ -29,19 +31,18 @@ PAPER_PART = 1  # paper 1's "part 2" (1-based), our index 1: the forearm
 def frame_rows(frame: FrameInput, model: Any, result: object | None,
                captured: CapturedFrame | None = None) -> list[dict[str, Any]]:  # fmt: skip
     """One row per part for ``frame`` (and the tracker's ``result`` for it, if any)."""
-    timing_columns = {f"{stage}_ms": ms for stage, ms in frame.timings_ms.items()}
+    frame_columns = {f"{stage}_ms": ms for stage, ms in frame.timings_ms.items()}
     if captured is not None:
-        timing_columns.update({f"silhouette_iou_{view}": value for view, value in captured.iou.items()})
+        frame_columns.update({f"silhouette_iou_{view}": value for view, value in captured.iou.items()})
+    if isinstance(model, BodyMesh):
+        return _body_rows(frame, model, result, frame_columns)
     estimate = getattr(result, "estimate", None)
     if estimate is not None:
         true_points, estimated_points = model.sample_points(frame.truth), model.sample_points(estimate)
     rows = []
     for k, part in enumerate(model.part_names):
         row: dict[str, Any] = {"frame": frame.frame, "part": part}
-        if isinstance(model, BodyMesh):
-            row["truth_pose"] = frame.truth.tolist()
-        else:
-            row.update({f"truth_{name}": float(frame.truth[k, i]) for i, name in enumerate(PARAM_NAMES)})
+        row.update({f"truth_{name}": float(frame.truth[k, i]) for i, name in enumerate(PARAM_NAMES)})
         row.update({f"visible_px_{view}": int(pixels[k]) for view, pixels in frame.visible_px.items()})
         if estimate is not None:
             row.update({f"est_{name}": float(estimate[k, i]) for i, name in enumerate(PARAM_NAMES)})
@@ -49,8 +50,35 @@ def frame_rows(frame: FrameInput, model: Any, result: object | None,
             row["surface_error_mm"] = 1e3 * float(distance.mean())
         if isinstance(result, AbisResult):
             row.update(_abis_columns(result, k))
-        row.update(timing_columns)
+        row.update(frame_columns)
         rows.append(row)
+    return rows
+
+
+def _body_rows(frame: FrameInput, body: BodyMesh, result: object | None,
+               frame_columns: dict[str, Any]) -> list[dict[str, Any]]:  # fmt: skip
+    """The body's rows: the pose (a list) and, with a TBF estimate, its pose, joint error, right-arm angles, the
+    tree search's counts per level, the posterior entropy and the estimate's occlusion flags (eq 3)."""
+    columns = {"truth_pose": frame.truth.tolist(), "swing_truth_deg": right_arm_swing_deg(body, frame.truth),
+               **frame_columns}  # fmt: skip
+    occluded = None
+    if isinstance(result, TbfResult):
+        columns.update(est_pose=result.estimate.tolist(), swing_est_deg=right_arm_swing_deg(body, result.estimate),
+                       joint_error_mm=joint_error_mm(body, frame.truth, result.estimate),
+                       failure=result.failure or "")  # fmt: skip
+        if result.filter is not None:
+            found = result.filter
+            columns.update(est_sample=found.sample, entropy=found.entropy, prior_terms=found.prior_terms)
+            for level, (evaluated, kept) in enumerate(zip(found.nodes_evaluated, found.nodes_kept, strict=True)):
+                columns[f"nodes_level{level + 1}"], columns[f"kept_level{level + 1}"] = evaluated, kept
+            occluded = found.occluded
+    rows = []
+    for k, part in enumerate(body.part_names):
+        row = {"frame": frame.frame, "part": part}
+        row.update({f"visible_px_{view}": int(pixels[k]) for view, pixels in frame.visible_px.items()})
+        if occluded is not None:
+            row["occluded_est"] = bool(occluded[k])
+        rows.append({**row, **columns})
     return rows
 
 
@@ -74,6 +102,24 @@ def silhouette_quality(table: pd.DataFrame) -> dict[str, Any]:
     return {"silhouette_iou": {c.removeprefix("silhouette_iou_"): {"mean": float(frames[c].mean()),
                                                                   "min": float(frames[c].min())} for c in columns}
             } if columns else {}  # fmt: skip
+
+
+def body_tracking(table: pd.DataFrame) -> dict[str, Any]:
+    """A TBF run's figures: MPJPE (mm), the Fig 4(c) swing outcomes, and the tree search's mean effort."""
+    if "joint_error_mm" not in table.columns or table.empty:
+        return {}
+    frames = table.drop_duplicates("frame").sort_values("frame")
+    figures: dict[str, Any] = {
+        "mpjpe_mm": float(frames["joint_error_mm"].mean()),
+        "swings": score_swings(frames["swing_truth_deg"].to_numpy(), frames["swing_est_deg"].to_numpy()),
+        "swing_error_deg_mean": float((frames["swing_est_deg"] - frames["swing_truth_deg"]).abs().mean()),
+        "failed_frames": int((frames["failure"] != "").sum()),
+    }
+    levels = sorted(c for c in frames.columns if c.startswith("nodes_level"))
+    figures["nodes_evaluated_mean"] = [float(frames[c].mean()) for c in levels]
+    figures["pruned_fraction_mean"] = [float(1 - frames[c.replace("nodes", "kept")].sum() / frames[c].sum())
+                                       for c in levels]  # fmt: skip
+    return figures
 
 
 def accuracy(table: pd.DataFrame) -> dict[str, Any]:

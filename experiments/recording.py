@@ -17,6 +17,7 @@ import uuid
 from collections.abc import Sequence
 from pathlib import Path
 
+import cv2
 import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
@@ -25,9 +26,12 @@ from tracker.abis.correspondences import COUNT_NAMES
 from tracker.abis.tracker import FEATURE_STATES, AbisResult
 from tracker.atomic import AtomicFile
 from tracker.geometry.cameras import Camera
+from tracker.models.body_mesh import BodyMesh
 from tracker.observe.silhouettes import CapturedFrame
 from tracker.sequence import FrameInput
 from tracker.tbf.distances import weight_map
+from tracker.tbf.evaluation import right_arm_swing_deg
+from tracker.tbf.tracker import TbfResult
 
 APPLICATION_ID = "articulated-tracking"
 FEATURE_COLORS = {"tracked": (0, 220, 0), "new": (0, 160, 255), "discarded": (255, 40, 40), "unpaired": (150, 150, 150)}
@@ -38,7 +42,9 @@ def default_blueprint(view_names: Sequence[str], part_names: Sequence[str], silh
     """Views with their label overlays on top (body scenes: with the silhouette and weight maps beside them);
     the 3-D scene and the key time series below."""
     if silhouettes:
-        series = [rrb.TimeSeriesView(name="silhouette IoU", origin="metrics/silhouette_iou"),
+        series = [rrb.TimeSeriesView(name="right arm swing (deg)", origin="metrics/swing_deg"),
+                  rrb.TimeSeriesView(name="tree search", origin="metrics/tree"),
+                  rrb.TimeSeriesView(name="silhouette IoU", origin="metrics/silhouette_iou"),
                   rrb.TimeSeriesView(name="joint angles", origin="metrics/params/joints")]  # fmt: skip
         views = [rrb.Spatial2DView(name=name, origin=f"{root}/{v}{leaf}") for v in view_names for name, root, leaf in
                  ((v, "world/cameras", "/image"), (f"{v} silhouette", "capture", "/silhouette"),
@@ -78,18 +84,21 @@ class RunRecording:
         jpeg_quality: int = 90,
         images: bool = True,
         silhouettes: bool = False,
+        weight_maps: bool = True,
     ) -> None:
         self.path = Path(path)
         self.recording_id = str(uuid.uuid4())
         self.part_names = list(part_names)
         self.jpeg_quality = jpeg_quality
         self.images = images
+        self.weight_maps = weight_maps
         self._file: AtomicFile | None = AtomicFile(self.path)
         self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=self.recording_id)
         blueprint = default_blueprint([camera.name for camera in cameras], part_names, silhouettes)
         self.stream.save(self._file.temporary, default_blueprint=blueprint)
         self._log_static(cameras, part_colors)
         self._meshes_logged: set[str] = set()
+        self._last_sample: int | None = None
 
     def __enter__(self) -> RunRecording:
         return self
@@ -135,6 +144,8 @@ class RunRecording:
                 log(f"metrics/visible_px/{view}/{part}", rr.Scalars(float(pixels)))
         self._log_meshes("truth", frame.meshes)
         self._log_params("truth", model.parameter_series(frame.truth))
+        if isinstance(model, BodyMesh):
+            self.stream.log("metrics/swing_deg/truth", rr.Scalars(right_arm_swing_deg(model, frame.truth)))
 
     def log_capture(self, captured: CapturedFrame) -> None:
         """Body scenes: each view's extracted silhouette, its wXOR / nwXOR weight maps (eq 8-9 over the whole
@@ -142,14 +153,39 @@ class RunRecording:
         log = self.stream.log
         for view, silhouette in captured.silhouettes.items():
             if self.images:
-                log(f"capture/{view}/silhouette", rr.Image(silhouette.astype(np.uint8) * 255))
-                if silhouette.any():
+                png = cv2.imencode(".png", silhouette.astype(np.uint8) * 255)[1].tobytes()  # ~2 KB, lossless
+                log(f"capture/{view}/silhouette", rr.EncodedImage(contents=png, media_type="image/png"))
+                if silhouette.any() and self.weight_maps:
                     for cost in ("wxor", "nwxor"):
                         log(f"capture/{view}/weights/{cost}", rr.Image(weight_map(cost, silhouette).astype(np.float32)))
             if view in captured.iou:
                 log(f"metrics/silhouette_iou/{view}", rr.Scalars(captured.iou[view]))
 
-    def log_estimate(self, result: AbisResult, model) -> None:
+    def log_estimate(self, result, model) -> None:
+        """The tracker's estimate of a frame (call after `log_frame`)."""
+        if isinstance(result, TbfResult):
+            self._log_tbf(result, model)
+        else:
+            self._log_abis(result, model)
+
+    def _log_tbf(self, result: TbfResult, model) -> None:
+        """A TBF frame: the estimated body in 3-D, its parameters, the tree search's nodes evaluated and kept per
+        level, the posterior's entropy and the right arm's angle."""
+        log = self.stream.log
+        sample = None if result.filter is None else result.filter.sample
+        if sample is None or sample != self._last_sample:  # the estimate is a sample: log its mesh when it changes
+            self._log_meshes("estimate", model.surface_meshes(result.estimate), rgba=(255, 255, 0, 120))
+            self._last_sample = sample
+        self._log_params("estimate", model.parameter_series(result.estimate))
+        log("metrics/swing_deg/estimate", rr.Scalars(right_arm_swing_deg(model, result.estimate)))
+        if result.filter is not None:
+            for level, (evaluated, kept) in enumerate(zip(result.filter.nodes_evaluated, result.filter.nodes_kept,
+                                                          strict=True), start=1):  # fmt: skip
+                log(f"metrics/tree/level{level}/evaluated", rr.Scalars(float(evaluated)))
+                log(f"metrics/tree/level{level}/kept", rr.Scalars(float(kept)))
+            log("metrics/tree/entropy", rr.Scalars(result.filter.entropy))
+
+    def _log_abis(self, result: AbisResult, model) -> None:
         """An AbIS frame: features by state and the estimate's visible samples over each view, the estimated
         meshes in 3-D, estimated parameters, pair counts and costs as series (call after `log_frame`)."""
         log = self.stream.log
@@ -174,7 +210,8 @@ class RunRecording:
                 self.stream.log(path, rr.Mesh3D.from_fields(triangle_indices=mesh.faces, albedo_factor=colour),
                                 static=True)  # fmt: skip
                 self._meshes_logged.add(path)
-            self.stream.log(path, rr.Mesh3D.from_fields(vertex_positions=mesh.vertices, vertex_normals=mesh.normals))
+            # Positions only: the viewer shades without normals, and a 961-frame body run stays ~50 MB.
+            self.stream.log(path, rr.Mesh3D.from_fields(vertex_positions=mesh.vertices.astype(np.float32)))
 
     def _log_params(self, kind: str, series: dict[str, float]) -> None:
         """``metrics/params/<name>/<kind>`` for every named parameter."""

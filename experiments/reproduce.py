@@ -2,7 +2,11 @@
 
 Paper 1 (AbIS): the 3-part DSQ arm tracked from 3 orthogonal views with Levenberg-Marquardt and with the paper's
 steepest descent; Fig 8 and Fig 9 of the LM run in ``reports/``, each run's figures, recording and tables in
-``reports/<run>/``. Paper 2 (silhouette tree-based filtering) joins with its issues.
+``reports/<run>/``.
+
+Paper 2 (silhouette tree-based filtering): experiment A (24 right-arm swings, side-on) swept over the cost and
+the motion model (wXOR and nwXOR with DM1 and DM2, plus XOR with DM2) into ``reports/tbf_table4c/<cell>/``;
+``reports/table4c.md`` / ``.csv`` (Fig 4c) and ``reports/table6d.md`` (Fig 6d) from them (`eval.tables`).
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ import time
 from pathlib import Path
 
 from eval.figures import write_figures
+from eval.tables import collect, table_4c, write_reports
 
 REPORTS = Path("reports")
 
@@ -30,7 +35,42 @@ def run_experiment(name: str, run_name: str, *overrides: str) -> Path:
     return run_dir
 
 
+TBF_CELLS = (("cost=wxor,nwxor", "motion=dm1,dm2"), ("cost=xor", "motion=dm2"))
+
+
+def run_sweep(name: str, sweep_dir: Path, *overrides: str) -> None:
+    """A Hydra multirun of ``experiment=<name>`` into ``sweep_dir`` (one folder per job); fail if a job failed."""
+    command = [sys.executable, "-m", "experiments.run", "-m", f"experiment={name}", f"hydra.sweep.dir={sweep_dir}",
+               *overrides]  # fmt: skip
+    subprocess.run(command, check=True)
+    for metrics_path in sorted(sweep_dir.glob("*/metrics.json")):
+        status = json.loads(metrics_path.read_text())["status"]
+        if status != "ok":
+            raise SystemExit(f"{metrics_path.parent}: {status}")
+
+
+def paper_2() -> str:
+    start = time.perf_counter()
+    sweeps = [REPORTS / "tbf_table4c" / f"cells_{k}" for k in range(len(TBF_CELLS))]
+    for sweep_dir, overrides in zip(sweeps, TBF_CELLS, strict=True):
+        shutil.rmtree(sweep_dir, ignore_errors=True)
+        run_sweep("tbf_table4c", sweep_dir, *overrides)
+    runs = collect(sweeps)
+    written = write_reports(runs, REPORTS)
+    four_c = table_4c(runs)
+    rows = "\n".join(f"  {r.cost:>5} + {r.motion}: fail {r.fail}, error {r.error}, success {r.success}  "
+                     f"(paper: {r.paper_fail}, {r.paper_error}, {r.paper_success}), MPJPE {r.mpjpe_mm} mm"
+                     for r in four_c.itertuples())  # fmt: skip
+    return (f"\nPaper 2 (silhouette tree-based filtering), experiment A, {len(runs)} runs in "
+            f"{time.perf_counter() - start:.0f} s:\n{rows}\n" + "\n".join(f"  {path}" for path in written))
+
+
 def main() -> None:
+    print(paper_1())
+    print(paper_2())
+
+
+def paper_1() -> str:
     start = time.perf_counter()
     lines = []
     for optimizer in ("lm", "sd"):
@@ -47,7 +87,7 @@ def main() -> None:
         if optimizer == "lm":
             for figure in figures[1:]:
                 shutil.copyfile(figure, REPORTS / figure.name)
-    print(
+    return (
         f"\nPaper 1 (AbIS), {metrics['frames_done']} frames x 3 views, in {time.perf_counter() - start:.0f} s:\n"
         + "\n".join(lines)
         + f"\nFig 8: {REPORTS / 'fig8_part2_b1_r2.png'}\nFig 9: {REPORTS / 'fig9_part2_correspondences.png'}\n"

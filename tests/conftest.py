@@ -74,3 +74,13 @@ def abis_run(tmp_path_factory):
 def body_swing_run(tmp_path_factory):
     """A 4-frame render-only run of the body's arm swing through the real CLI (blue backdrop, nuisance)."""
     return _cli_run(tmp_path_factory, "body", "model=body_mesh", "scene=arm_swing", "frames=4")
+
+
+@pytest.fixture(scope="session")
+def tbf_run(tmp_path_factory):
+    """A 6-frame TBF run (nwXOR, DM2) of the body's arm swing on a small pose grid, through the real CLI."""
+    cache = tmp_path_factory.mktemp("tbf_cache")
+    return _cli_run(tmp_path_factory, "tbf", "model=body_mesh", "tracker=tbf", "cost=nwxor", "motion=dm2",
+                    "frames=6", f"tracker.cache_dir={cache}", "tracker.samples.grid.swing_deg=[-30,60,6]",
+                    "tracker.samples.grid.abduction_deg=[0,16,8]", "tracker.samples.grid.elbow_deg=[0,0,30]",
+                    "tracker.samples.grid.left_swing_deg=[0]", "tracker.samples.grid.yaw_deg=[-90]")  # fmt: skip

@@ -35,7 +35,8 @@ class FrameInput:
 
     truth: ``(n_parts, n_params)`` truth parameters; meshes: the truth surfaces that were rendered;
     views: rendered images keyed by camera name; visible_px: per view, ``(n_parts,)`` label pixel counts
-    (part k's count at index k); timings_ms: stage name -> milliseconds.
+    (part k's count at index k); timings_ms: stage name -> milliseconds; silhouettes: per view, the silhouette
+    background subtraction extracted from the RGB (body scenes; what `tracker=tbf` observes).
     """
 
     frame: int
@@ -44,6 +45,7 @@ class FrameInput:
     views: dict[str, RenderedView]
     visible_px: dict[str, np.ndarray]
     timings_ms: dict[str, float] = field(default_factory=dict)
+    silhouettes: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def simulate(

@@ -8,7 +8,7 @@ import pytest
 from hydra import compose, initialize_config_dir
 from hydra.utils import instantiate
 
-from experiments.config import CONFIG_DIR, GROUP_SCHEMAS, PLANNED_TARGET, ConfigError, check_config
+from experiments.config import CONFIG_DIR, GROUP_SCHEMAS, ConfigError, check_config
 from experiments.validate import sweep_combinations, validate_command_line
 from tests.conftest import MOCAP_DIR
 from tracker.abis.tracker import AbisTracker
@@ -19,6 +19,8 @@ from tracker.motion.mocap import MocapScene
 from tracker.motion.scenes import ArmSwingScene
 from tracker.sequence import RenderOnly
 from tracker.tbf.distances import COSTS, SilhouetteCost
+from tracker.tbf.motion import MotionModel
+from tracker.tbf.tracker import TbfTracker
 
 OPTIONS = sorted((p.parent.name, p.stem) for p in CONFIG_DIR.glob("*/*.yaml") if p.parent.name != "experiment")
 CLIP, SHORT_CLIP = MOCAP_DIR / "69_20.bvh", MOCAP_DIR / "143_33.bvh"
@@ -38,19 +40,20 @@ def test_every_option_file_has_a_schema_and_every_schema_a_file():
 
 @pytest.mark.parametrize("group, option", OPTIONS)
 def test_every_group_option_composes_and_instantiates(group, option):
-    needs = {("scene", "bvh"): ["model=body_mesh", f"scene.path={CLIP}"],
-             **{("cost", kind): ["model=body_mesh"] for kind in COSTS}}
+    tbf = ["model=body_mesh", "tracker=tbf"]
+    needs = {("scene", "bvh"): ["model=body_mesh", f"scene.path={CLIP}"], ("tracker", "tbf"): [*tbf, "cost=xor",
+             "motion=dm1"], **{("cost", kind): [*tbf, "motion=dm1"] for kind in COSTS},
+             **{("motion", kind): [*tbf, "cost=xor"] for kind in ("dm1", "dm2")}}  # fmt: skip
     cfg, choices = compose_run([f"{group}={option}", *needs.get((group, option), [])])
-    if cfg[group]._target_ == PLANNED_TARGET:
-        with pytest.raises(ConfigError, match=rf"^{group}={option} is planned \(issue \d"):
-            check_config(cfg, choices)
-        return
     check_config(cfg, choices)
-    built = instantiate(cfg[group], _convert_="all")
+    extras = {"cost": instantiate(cfg.cost), "motion": instantiate(cfg.motion)} if group == "tracker" and \
+        option == "tbf" else {}  # fmt: skip
+    built = instantiate(cfg[group], _convert_="all", _partial_=bool(extras))
+    built = built(**extras) if extras else built
     expected_type = {"model": {"dsq_arm": DSQArm, "body_mesh": BodyMesh}.get(option),
                      "scene": {"arm_swing": ArmSwingScene, "bvh": MocapScene}.get(option), "rig": tuple,
-                     "tracker": {"render_only": RenderOnly, "abis": AbisTracker}.get(option),
-                     "cost": SilhouetteCost}[group]  # fmt: skip
+                     "tracker": {"render_only": RenderOnly, "abis": AbisTracker, "tbf": TbfTracker}.get(option),
+                     "cost": SilhouetteCost, "motion": MotionModel}[group]  # fmt: skip
     assert isinstance(built, expected_type)
     if group == "rig":
         assert all(isinstance(camera, Camera) for camera in built)
@@ -91,22 +94,25 @@ BAD_OVERRIDES = [
      rf"^frames=1000: scene\.path={re.escape(str(SHORT_CLIP))} has 90 frames at 30 fps from scene\.start_s=0\.0; "
      r"allowed at most 90$"),  # 360 steps of .0083333 s = 2.99999 s: 89 steps of 1/30 s
     (["model=body_mesh", "model.triangles=10"], r"^model\.triangles=10 is out of range"),
-    (["cost=nwxor"], r"^cost=nwxor compares silhouettes of the body: it needs model=body_mesh, not model=dsq_arm$"),
+    (["cost=nwxor"], r"^cost=nwxor serves tracker=tbf only, not tracker=render_only: add tracker=tbf"),
+    (["tracker=tbf"], r"^tracker=tbf tracks the body: it needs model=body_mesh, not model=dsq_arm$"),
+    (["model=body_mesh", "tracker=tbf", "motion=dm1"], r"^tracker=tbf needs a cost and a motion model: add cost=nwxor"),
     (["model=body_mesh", "cost=wxor", "cost.w=-1"], r"^cost\.w=-1\.0 is out of range: allowed >= 0$"),
     (["model=body_mesh", "cost=xor", "cost.kind=and"], r"^cost\.kind='and' is not allowed: allowed xor, wxor, nwxor$"),
+    (["experiment=tbf_table4c", "tracker.thresholds=[0.1,-1,0.1]"], r"^tracker\.thresholds\[1\]=-1\.0 is out of range"),
+    (["experiment=tbf_table4c", "tracker.filter.prune_fraction=1"], r"^tracker\.filter\.prune_fraction=1\.0 is out"),
     (["model=body_mesh", "render.noise_std=-2"], r"^render\.noise_std=-2\.0 is out of range"),
     (["seed=-1"], r"^seed=-1 is out of range: allowed in \[0, 4294967295\]$"),
     (["motion=dm2", "motion.m=0.5"], r"^motion\.m=0\.5 is out of range: allowed >= 1$"),
     (["motion=dm1", "motion.sigma=-0.1"], r"^motion\.sigma=-0\.1 is out of range: allowed > 0$"),
     (["motion=dm2", "motion.occlusion_area_px=-1"], r"occlusion_area_px=-1\.0 is out of range: allowed >= 0"),
-    (["tracker=tbf"], r"^tracker=tbf is planned \(issue 5: silhouette"),
     (["tracker=abis", "tracker.fit.optimizer=newton"], r"^tracker\.fit\.optimizer='newton' is not allowed: allowed sd"),
     (["tracker=abis", "tracker.pairing_radius_px=0"], r"^tracker\.pairing_radius_px=0\.0 is out of range: allowed > 0"),
     (["tracker=abis", "tracker.fit.huber_px=-1"], r"^tracker\.fit\.huber_px=-1\.0 is out of range: allowed > 0$"),
     (["tracker=abis", "tracker.features.max_features=0"], r"max_features=0 is out of range: allowed >= 1"),
     (["model=schema_dsq_arm"], r"^model=schema_dsq_arm is a schema, not an option"),
     (["frames=["], r"^cannot parse the overrides"),
-    (["experiment=nope"], r"^experiment=nope: no such option, allowed abis_fig8_fig9, arm_scene$"),
+    (["experiment=nope"], r"^experiment=nope: no such option, allowed abis_fig8_fig9, arm_scene, tbf_table4c$"),
 ]
 
 

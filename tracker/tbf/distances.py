@@ -144,17 +144,16 @@ class SilhouetteStack:
 
 @dataclass(frozen=True)
 class SilhouetteCost:
-    """A configured distance: which one (`COSTS`), wXOR's ``w``, and eq 10's likelihood sigma."""
+    """A configured distance: which one (`COSTS`) and wXOR's ``w``."""
 
     kind: str
     w: float = 1.0
-    likelihood_sigma: float = 0.05
 
     def __post_init__(self) -> None:
         if self.kind not in COSTS:
             raise ValueError(f"kind={self.kind!r}: allowed {', '.join(COSTS)}")
-        if self.w < 0 or self.likelihood_sigma <= 0:
-            raise ValueError(f"w={self.w} must be >= 0 and likelihood_sigma={self.likelihood_sigma} > 0")
+        if self.w < 0:
+            raise ValueError(f"w={self.w} must be >= 0")
 
     def weight_map(self, observed: np.ndarray, window: Window | None = None) -> np.ndarray:
         return weight_map(self.kind, observed, window, self.w)
@@ -177,7 +176,9 @@ class ObservationScorer:
         self._constant = float(crop[inside].sum())
         self._pixels = (u1 - u0) * (v1 - v0)
 
-    def scores(self, stack: SilhouetteStack) -> np.ndarray:
+    def scores(self, stack: SilhouetteStack, rows: np.ndarray | None = None) -> np.ndarray:
+        """The distance to every silhouette of ``stack`` (or to those of ``rows``)."""
         if tuple(stack.window) != tuple(self.window):
             raise ValueError(f"the stack's window {stack.window} is not the scorer's {self.window}")
-        return (self._constant + stack.sparse @ self._slope) / self._pixels
+        matrix = stack.sparse if rows is None else stack.sparse[rows]
+        return (self._constant + matrix @ self._slope) / self._pixels

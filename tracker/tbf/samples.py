@@ -221,9 +221,10 @@ def _labels_name(resolution: tuple[int, int]) -> str:
 
 def _label_meshes(body: BodyMesh, pose: np.ndarray) -> list[SurfaceMesh]:
     vertices = body.posed_vertices(pose)
-    return [SurfaceMesh(key=f"body_{name}", label=k + 1, vertices=vertices, faces=faces, normals=None,
+    return [SurfaceMesh(key=f"body_{name}", label=k + 1, vertices=vertices[used], faces=faces, normals=None,
                         color=(255, 255, 255))
-            for k, (name, faces) in enumerate(zip(PART_NAMES, body.part_faces, strict=True)) if len(faces)]  # fmt: skip
+            for k, (name, (used, faces)) in enumerate(zip(PART_NAMES, body.part_topology, strict=True))
+            if len(faces)]  # fmt: skip
 
 
 def _window(body: BodyMesh, poses: np.ndarray, camera: Camera, align: int) -> Window:

@@ -1,0 +1,130 @@
+"""Tables from run directories: ``python -m eval.tables <sweep or run dir> [...] [--out reports]``.
+
+Every ``metrics.json`` under the given directories becomes one row keyed by its Hydra choices. TBF runs of
+paper 2's experiment A give the Fig 4(c) table (Fail / Error / Success per cost and motion model, next to the
+paper's counts, plus MPJPE) as ``table4c.md`` / ``table4c.csv``, and the Fig 6(d) table (capture, estimation and
+total ms per frame: min / max / average over every frame of those runs, next to the paper's PC and Cell columns)
+as ``table6d.md``. Both name the machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+from pathlib import Path
+
+import pandas as pd
+
+from tracker.atomic import atomic_path
+
+# Fig 4(c) of paper 2: swings out of 24 (fail, error, success).
+PAPER_4C = {("wxor", "dm1"): (24, 0, 0), ("wxor", "dm2"): (24, 0, 0), ("nwxor", "dm1"): (7, 7, 10),
+            ("nwxor", "dm2"): (0, 10, 14)}  # fmt: skip
+# Fig 6(d): ms per frame (min, max, average).
+PAPER_6D = {"PC (2x Opteron 280, 4 cores)": {"capture": (21, 29, 22), "estimation": (21, 236, 104),
+                                              "total": (43, 261, 127)},
+            "Cell (3.2 GHz, 7 SPE)": {"capture": (20, 53, 23), "estimation": (17, 169, 62),
+                                      "total": (39, 202, 86)}}  # fmt: skip
+
+
+def collect(directories: list[Path]) -> pd.DataFrame:
+    """One row per run: its choices, status and the TBF figures (swing counts, MPJPE)."""
+    rows = []
+    for directory in directories:
+        for path in sorted(Path(directory).rglob("metrics.json")):
+            metrics = json.loads(path.read_text())
+            swings = metrics.get("swings", {})
+            rows.append({**metrics.get("choices", {}), "seed": metrics.get("seed"), "status": metrics.get("status"),
+                         "frames": metrics.get("frames_done"), "fail": swings.get("fail"),
+                         "error": swings.get("error"), "success": swings.get("success"),
+                         "mpjpe_mm": metrics.get("mpjpe_mm"), "run": str(path.parent)})  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def table_4c(runs: pd.DataFrame) -> pd.DataFrame:
+    tbf = runs[runs.get("tracker") == "tbf"] if "tracker" in runs else runs.iloc[:0]
+    order = {"xor": 0, "wxor": 1, "nwxor": 2, "dm1": 0, "dm2": 1}
+    rows = []
+    for _, run in tbf.sort_values(["cost", "motion"], key=lambda c: c.map(order)).iterrows():
+        paper = PAPER_4C.get((run["cost"], run["motion"]))
+        rows.append({"cost": run["cost"], "motion": run["motion"], "fail": run["fail"], "error": run["error"],
+                     "success": run["success"], "mpjpe_mm": round(float(run["mpjpe_mm"]), 1),
+                     "paper_fail": paper[0] if paper else None, "paper_error": paper[1] if paper else None,
+                     "paper_success": paper[2] if paper else None})  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def table_6d(runs: pd.DataFrame) -> pd.DataFrame:
+    """Capture, estimation and total ms per frame over every frame of the TBF runs."""
+    frames = []
+    for run in runs.loc[runs.get("tracker") == "tbf", "run"] if "tracker" in runs else []:
+        table = pd.read_parquet(Path(run) / "frames.parquet").drop_duplicates("frame")
+        frames.append(table[["capture_ms", "estimate_ms"]])
+    if not frames:
+        return pd.DataFrame()
+    every = pd.concat(frames)
+    every["total_ms"] = every["capture_ms"] + every["estimate_ms"]
+    rows = []
+    for name, column in (("capture", "capture_ms"), ("estimation", "estimate_ms"), ("total", "total_ms")):
+        values = every[column]
+        rows.append({"stage": name, "min": values.min(), "max": values.max(), "avg": values.mean(),
+                     **{f"{machine} {stat}": figures[name][k] for machine, figures in PAPER_6D.items()
+                        for k, stat in enumerate(("min", "max", "avg"))}})  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def machine() -> str:
+    return f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}"
+
+
+def write_reports(runs: pd.DataFrame, out: Path) -> list[Path]:
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    four_c = table_4c(runs)
+    if not four_c.empty:
+        with atomic_path(out / "table4c.csv") as temporary:
+            four_c.to_csv(temporary, index=False)
+        text = ("# Fig 4(c): right-arm swings tracked (of the swings in each run)\n\n"
+                f"Machine: {machine()}. Swings are scored by the rule of `tracker/tbf/evaluation.py` "
+                "(the paper counted by eye).\n\n" + _markdown(four_c) + "\n")  # fmt: skip
+        with atomic_path(out / "table4c.md") as temporary:
+            temporary.write_text(text)
+        written += [out / "table4c.md", out / "table4c.csv"]
+    six_d = table_6d(runs)
+    if not six_d.empty:
+        text = ("# Fig 6(d): processing time (ms per frame)\n\n"
+                f"Ours: {machine()}, over every frame of the TBF runs (capture = silhouette extraction at "
+                "320x240; estimation = the tree-based filter). The paper's columns are its own machines.\n\n"
+                + _markdown(six_d.round(2)) + "\n")  # fmt: skip
+        with atomic_path(out / "table6d.md") as temporary:
+            temporary.write_text(text)
+        written.append(out / "table6d.md")
+    return written
+
+
+def _markdown(table: pd.DataFrame) -> str:
+    header = "| " + " | ".join(map(str, table.columns)) + " |"
+    rule = "|" + "---|" * len(table.columns)
+    lines = ["| " + " | ".join("" if pd.isna(v) else str(v) for v in row) + " |" for row in table.itertuples(False)]
+    return "\n".join([header, rule, *lines])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("directories", nargs="+", type=Path)
+    parser.add_argument("--out", type=Path, default=Path("reports"))
+    args = parser.parse_args()
+    runs = collect(args.directories)
+    if runs.empty:
+        raise SystemExit(f"no metrics.json under {', '.join(map(str, args.directories))}")
+    four_c = table_4c(runs)
+    if not four_c.empty:
+        print(_markdown(four_c))
+    for path in write_reports(runs, args.out):
+        print(f"wrote {path}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,131 @@
+import numpy as np
+import pytest
+
+from tracker.geometry.rigs import mono
+from tracker.models.body_mesh import JOINT_INDEX, PART_NAMES
+from tracker.tbf.distances import COSTS, SilhouetteCost, silhouette_distance
+from tracker.tbf.evaluation import OUTCOMES, right_arm_swing_deg, score_swing, score_swings, split_swings
+from tracker.tbf.filter import FilterSettings, TreeFilter
+from tracker.tbf.motion import MotionModel, PosePrior
+from tracker.tbf.pose_sets import arm_grid
+from tracker.tbf.samples import load_or_build
+from tracker.tbf.tree import build_tree
+
+CAMERA = mono(position=(4.0, 0.0, 0.9), target=(0.0, 0.0, 0.9), focal_px=480.0, width=320, height=240)[0]
+THRESHOLDS = (0.006, 0.002, 0.001)
+
+
+@pytest.fixture(scope="module")
+def samples(body, tmp_path_factory):
+    poses = arm_grid(body, np.arange(-60.0, 121.0, 6.0), [0.0, 16.0], [0.0, 40.0])  # 124 poses
+    return load_or_build(body, CAMERA, poses, tmp_path_factory.mktemp("samples"), progress=False)
+
+
+@pytest.fixture(scope="module")
+def tree(samples):
+    return build_tree(samples, THRESHOLDS)
+
+
+def xor(samples, resolution, a, b):
+    masks = np.asarray(samples.silhouettes(resolution).masks)
+    return np.count_nonzero(masks[a] ^ masks[b]) / masks[a].size
+
+
+def test_every_sample_is_in_exactly_one_leaf_and_nodes_nest(samples, tree):
+    leaves = tree.levels[-1]
+    assert leaves.node_of_sample.shape == (len(samples),) and leaves.node_of_sample.max() == len(leaves) - 1
+    assert sorted(np.concatenate([tree.leaf_members([leaf]) for leaf in range(len(leaves))])) == list(
+        range(len(samples)))
+    for above, below in zip(tree.levels, tree.levels[1:], strict=False):
+        # a sample's node below is a child of its node above
+        np.testing.assert_array_equal(below.parents[below.node_of_sample], above.node_of_sample)
+    assert tree.node_counts[0] < tree.node_counts[1] <= tree.node_counts[2] <= len(samples)
+
+
+def test_representatives_are_members_and_the_thresholds_hold(samples, tree):
+    parents = np.zeros(len(samples), dtype=int)
+    for level in tree.levels:
+        np.testing.assert_array_equal(level.node_of_sample[level.representatives], np.arange(len(level)))
+        for parent in np.unique(parents):
+            seeds = level.seeds[level.parents == parent]
+            members = np.flatnonzero(parents == parent)
+            for k, a in enumerate(seeds):  # step 2: each seed was farther than T_l from the earlier ones
+                assert all(xor(samples, level.resolution, a, b) > level.threshold for b in seeds[:k])
+            for member in members:  # and it stopped when every member was within T_l of a seed
+                assert min(xor(samples, level.resolution, member, s) for s in seeds) <= level.threshold
+        parents = level.node_of_sample
+
+
+def test_level_scoring_equals_scoring_each_node(samples, tree):
+    level = tree.levels[1]
+    stack = samples.silhouettes(level.resolution)
+    u0, v0, u1, v1 = stack.window
+    observed = np.zeros((120, 160), bool)
+    observed[v0:v1, u0:u1] = stack.masks[17]
+    for cost in COSTS:
+        scorer = SilhouetteCost(cost).scorer(observed, stack.window)
+        vectorised = scorer.scores(stack, level.representatives)
+        one_by_one = []
+        for rep in level.representatives:
+            model = np.zeros_like(observed)
+            model[v0:v1, u0:u1] = stack.masks[rep]
+            one_by_one.append(silhouette_distance(cost, observed, model, stack.window))
+        np.testing.assert_allclose(vectorised, one_by_one, rtol=1e-9, atol=1e-15)
+
+
+def test_dm2_widens_exactly_the_occluded_parts():
+    occluded = np.zeros(len(PART_NAMES), bool)
+    occluded[PART_NAMES.index("right_upper_arm")] = True
+    occluded[PART_NAMES.index("left_hand")] = True
+    dm1, dm2 = MotionModel("dm1", sigma=0.1, m=5.0), MotionModel("dm2", sigma=0.1, m=5.0)
+    np.testing.assert_array_equal(dm1.sigmas(occluded), dm1.base_sigmas())
+    widened = np.flatnonzero(dm2.sigmas(occluded) != dm1.base_sigmas())
+    joints = ["RightArm", "LeftHand", "LeftFingerBase", "LeftHandIndex1", "LThumb"]
+    expected = sorted(3 + 3 * JOINT_INDEX[j] + axis for j in joints for axis in range(3))
+    np.testing.assert_array_equal(widened, expected)
+    np.testing.assert_allclose(dm2.sigmas(occluded)[widened], 0.5)
+
+
+def test_the_sparse_prior_matches_the_dense_sum(samples):
+    rng = np.random.default_rng(0)
+    posterior = np.zeros(len(samples))
+    posterior[rng.choice(len(samples), 6, replace=False)] = rng.random(6)
+    occluded = np.zeros(len(PART_NAMES), bool)
+    occluded[PART_NAMES.index("right_upper_arm")] = True
+    for kind in ("dm1", "dm2"):
+        prior = PosePrior(samples.poses, MotionModel(kind, sigma=0.15, m=5.0), reach=5.0)
+        sparse, _ = prior.prior(posterior, occluded)
+        dense = prior.dense_prior(posterior, occluded)
+        np.testing.assert_allclose(sparse, dense, atol=4e-6 * dense.max())
+
+
+def test_the_filter_recovers_a_held_samples_pose_from_its_own_silhouette(body, samples, tree):
+    held = 72  # swing 48 degrees forward, abduction 0, elbow 0: the arm in full view
+    stack = samples.silhouettes((320, 240))
+    u0, v0, u1, v1 = stack.window
+    observed = np.zeros((240, 320), bool)
+    observed[v0:v1, u0:u1] = stack.masks[held]
+    # A flat prior and a sharp likelihood: the silhouette alone decides.
+    settings = FilterSettings(initial_sigma=100.0, likelihood_sigma=0.25, prune_fraction=1e-6)
+    for cost in COSTS:
+        tracker = TreeFilter(samples, tree, SilhouetteCost(cost), MotionModel("dm2"), settings)
+        tracker.start(samples.poses[0])
+        result = tracker.step(observed)
+        # Eq 13: a leaf's members share its likelihood, so the estimate is a member of the held sample's leaf.
+        leaf_of = tree.levels[-1].node_of_sample
+        assert leaf_of[result.sample] == leaf_of[held], cost
+        assert right_arm_swing_deg(body, result.pose) == pytest.approx(right_arm_swing_deg(body, samples.poses[held]),
+                                                                       abs=6.5)  # fmt: skip
+
+
+def test_swing_scoring_on_hand_made_traces():
+    frames = np.arange(81)
+    truth = 40 * np.sin(2 * np.pi * frames / 40)  # two swings from the vertical, forward first
+    assert [(s.start, s.stop) for s in split_swings(truth)] == [(0, 40), (40, 80)]
+    assert score_swing(truth[:40], truth[:40] + 5) == "success"
+    assert score_swing(truth[:40], truth[:40] * 1.8) == "error"  # followed, 32 degrees off at the peaks
+    assert score_swing(truth[:40], np.zeros(40)) == "fail"  # never moved
+    assert score_swing(truth[:40], -truth[:40]) == "fail"  # the wrong way
+    assert score_swing(truth[:40], np.minimum(truth[:40], 5)) == "fail"  # never came forward
+    counts = score_swings(truth, np.r_[truth[:40] + 5, np.zeros(41)])
+    assert counts == {"fail": 1, "error": 0, "success": 1} and tuple(counts) == OUTCOMES

@@ -1,0 +1,86 @@
+"""How paper 2's estimates are judged: swing by swing (Fig 4c, by a fixed rule instead of by eye) and by MPJPE.
+
+Right-arm angle: the upper arm's (shoulder -> elbow) elevation in the body's sagittal plane, degrees from hanging
+straight down, + in front of the body (`right_arm_swing_deg`).
+
+Swings: the truth's angle trace is cut where it crosses 0 upwards (the arm passes the vertical moving forward);
+each complete cycle between two such crossings is one swing (`split_swings`). Per swing, with the estimate's
+angle trace over the same frames (`score_swing`):
+    Fail     the estimate did not follow: its range covers less than ``follow_fraction`` of the truth's on either
+             side of the vertical (forward peak, backward trough), or its trace does not go the same way
+             (correlation with the truth below ``min_correlation``);
+    Error    it followed, but the largest error over the swing exceeds ``max_error_deg``;
+    Success  it followed, with every frame within ``max_error_deg``.
+
+MPJPE: the mean over frames of the mean distance (mm) between estimated and true positions of the 15
+HumanEva-style joints (`MPJPE_JOINTS`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from tracker.geometry.rotations import rotation_vectors_to_matrices
+from tracker.models.body_mesh import JOINT_INDEX, BodyMesh
+
+OUTCOMES = ("fail", "error", "success")
+_VERTICAL_TOLERANCE_DEG = 1e-6
+# Head, thorax (neck), pelvis, shoulders, elbows, wrists, hips, knees, ankles.
+MPJPE_JOINTS = ("Head", "Neck", "Hips", "LeftArm", "RightArm", "LeftForeArm", "RightForeArm", "LeftHand",
+                "RightHand", "LeftUpLeg", "RightUpLeg", "LeftLeg", "RightLeg", "LeftFoot", "RightFoot")  # fmt: skip
+
+
+@dataclass(frozen=True)
+class SwingRule:
+    max_error_deg: float = 20.0
+    follow_fraction: float = 0.5
+    min_correlation: float = 0.5
+
+
+def right_arm_swing_deg(body: BodyMesh, pose: np.ndarray) -> float:
+    """The right upper arm's elevation in the body's sagittal plane (degrees; 0 hanging, + forward)."""
+    heads = body.joint_positions(pose)
+    upper = heads[JOINT_INDEX["RightForeArm"]] - heads[JOINT_INDEX["RightArm"]]
+    # The body's own axes: forward is its -y, up its z, as turned by the root joint's rotation.
+    root = rotation_vectors_to_matrices(pose[3:6])[0]
+    forward, up = root @ np.array([0.0, -1.0, 0.0]), root @ np.array([0.0, 0.0, 1.0])
+    return float(np.degrees(np.arctan2(upper @ forward, -(upper @ up))))
+
+
+def split_swings(truth_deg: np.ndarray) -> list[slice]:
+    """Frame ranges of the complete swings in a truth angle trace (see the module docstring)."""
+    truth_deg = np.asarray(truth_deg, dtype=np.float64)
+    at_or_above = truth_deg >= -_VERTICAL_TOLERANCE_DEG  # float noise at the vertical counts as on it
+    starts = np.flatnonzero(at_or_above[1:] & ~at_or_above[:-1]) + 1
+    if len(truth_deg) and at_or_above[0] and (len(truth_deg) < 2 or truth_deg[1] > truth_deg[0]):
+        starts = np.r_[0, starts]  # the trace starts at the vertical moving forward
+    return [slice(int(a), int(b)) for a, b in zip(starts[:-1], starts[1:], strict=True)]
+
+
+def score_swing(truth_deg: np.ndarray, estimate_deg: np.ndarray, rule: SwingRule = SwingRule()) -> str:
+    truth_deg, estimate_deg = np.asarray(truth_deg, float), np.asarray(estimate_deg, float)
+    forward, backward = truth_deg.max(), truth_deg.min()
+    reaches = (estimate_deg.max() >= rule.follow_fraction * forward
+               and estimate_deg.min() <= rule.follow_fraction * backward)
+    spread = np.std(estimate_deg) > 0 and np.std(truth_deg) > 0
+    correlation = float(np.corrcoef(truth_deg, estimate_deg)[0, 1]) if spread else 0.0
+    if not (reaches and correlation >= rule.min_correlation):
+        return "fail"
+    return "success" if np.abs(estimate_deg - truth_deg).max() <= rule.max_error_deg else "error"
+
+
+def score_swings(truth_deg: np.ndarray, estimate_deg: np.ndarray, rule: SwingRule = SwingRule()) -> dict[str, int]:
+    """Counts of `OUTCOMES` over the complete swings of the truth trace."""
+    counts = dict.fromkeys(OUTCOMES, 0)
+    for swing in split_swings(truth_deg):
+        counts[score_swing(truth_deg[swing], np.asarray(estimate_deg)[swing], rule)] += 1
+    return counts
+
+
+def joint_error_mm(body: BodyMesh, truth: np.ndarray, estimate: np.ndarray) -> float:
+    """Mean distance (mm) between the estimated and true positions of `MPJPE_JOINTS` in one frame."""
+    joints = [JOINT_INDEX[name] for name in MPJPE_JOINTS]
+    difference = body.joint_positions(estimate)[joints] - body.joint_positions(truth)[joints]
+    return float(1e3 * np.linalg.norm(difference, axis=1).mean())

@@ -1,0 +1,176 @@
+"""Silhouette tree-based filtering (paper 2, sections 5.3 and 6).
+
+Per frame, given the observed silhouette P_o:
+    prior     eq 14 at every sample from the previous posterior (`PosePrior`, sparse), occlusion flags of the
+              previous estimate widening the occluded parts' sigmas (DM2);
+    levels    from the top: the nodes under the surviving nodes of the level above are scored by their
+              representative's silhouette distance at the level's resolution (the observation's weight map is
+              computed once per level, so all of them take one sparse matrix-vector product); a node's posterior
+              is ``exp(-d^2 / 2 sigma_l^2)`` (eq 10-11, vol(S) constant) times its members' prior mass; nodes
+              below ``prune_fraction`` of the level's best are pruned;
+    leaves    each member sample of a surviving leaf gets ``p(z | leaf) * prior(sample)`` (eq 12-13); the best
+              sample is the estimate, and the normalised values are the next frame's posterior.
+Frame 0's prior is a Gaussian around the initial pose (`TreeFilter.start`).
+
+Eq 10's sigma: the three costs measure on different scales (XOR a fraction of the window, wXOR pixels of depth,
+nwXOR in between) and each level has its own resolution, so sigma_l is ``likelihood_sigma`` times the cost's
+typical step between neighbouring samples at level l: the median, over `CALIBRATION_SAMPLES` samples taken as
+observations, of the distance to their nearest other sample (`neighbour_scale`). One ``likelihood_sigma`` then
+serves every cost and motion model.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from tracker.observe.silhouettes import resize_silhouette
+from tracker.tbf.distances import SilhouetteCost
+from tracker.tbf.motion import MotionModel, PosePrior
+from tracker.tbf.samples import PoseSampleSet
+from tracker.tbf.tree import PoseTree
+
+CALIBRATION_SAMPLES = 200
+
+
+@dataclass(frozen=True)
+class FilterSettings:
+    likelihood_sigma: float = 1.0  # eq 10's sigma, in units of the cost's neighbour step at each level
+    prune_fraction: float = 0.01  # keep a node whose posterior is at least this fraction of its level's best
+    initial_sigma: float = 0.3  # frame 0's prior: N(initial pose, this sigma on every joint component)
+
+    def __post_init__(self) -> None:
+        if self.likelihood_sigma <= 0 or not 0 <= self.prune_fraction < 1 or self.initial_sigma <= 0:
+            raise ValueError(f"FilterSettings needs likelihood_sigma > 0, 0 <= prune_fraction < 1 and "
+                             f"initial_sigma > 0, got {self}")  # fmt: skip
+
+
+def neighbour_scale(samples: PoseSampleSet, cost: SilhouetteCost, resolution: tuple[int, int],
+                    count: int = CALIBRATION_SAMPLES) -> float:  # fmt: skip
+    """The median distance (with ``cost``, at ``resolution``) from a sample's silhouette, taken as the
+    observation, to the nearest other sample's; over ``count`` samples picked evenly through the set."""
+    stack = samples.silhouettes(resolution)
+    u0, v0, u1, v1 = stack.window
+    full = np.zeros((v1, u1), bool)
+    nearest = []
+    for index in np.unique(np.linspace(0, len(samples) - 1, min(count, len(samples))).astype(int)):
+        full[v0:v1, u0:u1] = stack.masks[index]
+        if not full.any():
+            continue
+        distances = cost.scorer(full, stack.window).scores(stack)
+        distances[index] = np.inf
+        distances[distances == 0] = np.inf  # identical silhouettes are no step
+        if np.isfinite(distances).any():
+            nearest.append(distances.min())
+    if not nearest:
+        raise ValueError("no two samples' silhouettes differ: the sample set cannot be told apart")
+    return float(np.median(nearest))
+
+
+@dataclass(frozen=True, eq=False)
+class FilterResult:
+    sample: int  # index of the estimated sample
+    pose: np.ndarray  # its pose vector
+    occluded: np.ndarray  # (parts,) eq 3's flags of the estimate
+    nodes_evaluated: list[int]  # per level
+    nodes_kept: list[int]  # per level, after pruning
+    prior_terms: int  # kernel evaluations of eq 14
+    entropy: float  # of the posterior over samples (nats)
+    timings_ms: dict[str, float]
+
+    @property
+    def pruned_fraction(self) -> list[float]:
+        return [1 - kept / evaluated if evaluated else 0.0 for kept, evaluated in
+                zip(self.nodes_kept, self.nodes_evaluated, strict=True)]  # fmt: skip
+
+
+class TreeFilter:
+    def __init__(self, samples: PoseSampleSet, tree: PoseTree, cost: SilhouetteCost, motion: MotionModel,
+                 settings: FilterSettings = FilterSettings()) -> None:  # fmt: skip
+        self.samples, self.tree, self.cost, self.motion, self.settings = samples, tree, cost, motion, settings
+        self._prior = PosePrior(samples.poses, motion)
+        self._stacks = [samples.silhouettes(level.resolution) for level in tree.levels]
+        self._occluded = samples.occluded(motion.occlusion_area_px)
+        self.level_sigmas = [settings.likelihood_sigma * neighbour_scale(samples, cost, level.resolution)
+                             for level in tree.levels]  # fmt: skip
+        self._posterior: np.ndarray | None = None
+        self._previous_flags: np.ndarray | None = None
+
+    def start(self, initial_pose: np.ndarray) -> None:
+        """Frame 0's prior: a Gaussian around ``initial_pose`` (the paper: upright, facing the camera)."""
+        sigmas = self.motion.base_sigmas() / self.motion.sigma * self.settings.initial_sigma
+        z = (np.asarray(self.samples.poses) - initial_pose) / sigmas
+        log_prior = -0.5 * np.einsum("nk,nk->n", z, z)
+        posterior = np.exp(log_prior - log_prior.max())
+        posterior[posterior < 1e-12] = 0.0
+        self._posterior = posterior / posterior.sum()
+        self._previous_flags = self._occluded[int(np.argmax(posterior))]
+        self._first = True
+
+    def step(self, observed: np.ndarray) -> FilterResult:
+        """One frame: ``observed`` is the ``(h, w)`` bool silhouette at the finest level's resolution."""
+        timings: dict[str, float] = {}
+        start = time.perf_counter()
+        if self._first:  # frame 0's prior is the initial Gaussian itself
+            prior, terms = self._posterior.copy(), 0
+            self._first = False
+        else:
+            prior, terms = self._prior.prior(self._posterior, self._previous_flags)
+        timings["prior"] = _ms(start)
+        levels = self.tree.levels
+        survivors = np.array([0])
+        evaluated, kept = [], []
+        node_likelihood = None
+        for k, level in enumerate(levels):
+            start = time.perf_counter()
+            nodes = level.children_of(survivors) if k > 0 else np.arange(len(level))
+            mass = np.bincount(level.node_of_sample, weights=prior, minlength=len(level))[nodes]
+            nodes, mass = nodes[mass > 0], mass[mass > 0]
+            if len(nodes) == 0:
+                raise RuntimeError("the prior gives no sample any weight")
+            observation = observed
+            if observed.shape[::-1] != tuple(level.resolution):
+                observation = resize_silhouette(observed, *level.resolution)
+            distances = self._score(k, observation, level.representatives[nodes])
+            log_likelihood = -0.5 * (distances / self.level_sigmas[k]) ** 2
+            log_posterior = log_likelihood + np.log(mass)
+            keep = log_posterior >= log_posterior.max() + np.log(max(self.settings.prune_fraction, 1e-300))
+            evaluated.append(len(nodes))
+            kept.append(int(keep.sum()))
+            survivors, node_likelihood = nodes[keep], log_likelihood[keep]
+            timings[f"level{k + 1}"] = _ms(start)
+        start = time.perf_counter()
+        members = self.tree.leaf_members(survivors)
+        leaf_of = levels[-1].node_of_sample[members]
+        likelihood_of_leaf = dict(zip(survivors.tolist(), node_likelihood.tolist(), strict=True))
+        log_posterior = np.array([likelihood_of_leaf[leaf] for leaf in leaf_of.tolist()]) + np.log(
+            np.maximum(prior[members], 1e-300))  # fmt: skip
+        weights = np.exp(log_posterior - log_posterior.max())
+        weights[prior[members] <= 0] = 0.0
+        posterior = np.zeros(len(prior))
+        posterior[members] = weights / weights.sum()
+        best = int(members[np.argmax(weights)])
+        self._posterior = posterior
+        self._previous_flags = self._occluded[best]
+        nonzero = posterior[posterior > 0]
+        timings["leaves"] = _ms(start)
+        return FilterResult(
+            sample=best,
+            pose=np.asarray(self.samples.poses[best]).copy(),
+            occluded=self._occluded[best].copy(),
+            nodes_evaluated=evaluated,
+            nodes_kept=kept,
+            prior_terms=terms,
+            entropy=float(-(nonzero * np.log(nonzero)).sum()),
+            timings_ms=timings,
+        )
+
+    def _score(self, level: int, observation: np.ndarray, representatives: np.ndarray) -> np.ndarray:
+        stack = self._stacks[level]
+        return self.cost.scorer(observation, stack.window).scores(stack, representatives)
+
+
+def _ms(start: float) -> float:
+    return 1e3 * (time.perf_counter() - start)

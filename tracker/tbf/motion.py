@@ -1,0 +1,90 @@
+"""Paper 2's motion models over pose samples (section 4, eq 3-5) and the prior they give (eq 14).
+
+DM1: ``p(x_t | x_{t-1}) = N(x_{t-1}, Sigma)``, ``Sigma = diag(sigma_j^2)``: a random walk with ``sigma`` (radians)
+on every joint rotation component and ``sigma_root_m`` on the root position. DM2: the same with ``sigma_j * m``
+for the joints of the parts flagged occluded (eq 3: area below T_A) in the previous estimate.
+
+The prior of eq 14, ``p(x^n | z_1:t-1) = sum_i N(x^n; x^i, Sigma) p(x^i | z_1:t-1)``, is a dense N x N sum at N
+samples. `sparse_prior` evaluates it only where it matters: for the previous posterior's support (samples above a
+tiny fraction of its mass) and, for each, the samples within ``reach`` standard deviations (a KD-tree query in
+pose space scaled by the base sigmas; DM2's wider joints are covered by querying ``m`` times as far and keeping
+what lies within ``reach`` in the widened metric). Terms beyond ``reach`` sigmas weigh less than
+``exp(-reach^2 / 2)`` each (reach 4: 3e-4).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from tracker.models.body_mesh import JOINT_INDEX, PART_BONES, POSE_SIZE
+
+MOTION_KINDS = ("dm1", "dm2")
+
+
+@dataclass(frozen=True)
+class MotionModel:
+    kind: str = "dm2"
+    sigma: float = 0.1  # radians per frame, every joint rotation component
+    m: float = 5.0  # DM2's factor for occluded parts (>= 1)
+    occlusion_area_px: float = 50.0  # T_A (eq 3), pixels at the finest resolution
+    sigma_root_m: float = 0.02  # metres per frame, the root position
+
+    def __post_init__(self) -> None:
+        if self.kind not in MOTION_KINDS:
+            raise ValueError(f"kind={self.kind!r}: allowed {', '.join(MOTION_KINDS)}")
+        if self.sigma <= 0 or self.sigma_root_m <= 0 or self.m < 1 or self.occlusion_area_px < 0:
+            raise ValueError(f"MotionModel needs sigma > 0, sigma_root_m > 0, m >= 1, T_A >= 0; got {self}")
+
+    def base_sigmas(self) -> np.ndarray:
+        """``(POSE_SIZE,)`` the DM1 standard deviation of each pose component."""
+        sigmas = np.full(POSE_SIZE, self.sigma)
+        sigmas[:3] = self.sigma_root_m
+        return sigmas
+
+    def sigmas(self, occluded_parts: np.ndarray) -> np.ndarray:
+        """``(POSE_SIZE,)`` eq 5's sigma' given the previous estimate's occlusion flags ``(parts,)`` (DM1 ignores
+        them)."""
+        sigmas = self.base_sigmas()
+        if self.kind == "dm2":
+            for part, bones in enumerate(PART_BONES.values()):
+                if occluded_parts[part]:
+                    for bone in bones:
+                        start = 3 + 3 * JOINT_INDEX[bone]
+                        sigmas[start : start + 3] *= self.m
+        return sigmas
+
+
+class PosePrior:
+    """Eq 14 over a fixed sample set, sparse (see the module docstring)."""
+
+    def __init__(self, poses: np.ndarray, motion: MotionModel, reach: float = 4.0, support_mass: float = 1e-6):
+        self.poses = np.asarray(poses, dtype=np.float64)
+        self.motion, self.reach, self.support_mass = motion, reach, support_mass
+        self._base = motion.base_sigmas()
+        self._tree = cKDTree(self.poses / self._base)
+
+    def prior(self, posterior: np.ndarray, occluded_parts: np.ndarray) -> tuple[np.ndarray, int]:
+        """``(N,)`` unnormalised eq 14 at every sample (0 where beyond reach) and the number of kernel terms
+        evaluated."""
+        sigmas = self.motion.sigmas(occluded_parts)
+        widest = float((sigmas / self._base).max())
+        support = np.flatnonzero(posterior > self.support_mass * posterior.sum())
+        result = np.zeros(len(self.poses))
+        neighbours = self._tree.query_ball_point(self.poses[support] / self._base, r=self.reach * widest)
+        terms = 0
+        for source, near in zip(support, neighbours, strict=True):
+            near = np.asarray(near, dtype=np.int64)
+            z = (self.poses[near] - self.poses[source]) / sigmas
+            squared = np.einsum("nk,nk->n", z, z)
+            keep = squared <= self.reach**2
+            result[near[keep]] += posterior[source] * np.exp(-0.5 * squared[keep])
+            terms += len(near)
+        return result, terms
+
+    def dense_prior(self, posterior: np.ndarray, occluded_parts: np.ndarray) -> np.ndarray:
+        """The same sum over every pair (the naive N x N reference; small sets only)."""
+        z = (self.poses[:, None] - self.poses[None]) / self.motion.sigmas(occluded_parts)
+        return np.exp(-0.5 * np.einsum("nik,nik->ni", z, z)) @ posterior

@@ -1,0 +1,173 @@
+"""The pose tree of paper 2 (section 3): pose samples grouped level by level by silhouette distance.
+
+Level 0 is one node holding every sample. A node S of level l-1 is split at level l (`_split`):
+    1. its first representative is the member nearest the members' mean pose;
+    2. while some member is farther than T_l from every representative, the one of those with the largest mean
+       distance to the representatives becomes one too;
+    3. every other member joins its nearest representative's node;
+    4. each node's representative is re-picked as its member nearest the node's mean pose.
+Distances at level l are XOR distances (eq 6, over the sample set's window) between the samples' silhouettes at
+the level's resolution (`LEVEL_RESOLUTIONS`: coarse at the top). XOR is symmetric, so the tree is one for every
+cost. Poses are compared by their pose vectors (`tracker.models.body_mesh`) for "mean" and "nearest".
+
+A `PoseTree` keeps, per level, each node's representative sample and parent node, and each sample's node; the
+leaves are the last level's nodes and every sample is in exactly one of them.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from tracker.atomic import atomic_path
+from tracker.tbf.samples import PoseSampleSet
+
+log = logging.getLogger(__name__)
+
+LEVEL_RESOLUTIONS = ((80, 60), (160, 120), (320, 240))
+_ARRAYS = ("representatives", "seeds", "parents", "node_of_sample")  # TreeLevel's arrays, in order
+
+
+@dataclass(frozen=True, eq=False)
+class TreeLevel:
+    representatives: np.ndarray  # (nodes,) sample index of each node's representative (after step 4)
+    seeds: np.ndarray  # (nodes,) the representative step 2 chose (each farther than T_l from the earlier ones)
+    parents: np.ndarray  # (nodes,) node index in the level above (0 for level 1: the root)
+    node_of_sample: np.ndarray  # (samples,) the node each sample belongs to at this level
+    resolution: tuple[int, int]
+    threshold: float
+
+    def __len__(self) -> int:
+        return len(self.representatives)
+
+    def children_of(self, parents: np.ndarray) -> np.ndarray:
+        """The nodes of this level whose parent is among ``parents``."""
+        return np.flatnonzero(np.isin(self.parents, parents))
+
+
+@dataclass(frozen=True, eq=False)
+class PoseTree:
+    levels: tuple[TreeLevel, ...]
+    key: str
+
+    @property
+    def node_counts(self) -> list[int]:
+        return [len(level) for level in self.levels]
+
+    def leaf_members(self, leaves: np.ndarray) -> np.ndarray:
+        """The samples in ``leaves`` (nodes of the last level)."""
+        return np.flatnonzero(np.isin(self.levels[-1].node_of_sample, leaves))
+
+
+def tree_key(samples: PoseSampleSet, thresholds: tuple[float, ...], resolutions=LEVEL_RESOLUTIONS) -> str:
+    text = json.dumps({"samples": samples.key, "thresholds": list(map(float, thresholds)),
+                       "resolutions": [list(r) for r in resolutions], "format": 2})  # fmt: skip
+    return hashlib.sha256(text.encode()).hexdigest()[:20]
+
+
+def load_or_build_tree(samples: PoseSampleSet, thresholds: tuple[float, ...], cache_dir: str | Path | None = None,
+                       resolutions=LEVEL_RESOLUTIONS) -> PoseTree:  # fmt: skip
+    """The tree of ``samples`` with T_l = ``thresholds`` (one per level), from ``cache_dir`` when cached intact."""
+    if len(thresholds) != len(resolutions):
+        raise ValueError(f"{len(thresholds)} thresholds for {len(resolutions)} levels")
+    key = tree_key(samples, thresholds, resolutions)
+    path = None if cache_dir is None else Path(cache_dir) / f"tree-{key}.npz"
+    if path is not None and path.exists():
+        try:
+            return _load(path, key, len(samples), thresholds, resolutions)
+        except (OSError, ValueError, KeyError) as problem:
+            log.warning("tree cache %s is unusable (%s): rebuilding it", path, problem)
+    start = time.perf_counter()
+    tree = build_tree(samples, thresholds, resolutions, key)
+    log.info("built a pose tree of %s nodes per level in %.1f s", tree.node_counts, time.perf_counter() - start)
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(path) as temporary, open(temporary, "wb") as file:
+            np.savez(file, key=key, **{f"{name}_{k}": getattr(level, name) for k, level in enumerate(tree.levels)
+                                       for name in _ARRAYS})  # fmt: skip
+    return tree
+
+
+def build_tree(samples: PoseSampleSet, thresholds: tuple[float, ...], resolutions=LEVEL_RESOLUTIONS,
+               key: str = "") -> PoseTree:  # fmt: skip
+    poses = np.asarray(samples.poses)
+    node_of_sample = np.zeros(len(poses), dtype=np.int64)  # level 0: one node
+    levels = []
+    for threshold, resolution in zip(thresholds, resolutions, strict=True):
+        silhouettes = samples.silhouettes(resolution)
+        masks = np.asarray(silhouettes.masks).reshape(len(poses), -1)
+        pixels = masks.shape[1]
+        areas = masks.sum(axis=1).astype(np.float64)
+        representatives, seeds, parents = [], [], []
+        assignment = np.empty(len(poses), dtype=np.int64)
+        for parent in range(node_of_sample.max() + 1):
+            members = np.flatnonzero(node_of_sample == parent)
+            reps, first_reps, nearest = _split(poses[members], masks[members], areas[members], pixels, threshold)
+            assignment[members] = len(representatives) + nearest
+            representatives.extend(members[reps])
+            seeds.extend(members[first_reps])
+            parents.extend([parent] * len(reps))
+        levels.append(TreeLevel(np.array(representatives), np.array(seeds), np.array(parents), assignment,
+                                tuple(resolution), float(threshold)))  # fmt: skip
+        node_of_sample = assignment
+    return PoseTree(tuple(levels), key)
+
+
+def _split(poses, masks, areas, pixels, threshold) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Steps 1-4 for one node's members: representative member indices (after step 4, and as step 2 chose
+    them), and each member's node 0..k-1."""
+    count = len(poses)
+    first = int(np.argmin(np.linalg.norm(poses - poses.mean(axis=0), axis=1)))
+    masks_f = masks.astype(np.float32)
+    nearest_distance = np.full(count, np.inf)
+    nearest_rep = np.zeros(count, dtype=np.int64)
+    total_distance = np.zeros(count)
+    reps = []
+    candidate = first
+    while candidate is not None:
+        rep_index = len(reps)
+        reps.append(candidate)
+        distance = _xor_to_one(masks_f, areas, candidate, pixels)
+        closer = distance < nearest_distance
+        nearest_distance[closer], nearest_rep[closer] = distance[closer], rep_index
+        total_distance += distance
+        eligible = nearest_distance > threshold
+        eligible[reps] = False
+        if not eligible.any():
+            candidate = None
+        else:
+            mean = np.where(eligible, total_distance / len(reps), -np.inf)
+            candidate = int(np.argmax(mean))
+    seeds = np.array(reps)
+    nearest_rep[seeds] = np.arange(len(reps))  # a representative is in its own node
+    reps_array = seeds.copy()
+    for node in range(len(reps)):  # step 4: the member nearest the node's mean
+        members = np.flatnonzero(nearest_rep == node)
+        centre = poses[members].mean(axis=0)
+        reps_array[node] = members[np.argmin(np.linalg.norm(poses[members] - centre, axis=1))]
+    return reps_array, seeds, nearest_rep
+
+
+def _xor_to_one(masks: np.ndarray, areas: np.ndarray, index: int, pixels: int) -> np.ndarray:
+    """XOR distance (eq 6) of sample ``index`` to every sample: (|A| + |B| - 2 |A and B|) / N_W."""
+    shared = masks @ masks[index]
+    return (areas + areas[index] - 2 * shared) / pixels
+
+
+def _load(path: Path, key: str, samples: int, thresholds, resolutions) -> PoseTree:
+    with np.load(path) as data:
+        if str(data["key"]) != key:
+            raise ValueError("its key does not match")
+        levels = []
+        for k, (threshold, resolution) in enumerate(zip(thresholds, resolutions, strict=True)):
+            level = TreeLevel(*(data[f"{name}_{k}"] for name in _ARRAYS), tuple(resolution), float(threshold))
+            if len(level.node_of_sample) != samples or level.node_of_sample.max() >= len(level):
+                raise ValueError("its levels do not fit the sample set")
+            levels.append(level)
+    return PoseTree(tuple(levels), key)
