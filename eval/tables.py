@@ -43,23 +43,35 @@ def collect(directories: list[Path]) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def _finished_tbf(runs: pd.DataFrame) -> pd.DataFrame:
+    if "tracker" not in runs or "status" not in runs:
+        return runs.iloc[:0]
+    return runs[(runs["tracker"] == "tbf") & (runs["status"] == "ok")]
+
+
 def table_4c(runs: pd.DataFrame) -> pd.DataFrame:
-    tbf = runs[runs.get("tracker") == "tbf"] if "tracker" in runs else runs.iloc[:0]
+    """One row per finished TBF run: its swing outcomes and MPJPE next to the paper's counts for its cell."""
+    tbf = _finished_tbf(runs)
     order = {"xor": 0, "wxor": 1, "nwxor": 2, "dm1": 0, "dm2": 1}
     rows = []
     for _, run in tbf.sort_values(["cost", "motion"], key=lambda c: c.map(order)).iterrows():
         paper = PAPER_4C.get((run["cost"], run["motion"]))
-        rows.append({"cost": run["cost"], "motion": run["motion"], "fail": run["fail"], "error": run["error"],
-                     "success": run["success"], "mpjpe_mm": round(float(run["mpjpe_mm"]), 1),
+        rows.append({"cost": run["cost"], "motion": run["motion"], "fail": int(run["fail"]),
+                     "error": int(run["error"]), "success": int(run["success"]),
+                     "mpjpe_mm": round(float(run["mpjpe_mm"]), 1),
                      "paper_fail": paper[0] if paper else None, "paper_error": paper[1] if paper else None,
                      "paper_success": paper[2] if paper else None})  # fmt: skip
-    return pd.DataFrame(rows)
+    table = pd.DataFrame(rows)
+    for column in ("paper_fail", "paper_error", "paper_success"):
+        if column in table:
+            table[column] = table[column].astype("Int64")  # counts, blank where the paper has no such cell
+    return table
 
 
 def table_6d(runs: pd.DataFrame) -> pd.DataFrame:
     """Capture, estimation and total ms per frame over every frame of the TBF runs."""
     frames = []
-    for run in runs.loc[runs.get("tracker") == "tbf", "run"] if "tracker" in runs else []:
+    for run in _finished_tbf(runs)["run"]:
         table = pd.read_parquet(Path(run) / "frames.parquet").drop_duplicates("frame")
         frames.append(table[["capture_ms", "estimate_ms"]])
     if not frames:

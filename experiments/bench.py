@@ -169,6 +169,81 @@ def bench_silhouettes(samples: int) -> dict[str, float]:
     return results
 
 
+def bench_tbf(frames: int, overrides: list[str]) -> dict[str, object]:
+    """TBF estimation per frame on the arm-swing scene with the composed ``experiment=tbf_table4c`` config (plus
+    ``overrides``): the filter's median, and for the nodes it evaluated the same scoring done naively, node by
+    node (XOR of the two silhouettes, times the weights, summed), with the bytes the vectorised scoring read."""
+    from hydra import compose, initialize_config_dir
+    from hydra.utils import instantiate
+
+    from experiments.config import CONFIG_DIR
+    from tracker.observe.silhouettes import SilhouetteCapture, resize_silhouette
+    from tracker.render.nuisance import SensorNuisance
+    from tracker.sequence import background_frames, simulate
+
+    with initialize_config_dir(config_dir=str(CONFIG_DIR), version_base="1.3"):
+        cfg = compose("config", overrides=["experiment=tbf_table4c", *overrides])
+    body = instantiate(cfg.model, _convert_="all")
+    rig = instantiate(cfg.rig, _convert_="all")
+    scene = instantiate(cfg.scene, _convert_="all")
+    tracker = instantiate(cfg.tracker, _convert_="all", _partial_=True)(cost=instantiate(cfg.cost),
+                                                                        motion=instantiate(cfg.motion))  # fmt: skip
+    tracker.start(body, rig, scene.params(body, 0), np.random.default_rng(0))
+    nuisance = SensorNuisance(cfg.render.noise_std, cfg.render.gain_amplitude, cfg.render.gain_period_frames)
+    rng = np.random.default_rng(1)
+    with SceneRenderer(rig[0].width, rig[0].height, background_rgb=tuple(cfg.render.background_rgb)) as renderer:
+        capture = SilhouetteCapture.learn(background_frames(rig, renderer, 20, nuisance, rng))
+        observed = [capture.step({"main": f.views["main"].rgb}).silhouettes["main"]
+                    for f in simulate(body, scene, rig, renderer, frames, nuisance, rng)]  # fmt: skip
+    filter_ = tracker.filter
+    estimate_ms, vectorised_ms, naive_ms, read_bytes = [], [], [], []
+    for silhouette in observed:
+        start = time.perf_counter()
+        filter_.step(silhouette)
+        estimate_ms.append(1e3 * (time.perf_counter() - start))
+        # The same scoring again, vectorised and naive, on the nodes this frame evaluated (same survivors).
+        nodes_per_level = filter_.last_evaluated
+        vector_total, naive_total, bytes_total = 0.0, 0.0, 0
+        for level, nodes in zip(filter_.tree.levels, nodes_per_level, strict=True):
+            stack = filter_.samples.silhouettes(level.resolution)
+            obs = silhouette if silhouette.shape[::-1] == level.resolution else resize_silhouette(silhouette,
+                                                                                                 *level.resolution)
+            reps = level.representatives[nodes]
+            start = time.perf_counter()
+            scores = filter_.cost.scorer(obs, stack.window).scores(stack, reps)
+            vector_total += time.perf_counter() - start
+            rows = stack.sparse[reps]
+            bytes_total += rows.nnz * (rows.indices.itemsize + rows.data.itemsize) + obs.size * 8
+            u0, v0, u1, v1 = stack.window
+            start = time.perf_counter()
+            weights = filter_.cost.weight_map(obs, stack.window)[v0:v1, u0:u1]
+            inside = obs[v0:v1, u0:u1]
+            naive = [float((weights * (inside ^ stack.masks[rep])).sum() / inside.size) for rep in reps]
+            naive_total += time.perf_counter() - start
+            np.testing.assert_allclose(naive, scores, rtol=1e-9, atol=1e-15)
+        vectorised_ms.append(1e3 * vector_total)
+        naive_ms.append(1e3 * naive_total)
+        read_bytes.append(bytes_total)
+    return {"samples": len(filter_.samples), "nodes": filter_.tree.node_counts, "frames": frames,
+            "estimate_ms": statistics.median(estimate_ms), "estimate_ms_max": max(estimate_ms),
+            "scoring_vectorised_ms": statistics.median(vectorised_ms), "scoring_naive_ms": statistics.median(naive_ms),
+            "bytes_per_frame": statistics.median(read_bytes), "bandwidth_gb_s": _memory_bandwidth_gb_s()}  # fmt: skip
+
+
+def _memory_bandwidth_gb_s() -> float:
+    """Read+write bandwidth of one large copy (256 MB), best of 5, as a yardstick for bytes read per frame."""
+    source = np.ones(32 * 2**20)  # 256 MB
+    target = np.empty_like(source)
+    best = min(_timed(lambda: np.copyto(target, source)) for _ in range(5))
+    return 2 * source.nbytes / best / 1e9
+
+
+def _timed(function) -> float:
+    start = time.perf_counter()
+    function()
+    return time.perf_counter() - start
+
+
 def _padding(window, size):
     u0, v0, u1, v1 = window
     return ((v0, size[1] - v1), (u0, size[0] - u1))
@@ -191,13 +266,28 @@ def _report_machine() -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("target", choices=["render", "abis", "silhouettes"])
+    parser.add_argument("target", choices=["render", "abis", "silhouettes", "tbf"])
     parser.add_argument("--frames", type=int, default=60)
     parser.add_argument("--samples", type=int, default=10_000, help="pose samples (silhouettes)")
+    parser.add_argument("overrides", nargs="*", help="tbf: config overrides on top of experiment=tbf_table4c")
     parser.add_argument("--size", default="320x240", help="WIDTHxHEIGHT of every view")
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     width, height = (int(v) for v in args.size.lower().split("x"))
+    if args.target == "tbf":
+        figures = bench_tbf(args.frames, args.overrides)
+        _report_machine()
+        log.info("TBF on the arm swing (experiment=tbf_table4c %s): %d samples, tree %s nodes per level",
+                 " ".join(args.overrides), figures["samples"], figures["nodes"])
+        log.info("  estimation %.2f ms/frame median (max %.1f) over %d frames", figures["estimate_ms"],
+                 figures["estimate_ms_max"], figures["frames"])
+        log.info("  scoring the evaluated nodes: vectorised %.3f ms, naive per-node loop %.2f ms: %.0fx",
+                 figures["scoring_vectorised_ms"], figures["scoring_naive_ms"],
+                 figures["scoring_naive_ms"] / figures["scoring_vectorised_ms"])
+        log.info("  bytes read by the vectorised scoring: %.2f MB/frame = %.3f ms at the measured %.1f GB/s",
+                 figures["bytes_per_frame"] / 1e6, 1e3 * figures["bytes_per_frame"] / (figures["bandwidth_gb_s"] * 1e9),
+                 figures["bandwidth_gb_s"])
+        return
     if args.target == "silhouettes":
         figures = bench_silhouettes(args.samples)
         _report_machine()

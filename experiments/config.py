@@ -267,6 +267,12 @@ class SamplesSchema:
     grid: Optional[GridSchema] = field(default_factory=GridSchema)  # noqa: UP045 (OmegaConf needs it)
     clips: list[str] = field(default_factory=list)
     clip_fps: float = allowed(POSITIVE, default=10.0)
+    clip_yaw_deg: float = allowed(ANY, default=-90.0)
+    clip_in_place: bool = True
+    clip_turns_deg: list[float] = allowed(ANY, each=True, default=[0.0])
+    clip_copies: int = allowed(Range(0, 1000), default=0)
+    clip_jitter_deg: float = allowed(NON_NEGATIVE, default=10.0)
+    seed: int = allowed(Range(0, 2**32 - 1), default=0)
     min_joint_deg: float = allowed(NON_NEGATIVE, default=5.0)
 
 

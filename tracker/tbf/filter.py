@@ -92,11 +92,13 @@ class TreeFilter:
         self.samples, self.tree, self.cost, self.motion, self.settings = samples, tree, cost, motion, settings
         self._prior = PosePrior(samples.poses, motion)
         self._stacks = [samples.silhouettes(level.resolution) for level in tree.levels]
+        self._matrices = [stack.sparse for stack in self._stacks]  # built here, once: not in the first frame's time
         self._occluded = samples.occluded(motion.occlusion_area_px)
         self.level_sigmas = [settings.likelihood_sigma * neighbour_scale(samples, cost, level.resolution)
                              for level in tree.levels]  # fmt: skip
         self._posterior: np.ndarray | None = None
         self._previous_flags: np.ndarray | None = None
+        self.last_evaluated: list[np.ndarray] = []  # per level, the nodes the last step scored
 
     def start(self, initial_pose: np.ndarray) -> None:
         """Frame 0's prior: a Gaussian around ``initial_pose`` (the paper: upright, facing the camera)."""
@@ -122,6 +124,7 @@ class TreeFilter:
         levels = self.tree.levels
         survivors = np.array([0])
         evaluated, kept = [], []
+        self.last_evaluated = []
         node_likelihood = None
         for k, level in enumerate(levels):
             start = time.perf_counter()
@@ -134,6 +137,7 @@ class TreeFilter:
             if observed.shape[::-1] != tuple(level.resolution):
                 observation = resize_silhouette(observed, *level.resolution)
             distances = self._score(k, observation, level.representatives[nodes])
+            self.last_evaluated.append(nodes)
             log_likelihood = -0.5 * (distances / self.level_sigmas[k]) ** 2
             log_posterior = log_likelihood + np.log(mass)
             keep = log_posterior >= log_posterior.max() + np.log(max(self.settings.prune_fraction, 1e-300))

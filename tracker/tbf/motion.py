@@ -5,11 +5,12 @@ on every joint rotation component and ``sigma_root_m`` on the root position. DM2
 for the joints of the parts flagged occluded (eq 3: area below T_A) in the previous estimate.
 
 The prior of eq 14, ``p(x^n | z_1:t-1) = sum_i N(x^n; x^i, Sigma) p(x^i | z_1:t-1)``, is a dense N x N sum at N
-samples. `sparse_prior` evaluates it only where it matters: for the previous posterior's support (samples above a
-tiny fraction of its mass) and, for each, the samples within ``reach`` standard deviations (a KD-tree query in
-pose space scaled by the base sigmas; DM2's wider joints are covered by querying ``m`` times as far and keeping
-what lies within ``reach`` in the widened metric). Terms beyond ``reach`` sigmas weigh less than
-``exp(-reach^2 / 2)`` each (reach 4: 3e-4).
+samples. `PosePrior.prior` evaluates it only where it matters: for the previous posterior's support (samples
+with at least ``support_fraction`` of the largest posterior) and, for each, the samples within ``reach``
+standard deviations: a KD-tree query in pose space divided by the frame's sigmas (one tree per distinct sigma
+vector, so per DM2 occlusion pattern, built on first use). Terms beyond ``reach`` sigmas weigh less than
+``exp(-reach^2 / 2)`` each (reach 4: 3e-4); sources below the support fraction carry less than that fraction
+of the best one's weight.
 """
 
 from __future__ import annotations
@@ -60,29 +61,26 @@ class MotionModel:
 class PosePrior:
     """Eq 14 over a fixed sample set, sparse (see the module docstring)."""
 
-    def __init__(self, poses: np.ndarray, motion: MotionModel, reach: float = 4.0, support_mass: float = 1e-6):
+    def __init__(self, poses: np.ndarray, motion: MotionModel, reach: float = 4.0, support_fraction: float = 1e-4):
         self.poses = np.asarray(poses, dtype=np.float64)
-        self.motion, self.reach, self.support_mass = motion, reach, support_mass
-        self._base = motion.base_sigmas()
-        self._tree = cKDTree(self.poses / self._base)
+        self.motion, self.reach, self.support_fraction = motion, reach, support_fraction
+        self._trees: dict[bytes, cKDTree] = {}
 
     def prior(self, posterior: np.ndarray, occluded_parts: np.ndarray) -> tuple[np.ndarray, int]:
         """``(N,)`` unnormalised eq 14 at every sample (0 where beyond reach) and the number of kernel terms
         evaluated."""
         sigmas = self.motion.sigmas(occluded_parts)
-        widest = float((sigmas / self._base).max())
-        support = np.flatnonzero(posterior > self.support_mass * posterior.sum())
-        result = np.zeros(len(self.poses))
-        neighbours = self._tree.query_ball_point(self.poses[support] / self._base, r=self.reach * widest)
-        terms = 0
-        for source, near in zip(support, neighbours, strict=True):
-            near = np.asarray(near, dtype=np.int64)
-            z = (self.poses[near] - self.poses[source]) / sigmas
-            squared = np.einsum("nk,nk->n", z, z)
-            keep = squared <= self.reach**2
-            result[near[keep]] += posterior[source] * np.exp(-0.5 * squared[keep])
-            terms += len(near)
-        return result, terms
+        tree = self._trees.get(sigmas.tobytes())
+        if tree is None:
+            tree = self._trees[sigmas.tobytes()] = cKDTree(self.poses / sigmas)
+        support = np.flatnonzero(posterior >= self.support_fraction * posterior.max())
+        neighbours = tree.query_ball_point(self.poses[support] / sigmas, r=self.reach)
+        sources = np.repeat(support, [len(near) for near in neighbours])
+        targets = np.concatenate([np.asarray(near, dtype=np.int64) for near in neighbours])
+        z = (self.poses[targets] - self.poses[sources]) / sigmas
+        kernel = np.exp(-0.5 * np.einsum("nk,nk->n", z, z))
+        result = np.bincount(targets, weights=posterior[sources] * kernel, minlength=len(self.poses))
+        return result, len(targets)
 
     def dense_prior(self, posterior: np.ndarray, occluded_parts: np.ndarray) -> np.ndarray:
         """The same sum over every pair (the naive N x N reference; small sets only)."""

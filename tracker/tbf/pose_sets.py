@@ -13,6 +13,7 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from tracker.models.body_mesh import BodyMesh
 from tracker.motion.body_swing import arms_pose
@@ -37,3 +38,23 @@ def arm_grid(
 def clip_samples(body: BodyMesh, paths: Iterable[str | Path], fps: float = 30.0, yaw_deg: float = -90.0) -> np.ndarray:
     """``(n, POSE_SIZE)``: every frame of each clip at ``fps``."""
     return np.concatenate([MocapScene(str(path), fps=fps, yaw_deg=yaw_deg).poses(body) for path in paths])
+
+
+def varied(poses: np.ndarray, turns_deg: Sequence[float], copies: int, jitter_deg: float,
+           rng: np.random.Generator) -> np.ndarray:  # fmt: skip
+    """Procedural variation of ``poses``: each turned in place about the vertical by every angle of
+    ``turns_deg``, and for each of those ``copies`` more with every joint rotated by a random rotation vector
+    of ``jitter_deg`` standard deviation per component (the root's position kept)."""
+    out = []
+    for turn in turns_deg:
+        turned = np.array(poses, dtype=np.float64)
+        spin = Rotation.from_euler("z", np.radians(turn))
+        turned[:, 3:6] = (spin * Rotation.from_rotvec(turned[:, 3:6])).as_rotvec()
+        out.append(turned)
+        for _ in range(copies):
+            jittered = turned.copy()
+            joints = Rotation.from_rotvec(jittered[:, 6:].reshape(-1, 3))
+            noise = Rotation.from_rotvec(rng.normal(0.0, np.radians(jitter_deg), (len(joints), 3)))
+            jittered[:, 6:] = (joints * noise).as_rotvec().reshape(len(turned), -1)
+            out.append(jittered)
+    return np.concatenate(out)

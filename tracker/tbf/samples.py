@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 from tqdm import tqdm
 
@@ -58,19 +59,26 @@ def _quaternions(poses: np.ndarray) -> np.ndarray:
 
 def remove_near_duplicates(poses: np.ndarray, min_joint_deg: float = 5.0) -> np.ndarray:
     """Indices of the poses kept, in order: a pose is dropped when a kept one is within ``min_joint_deg`` in
-    every joint (the paper's rule). Root positions are not compared."""
+    every joint (the paper's rule). Root positions are not compared.
+
+    Candidates come from a KD-tree over the poses' joint quaternions (signs made consistent) with the L-inf
+    radius ``2 sin(angle / 4)``, which holds every pair within ``angle`` in every joint; each candidate pair is
+    then checked exactly, so the result is the greedy pass over all pairs in O(n log n) rather than O(n^2)."""
     quaternions = _quaternions(poses)  # (n, J, 4)
+    quaternions *= np.where(quaternions[..., 3:4] < 0, -1.0, 1.0)  # same hemisphere: w >= 0
+    flat = quaternions.reshape(len(quaternions), -1)
+    radius = 2 * np.sin(np.radians(min_joint_deg) / 4) + 1e-12
+    neighbours = cKDTree(flat).query_ball_point(flat, r=radius, p=np.inf)
     threshold = np.cos(np.radians(min_joint_deg) / 2)
-    kept: list[int] = []
-    kept_quaternions = np.empty((0, len(JOINT_NAMES), 4))
-    for index, q in enumerate(quaternions):
-        if len(kept):
-            close = np.abs(np.einsum("kjc,jc->kj", kept_quaternions, q)) >= threshold  # within the angle, per joint
-            if close.all(axis=1).any():
-                continue
-        kept.append(index)
-        kept_quaternions = np.concatenate([kept_quaternions, q[None]])
-    return np.array(kept, dtype=int)
+    dropped = np.zeros(len(poses), bool)
+    for index, near in enumerate(neighbours):
+        if dropped[index]:
+            continue
+        later = np.array([j for j in near if j > index and not dropped[j]], dtype=np.int64)
+        if len(later):
+            close = np.abs(np.einsum("kjc,jc->kj", quaternions[later], quaternions[index])) >= threshold
+            dropped[later[close.all(axis=1)]] = True
+    return np.flatnonzero(~dropped)
 
 
 @dataclass(frozen=True, eq=False)

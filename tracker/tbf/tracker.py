@@ -25,7 +25,7 @@ from tracker.sequence import FrameInput
 from tracker.tbf.distances import EmptySilhouette, SilhouetteCost
 from tracker.tbf.filter import FilterResult, FilterSettings, TreeFilter
 from tracker.tbf.motion import MotionModel
-from tracker.tbf.pose_sets import arm_grid, clip_samples
+from tracker.tbf.pose_sets import arm_grid, clip_samples, varied
 from tracker.tbf.samples import PoseSampleSet, load_or_build, remove_near_duplicates
 from tracker.tbf.tree import PoseTree, load_or_build_tree
 
@@ -55,8 +55,14 @@ class GridSpec:
 @dataclass(frozen=True)
 class SampleSpec:
     grid: GridSpec | None = field(default_factory=GridSpec)
-    clips: tuple[str, ...] = ()  # BVH files: every frame at clip_fps
+    clips: tuple[str, ...] = ()  # BVH files: every frame at clip_fps, facing clip_yaw_deg at its start
     clip_fps: float = 10.0
+    clip_yaw_deg: float = -90.0
+    clip_in_place: bool = True  # postures only: every clip pose's root moved over the origin (height kept)
+    clip_turns_deg: tuple[float, ...] = (0.0,)  # procedural variation: each clip pose also turned by these
+    clip_copies: int = 0  # ... and this many jittered copies of each (every joint, clip_jitter_deg per axis)
+    clip_jitter_deg: float = 10.0
+    seed: int = 0  # of the jitter
     min_joint_deg: float = 5.0  # near-duplicates (within this in every joint) are removed
 
 
@@ -87,9 +93,8 @@ class TbfTracker:
     def from_config(cls, cost: SilhouetteCost, motion: MotionModel, samples: dict[str, Any],
                     filter: dict[str, Any], **values: Any) -> TbfTracker:  # fmt: skip
         grid = samples.get("grid")
-        spec = SampleSpec(grid=None if grid is None else GridSpec(**{k: tuple(v) for k, v in grid.items()}),
-                          clips=tuple(samples.get("clips", ())), clip_fps=samples.get("clip_fps", 10.0),
-                          min_joint_deg=samples.get("min_joint_deg", 5.0))  # fmt: skip
+        sources = {k: tuple(v) if isinstance(v, list) else v for k, v in samples.items() if k != "grid"}
+        spec = SampleSpec(grid=None if grid is None else GridSpec(**{k: tuple(v) for k, v in grid.items()}), **sources)
         return cls(cost, motion, spec, filter=FilterSettings(**filter), **values)
 
     def start(self, model: BodyMesh, cameras: Sequence[Camera], truth: np.ndarray, rng: np.random.Generator) -> None:
@@ -116,7 +121,11 @@ class TbfTracker:
         if spec.grid is not None:
             parts.append(spec.grid.poses(body))
         if spec.clips:
-            parts.append(clip_samples(body, spec.clips, spec.clip_fps))
+            clips = clip_samples(body, spec.clips, spec.clip_fps, spec.clip_yaw_deg)
+            if spec.clip_in_place:
+                clips[:, :2] = 0.0
+            parts.append(varied(clips, spec.clip_turns_deg, spec.clip_copies, spec.clip_jitter_deg,
+                                np.random.default_rng(spec.seed)))  # fmt: skip
         if not parts:
             raise ValueError("tracker.samples names no poses: set a grid or clips")
         poses = np.concatenate(parts)

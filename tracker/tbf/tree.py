@@ -101,14 +101,13 @@ def build_tree(samples: PoseSampleSet, thresholds: tuple[float, ...], resolution
     levels = []
     for threshold, resolution in zip(thresholds, resolutions, strict=True):
         silhouettes = samples.silhouettes(resolution)
-        masks = np.asarray(silhouettes.masks).reshape(len(poses), -1)
-        pixels = masks.shape[1]
-        areas = masks.sum(axis=1).astype(np.float64)
+        pixels = int(np.prod(silhouettes.masks.shape[1:]))
+        masks = _packed_bits(silhouettes.masks)
         representatives, seeds, parents = [], [], []
         assignment = np.empty(len(poses), dtype=np.int64)
         for parent in range(node_of_sample.max() + 1):
             members = np.flatnonzero(node_of_sample == parent)
-            reps, first_reps, nearest = _split(poses[members], masks[members], areas[members], pixels, threshold)
+            reps, first_reps, nearest = _split(poses[members], masks[members], pixels, threshold)
             assignment[members] = len(representatives) + nearest
             representatives.extend(members[reps])
             seeds.extend(members[first_reps])
@@ -119,12 +118,11 @@ def build_tree(samples: PoseSampleSet, thresholds: tuple[float, ...], resolution
     return PoseTree(tuple(levels), key)
 
 
-def _split(poses, masks, areas, pixels, threshold) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _split(poses, masks, pixels, threshold) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Steps 1-4 for one node's members: representative member indices (after step 4, and as step 2 chose
     them), and each member's node 0..k-1."""
     count = len(poses)
     first = int(np.argmin(np.linalg.norm(poses - poses.mean(axis=0), axis=1)))
-    masks_f = masks.astype(np.float32)
     nearest_distance = np.full(count, np.inf)
     nearest_rep = np.zeros(count, dtype=np.int64)
     total_distance = np.zeros(count)
@@ -133,7 +131,7 @@ def _split(poses, masks, areas, pixels, threshold) -> tuple[np.ndarray, np.ndarr
     while candidate is not None:
         rep_index = len(reps)
         reps.append(candidate)
-        distance = _xor_to_one(masks_f, areas, candidate, pixels)
+        distance = _xor_to_one(masks, candidate, pixels)
         closer = distance < nearest_distance
         nearest_distance[closer], nearest_rep[closer] = distance[closer], rep_index
         total_distance += distance
@@ -154,10 +152,17 @@ def _split(poses, masks, areas, pixels, threshold) -> tuple[np.ndarray, np.ndarr
     return reps_array, seeds, nearest_rep
 
 
-def _xor_to_one(masks: np.ndarray, areas: np.ndarray, index: int, pixels: int) -> np.ndarray:
-    """XOR distance (eq 6) of sample ``index`` to every sample: (|A| + |B| - 2 |A and B|) / N_W."""
-    shared = masks @ masks[index]
-    return (areas + areas[index] - 2 * shared) / pixels
+def _packed_bits(masks: np.ndarray) -> np.ndarray:
+    """``(n, ...)`` bool silhouettes as ``(n, words)`` uint64 bit rows (zero-padded), for XOR by popcount."""
+    bits = np.packbits(np.asarray(masks, bool).reshape(len(masks), -1), axis=1)
+    padded = np.zeros((len(bits), -(-bits.shape[1] // 8) * 8), np.uint8)
+    padded[:, : bits.shape[1]] = bits
+    return padded.view(np.uint64)
+
+
+def _xor_to_one(masks: np.ndarray, index: int, pixels: int) -> np.ndarray:
+    """XOR distance (eq 6) of sample ``index`` to every sample: differing pixels (popcount) over N_W."""
+    return np.bitwise_count(masks ^ masks[index]).sum(axis=1, dtype=np.int64) / pixels
 
 
 def _load(path: Path, key: str, samples: int, thresholds, resolutions) -> PoseTree:

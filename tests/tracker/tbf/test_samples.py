@@ -106,3 +106,14 @@ def test_label_reduction_by_hand():
     # {0,0,0,1} -> 0; {3,3,3,0} -> 3; {0,0,0,0} -> 0.
     np.testing.assert_array_equal(reduce_labels(labels, 2, 3), [[1, 0, 2], [0, 3, 0]])
     np.testing.assert_array_equal(reduce_labels(np.array([[1, 2], [0, 0]], np.uint8), 2, 2), [[1]])  # tie: lower
+
+
+def test_duplicate_removal_equals_the_naive_greedy_pass(swing_poses):
+    rng = np.random.default_rng(3)
+    poses = np.repeat(swing_poses[::7], 12, axis=0)
+    poses[:, 3:] += rng.normal(0, 0.03, poses[:, 3:].shape)  # clusters of near-duplicates, 1.7 degrees apart
+    kept = []
+    for index in range(len(poses)):  # naive: compare with every kept pose
+        if not any((joint_angle_differences(poses[index], poses[k]) <= 5.0).all() for k in kept):
+            kept.append(index)
+    np.testing.assert_array_equal(remove_near_duplicates(poses, 5.0), kept)
