@@ -5,12 +5,12 @@ on every joint rotation component and ``sigma_root_m`` on the root position. DM2
 for the joints of the parts flagged occluded (eq 3: area below T_A) in the previous estimate.
 
 The prior of eq 14, ``p(x^n | z_1:t-1) = sum_i N(x^n; x^i, Sigma) p(x^i | z_1:t-1)``, is a dense N x N sum at N
-samples. `PosePrior.prior` evaluates it only where it matters: for the previous posterior's support (samples
-with at least ``support_fraction`` of the largest posterior) and, for each, the samples within ``reach``
-standard deviations: a KD-tree query in pose space divided by the frame's sigmas (one tree per distinct sigma
-vector, so per DM2 occlusion pattern, built on first use). Terms beyond ``reach`` sigmas weigh less than
-``exp(-reach^2 / 2)`` each (reach 4: 3e-4); sources below the support fraction carry less than that fraction
-of the best one's weight.
+samples. `PosePrior.prior` keeps the terms that matter: from the previous posterior's support (its
+``max_support`` largest samples among those with at least ``support_fraction`` of its peak) to every sample
+within ``reach`` standard deviations, found in one call of a KD-tree over pose space divided by the frame's
+sigmas (one tree per distinct sigma vector, i.e. per DM2 occlusion pattern, built on first use). Terms beyond
+``reach`` sigmas weigh less than ``exp(-reach^2 / 2)`` each (reach 4: 3e-4); the posterior mass left out of the
+support is reported per frame (`PosePrior.last_mass_used`).
 """
 
 from __future__ import annotations
@@ -61,26 +61,29 @@ class MotionModel:
 class PosePrior:
     """Eq 14 over a fixed sample set, sparse (see the module docstring)."""
 
-    def __init__(self, poses: np.ndarray, motion: MotionModel, reach: float = 4.0, support_fraction: float = 1e-4):
+    def __init__(self, poses: np.ndarray, motion: MotionModel, reach: float = 4.0, support_fraction: float = 1e-4,
+                 max_support: int = 256):  # fmt: skip
         self.poses = np.asarray(poses, dtype=np.float64)
-        self.motion, self.reach, self.support_fraction = motion, reach, support_fraction
+        self.motion, self.reach = motion, reach
+        self.support_fraction, self.max_support = support_fraction, max_support
         self._trees: dict[bytes, cKDTree] = {}
+        self.last_mass_used = 1.0
 
     def prior(self, posterior: np.ndarray, occluded_parts: np.ndarray) -> tuple[np.ndarray, int]:
         """``(N,)`` unnormalised eq 14 at every sample (0 where beyond reach) and the number of kernel terms
         evaluated."""
         sigmas = self.motion.sigmas(occluded_parts)
-        tree = self._trees.get(sigmas.tobytes())
-        if tree is None:
-            tree = self._trees[sigmas.tobytes()] = cKDTree(self.poses / sigmas)
+        key = sigmas.tobytes()
+        if key not in self._trees:
+            self._trees[key] = cKDTree(self.poses / sigmas)
         support = np.flatnonzero(posterior >= self.support_fraction * posterior.max())
-        neighbours = tree.query_ball_point(self.poses[support] / sigmas, r=self.reach)
-        sources = np.repeat(support, [len(near) for near in neighbours])
-        targets = np.concatenate([np.asarray(near, dtype=np.int64) for near in neighbours])
-        z = (self.poses[targets] - self.poses[sources]) / sigmas
-        kernel = np.exp(-0.5 * np.einsum("nk,nk->n", z, z))
-        result = np.bincount(targets, weights=posterior[sources] * kernel, minlength=len(self.poses))
-        return result, len(targets)
+        if len(support) > self.max_support:
+            support = support[np.argsort(posterior[support])[-self.max_support :]]
+        self.last_mass_used = float(posterior[support].sum() / posterior.sum())
+        pairs = self._trees[key].sparse_distance_matrix(cKDTree(self.poses[support] / sigmas), self.reach,
+                                                        output_type="ndarray")  # fmt: skip
+        weights = posterior[support][pairs["j"]] * np.exp(-0.5 * pairs["v"] ** 2)
+        return np.bincount(pairs["i"], weights=weights, minlength=len(self.poses)), len(pairs)
 
     def dense_prior(self, posterior: np.ndarray, occluded_parts: np.ndarray) -> np.ndarray:
         """The same sum over every pair (the naive N x N reference; small sets only)."""
