@@ -1,4 +1,5 @@
-"""Benchmarks, apart from the tests: ``python -m experiments.bench render|abis|silhouettes [--frames N] [--size WxH]``.
+"""Benchmarks, apart from the tests:
+``python -m experiments.bench render|abis|silhouettes|tbf [--frames N] [--size WxH]``.
 
 ``render``: the paper-1 arm scene through the off-screen renderer, per frame and per view, split into the lit RGB
 + depth pass and the label pass, after a warm-up frame. Reports medians and the ratio of the two passes measured
@@ -11,6 +12,11 @@ rendered frame under the nuisance model (ms and IoU); scores it against every sa
 
 ``abis``: AbIS estimation per frame with ``lm`` and with ``sd`` on the same rendered frames (the rendering of the
 synthetic input excluded, the tracker's visibility z-buffer included), with their ratio measured in the same run.
+
+``tbf [--experiment tbf_table4c|tbf_paper_scale] [overrides]``: the tree-based filter per frame on the preset's
+scene (observed silhouettes extracted first, outside the timing); for the nodes each frame evaluated, the same
+scoring vectorised and naively node by node, their agreement, and the bytes the vectorised scoring read against
+the machine's measured memory bandwidth.
 """
 
 from __future__ import annotations
@@ -150,7 +156,7 @@ def bench_silhouettes(samples: int) -> dict[str, float]:
         captured = [capture.step({"main": nuisance.apply(view.rgb, 10, rng)}, {"main": view.labels > 0})
                     for _ in range(20)]  # fmt: skip
         observed = resize_silhouette(captured[-1].silhouettes["main"], 80, 60)
-        assert stack.sparse.shape[0] == len(stack)  # the sparse matrix is built once per sample set, not timed
+        assert len(stack.runs) == len(stack)  # the runs are found once per sample set, not timed
         results = {"samples": len(sample_set), "grid_poses": len(poses), "dedupe_s": dedupe_s,
                    "build_s_per_1000": 1e3 * build_s / len(sample_set), "window_80x60": stack.window,
                    "capture_ms": statistics.median(c.ms for c in captured),
@@ -162,16 +168,17 @@ def bench_silhouettes(samples: int) -> dict[str, float]:
                 scores = ObservationScorer(cost, observed, stack.window).scores(stack)
                 times.append(1e3 * (time.perf_counter() - start))
             reference = [silhouette_distance(cost, observed, np.pad(mask, _padding(stack.window, (80, 60))),
-                                             stack.window) for mask in stack.masks[:100]]  # fmt: skip
+                                             stack.window) for mask in stack.images[:100] != 0]  # fmt: skip
             results[f"{cost}_ms"] = statistics.median(times)
             relative = np.abs(scores[:100] - reference) / np.maximum(np.abs(reference), 1e-300)
             results[f"{cost}_max_relative_difference"] = float(relative.max())
     return results
 
 
-def bench_tbf(frames: int, overrides: list[str]) -> dict[str, object]:
-    """TBF estimation per frame on the arm-swing scene with the composed ``experiment=tbf_table4c`` config (plus
-    ``overrides``): the filter's median, and for the nodes it evaluated the same scoring done naively, node by
+def bench_tbf(frames: int, experiment: str, overrides: list[str]) -> dict[str, object]:
+    """TBF estimation per frame with the composed ``experiment=<experiment>`` config (plus ``overrides``; e.g.
+    tbf_table4c: the arm swing on ~3,400 samples, tbf_paper_scale: a held-out CMU clip on ~57,000): the filter's
+    median, and for the nodes it evaluated the same scoring done naively, node by
     node (XOR of the two silhouettes, times the weights, summed), with the bytes the vectorised scoring read."""
     from hydra import compose, initialize_config_dir
     from hydra.utils import instantiate
@@ -182,7 +189,7 @@ def bench_tbf(frames: int, overrides: list[str]) -> dict[str, object]:
     from tracker.sequence import background_frames, simulate
 
     with initialize_config_dir(config_dir=str(CONFIG_DIR), version_base="1.3"):
-        cfg = compose("config", overrides=["experiment=tbf_table4c", *overrides])
+        cfg = compose("config", overrides=[f"experiment={experiment}", *overrides])
     body = instantiate(cfg.model, _convert_="all")
     rig = instantiate(cfg.rig, _convert_="all")
     scene = instantiate(cfg.scene, _convert_="all")
@@ -207,20 +214,24 @@ def bench_tbf(frames: int, overrides: list[str]) -> dict[str, object]:
         # The same scoring again, vectorised and naive, on the nodes this frame evaluated (same survivors).
         nodes_per_level = filter_.last_evaluated
         vector_total, naive_total, bytes_total = 0.0, 0.0, 0
-        for level, stack, nodes in zip(filter_.tree.levels, filter_._stacks, nodes_per_level, strict=True):
+        for k, (level, nodes) in enumerate(zip(filter_.tree.levels, nodes_per_level, strict=True)):
+            stack = filter_.samples.silhouettes(level.resolution)
             obs = silhouette if silhouette.shape[::-1] == level.resolution else resize_silhouette(silhouette,
                                                                                                  *level.resolution)
             reps = level.representatives[nodes]
             start = time.perf_counter()
-            scores = filter_.cost.scorer(obs, stack.window).scores(stack, reps)
+            scores = filter_.score_level(k, obs, nodes)
             vector_total += time.perf_counter() - start
-            rows = stack.sparse[reps]
-            bytes_total += rows.nnz * (rows.indices.itemsize + rows.data.itemsize) + obs.size * 8
+            runs = stack.runs
+            # each run: its start, end and owner; plus the prefix sums of the weights over the window
+            bytes_total += int((runs.ptr[reps + 1] - runs.ptr[reps]).sum()) * (
+                runs.starts.itemsize + runs.ends.itemsize + runs.owner.itemsize) + 8 * (stack.images[0].size + 1)
             u0, v0, u1, v1 = stack.window
+            models = [stack.mask(rep) for rep in reps]  # as bool masks before the clock starts
             start = time.perf_counter()
             weights = filter_.cost.weight_map(obs, stack.window)[v0:v1, u0:u1]
             inside = obs[v0:v1, u0:u1]
-            naive = [float((weights * (inside ^ stack.masks[rep])).sum() / inside.size) for rep in reps]
+            naive = [float((weights * (inside ^ model)).sum() / inside.size) for model in models]
             naive_total += time.perf_counter() - start
             worst = max(worst, float(np.max(np.abs(np.asarray(naive) - scores) / np.maximum(np.abs(scores), 1e-12))))
         vectorised_ms.append(1e3 * vector_total)
@@ -272,15 +283,17 @@ def main() -> None:
     parser.add_argument("target", choices=["render", "abis", "silhouettes", "tbf"])
     parser.add_argument("--frames", type=int, default=60)
     parser.add_argument("--samples", type=int, default=10_000, help="pose samples (silhouettes)")
-    parser.add_argument("overrides", nargs="*", help="tbf: config overrides on top of experiment=tbf_table4c")
+    parser.add_argument("--experiment", default="tbf_table4c", help="tbf: the experiment preset (tbf_table4c, "
+                        "tbf_paper_scale)")
+    parser.add_argument("overrides", nargs="*", help="tbf: config overrides on top of the experiment")
     parser.add_argument("--size", default="320x240", help="WIDTHxHEIGHT of every view")
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     width, height = (int(v) for v in args.size.lower().split("x"))
     if args.target == "tbf":
-        figures = bench_tbf(args.frames, args.overrides)
+        figures = bench_tbf(args.frames, args.experiment, args.overrides)
         _report_machine()
-        log.info("TBF on the arm swing (experiment=tbf_table4c %s): %d samples, tree %s nodes per level",
+        log.info("TBF, experiment=%s %s: %d samples, tree %s nodes per level", args.experiment,
                  " ".join(args.overrides), figures["samples"], figures["nodes"])
         log.info("  estimation %.2f ms/frame median (max %.1f) over %d frames", figures["estimate_ms"],
                  figures["estimate_ms_max"], figures["frames"])

@@ -112,7 +112,8 @@ BAD_OVERRIDES = [
     (["tracker=abis", "tracker.features.max_features=0"], r"max_features=0 is out of range: allowed >= 1"),
     (["model=schema_dsq_arm"], r"^model=schema_dsq_arm is a schema, not an option"),
     (["frames=["], r"^cannot parse the overrides"),
-    (["experiment=nope"], r"^experiment=nope: no such option, allowed abis_fig8_fig9, arm_scene, tbf_paper_scale, tbf_table4c$"),
+    (["experiment=nope"],
+     r"^experiment=nope: no such option, allowed abis_fig8_fig9, arm_scene, tbf_paper_scale, tbf_table4c$"),
 ]
 
 

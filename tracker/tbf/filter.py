@@ -56,7 +56,7 @@ def neighbour_scale(samples: PoseSampleSet, cost: SilhouetteCost, resolution: tu
     full = np.zeros((v1, u1), bool)
     nearest = []
     for index in np.unique(np.linspace(0, len(samples) - 1, min(count, len(samples))).astype(int)):
-        full[v0:v1, u0:u1] = stack.masks[index]
+        full[v0:v1, u0:u1] = stack.mask(index)
         if not full.any():
             continue
         distances = cost.scorer(full, stack.window).scores(stack)
@@ -92,7 +92,9 @@ class TreeFilter:
         self.samples, self.tree, self.cost, self.motion, self.settings = samples, tree, cost, motion, settings
         self._prior = PosePrior(samples.poses, motion)
         self._stacks = [samples.silhouettes(level.resolution) for level in tree.levels]
-        self._matrices = [stack.sparse for stack in self._stacks]  # built here, once: not in the first frame's time
+        # Each level's representatives' runs in node order (a level scored whole reads them straight through).
+        self._level_runs = [stack.runs.subset(level.representatives)
+                            for stack, level in zip(self._stacks, tree.levels, strict=True)]  # fmt: skip
         self._occluded = samples.occluded(motion.occlusion_area_px)
         self.level_sigmas = [settings.likelihood_sigma * neighbour_scale(samples, cost, level.resolution)
                              for level in tree.levels]  # fmt: skip
@@ -136,7 +138,7 @@ class TreeFilter:
             observation = observed
             if observed.shape[::-1] != tuple(level.resolution):
                 observation = resize_silhouette(observed, *level.resolution)
-            distances = self._score(k, observation, level.representatives[nodes])
+            distances = self.score_level(k, observation, None if len(nodes) == len(level) else nodes)
             self.last_evaluated.append(nodes)
             log_likelihood = -0.5 * (distances / self.level_sigmas[k]) ** 2
             log_posterior = log_likelihood + np.log(mass)
@@ -171,9 +173,10 @@ class TreeFilter:
             timings_ms=timings,
         )
 
-    def _score(self, level: int, observation: np.ndarray, representatives: np.ndarray) -> np.ndarray:
-        stack = self._stacks[level]
-        return self.cost.scorer(observation, stack.window).scores(stack, representatives)
+    def score_level(self, level: int, observation: np.ndarray, nodes: np.ndarray | None = None) -> np.ndarray:
+        """Distances to the representatives of ``nodes`` of ``level`` (all of them for None)."""
+        scorer = self.cost.scorer(observation, self._stacks[level].window)
+        return scorer.scores_of_runs(self._level_runs[level], nodes)
 
 
 def _ms(start: float) -> float:

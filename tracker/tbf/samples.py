@@ -25,7 +25,7 @@ import shutil
 import sys
 import tempfile
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -88,12 +88,17 @@ class PoseSampleSet:
     windows: dict[tuple[int, int], Window]  # (width, height) -> W in that resolution's pixels
     areas: np.ndarray  # (n, parts) pixels of each part at the finest resolution
     key: str
+    _stacks: dict[tuple[int, int], SilhouetteStack] = field(default_factory=dict, repr=False)
 
     def __len__(self) -> int:
         return len(self.poses)
 
     def silhouettes(self, resolution: tuple[int, int]) -> SilhouetteStack:
-        return SilhouetteStack(self.labels[resolution] > 0, self.windows[resolution])
+        """The silhouettes at ``resolution`` (the label images themselves, not a copy), one stack per resolution
+        so that its runs are found once."""
+        if resolution not in self._stacks:
+            self._stacks[resolution] = SilhouetteStack(self.labels[resolution], self.windows[resolution])
+        return self._stacks[resolution]
 
     def occluded(self, area_threshold_px: float) -> np.ndarray:
         """``(n, parts)`` bool: eq 3's occlusion flags, part area below ``area_threshold_px``."""

@@ -101,8 +101,8 @@ def build_tree(samples: PoseSampleSet, thresholds: tuple[float, ...], resolution
     levels = []
     for threshold, resolution in zip(thresholds, resolutions, strict=True):
         silhouettes = samples.silhouettes(resolution)
-        pixels = int(np.prod(silhouettes.masks.shape[1:]))
-        masks = _packed_bits(silhouettes.masks)
+        pixels = int(np.prod(silhouettes.images.shape[1:]))
+        masks = _packed_bits(silhouettes.images)
         representatives, seeds, parents = [], [], []
         assignment = np.empty(len(poses), dtype=np.int64)
         for parent in range(node_of_sample.max() + 1):
@@ -152,11 +152,14 @@ def _split(poses, masks, pixels, threshold) -> tuple[np.ndarray, np.ndarray, np.
     return reps_array, seeds, nearest_rep
 
 
-def _packed_bits(masks: np.ndarray) -> np.ndarray:
-    """``(n, ...)`` bool silhouettes as ``(n, words)`` uint64 bit rows (zero-padded), for XOR by popcount."""
-    bits = np.packbits(np.asarray(masks, bool).reshape(len(masks), -1), axis=1)
-    padded = np.zeros((len(bits), -(-bits.shape[1] // 8) * 8), np.uint8)
-    padded[:, : bits.shape[1]] = bits
+def _packed_bits(masks: np.ndarray, block: int = 4096) -> np.ndarray:
+    """``(n, ...)`` silhouettes (inside where nonzero) as ``(n, words)`` uint64 bit rows (zero-padded), for XOR
+    by popcount; packed ``block`` at a time."""
+    pixels = int(np.prod(masks.shape[1:]))
+    padded = np.zeros((len(masks), -(-pixels // 64) * 8), np.uint8)
+    for first in range(0, len(masks), block):
+        flat = np.asarray(masks[first : first + block]).reshape(-1, pixels) != 0
+        padded[first : first + len(flat), : -(-pixels // 8)] = np.packbits(flat, axis=1)
     return padded.view(np.uint64)
 
 

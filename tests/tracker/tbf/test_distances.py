@@ -7,6 +7,7 @@ from tracker.tbf.distances import (
     COSTS,
     EmptySilhouette,
     ObservationScorer,
+    SilhouetteRuns,
     SilhouetteStack,
     silhouette_distance,
     weight_map,
@@ -68,6 +69,24 @@ def test_the_batch_scorer_equals_the_pair_function(body_silhouettes):
         scores = ObservationScorer(cost, observed, window, w=0.7).scores(stack)
         expected = [silhouette_distance(cost, observed, model, window, w=0.7) for model in models]
         np.testing.assert_allclose(scores, expected, rtol=1e-9, atol=0)
+
+
+def test_runs_hold_exactly_the_inside_pixels():
+    rng = np.random.default_rng(3)
+    masks = rng.random((7, 5, 6)) < 0.4
+    masks[2] = False  # an empty silhouette
+    masks[4, 1, 4:], masks[4, 2, :2] = True, True  # a run that wraps from one image row into the next
+    labels = masks * rng.integers(1, 16, masks.shape)  # part labels: inside where nonzero
+    runs = SilhouetteRuns.from_masks(labels, block=3)
+    rebuilt = np.zeros((7, 30), bool)
+    for index in range(7):
+        for r in range(runs.ptr[index], runs.ptr[index + 1]):
+            rebuilt[index, runs.starts[r] : runs.ends[r]] = True
+    np.testing.assert_array_equal(rebuilt, masks.reshape(7, -1))
+    values = rng.normal(size=30)
+    np.testing.assert_allclose(runs.sums(values), masks.reshape(7, -1) @ values, atol=1e-12)
+    rows = np.array([4, 2, 0, 4])
+    np.testing.assert_allclose(runs.sums(values, rows), masks.reshape(7, -1)[rows] @ values, atol=1e-12)
 
 
 def test_an_empty_observation_has_no_weighted_distance():

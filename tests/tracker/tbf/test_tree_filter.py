@@ -27,7 +27,7 @@ def tree(samples):
 
 
 def xor(samples, resolution, a, b):
-    masks = np.asarray(samples.silhouettes(resolution).masks)
+    masks = np.asarray(samples.silhouettes(resolution).images) != 0
     return np.count_nonzero(masks[a] ^ masks[b]) / masks[a].size
 
 
@@ -61,14 +61,14 @@ def test_level_scoring_equals_scoring_each_node(samples, tree):
     stack = samples.silhouettes(level.resolution)
     u0, v0, u1, v1 = stack.window
     observed = np.zeros((120, 160), bool)
-    observed[v0:v1, u0:u1] = stack.masks[17]
+    observed[v0:v1, u0:u1] = stack.mask(17)
     for cost in COSTS:
         scorer = SilhouetteCost(cost).scorer(observed, stack.window)
         vectorised = scorer.scores(stack, level.representatives)
         one_by_one = []
         for rep in level.representatives:
             model = np.zeros_like(observed)
-            model[v0:v1, u0:u1] = stack.masks[rep]
+            model[v0:v1, u0:u1] = stack.mask(rep)
             one_by_one.append(silhouette_distance(cost, observed, model, stack.window))
         np.testing.assert_allclose(vectorised, one_by_one, rtol=1e-9, atol=1e-12 * max(one_by_one))
 
@@ -104,7 +104,7 @@ def test_the_filter_recovers_a_held_samples_pose_from_its_own_silhouette(body, s
     stack = samples.silhouettes((320, 240))
     u0, v0, u1, v1 = stack.window
     observed = np.zeros((240, 320), bool)
-    observed[v0:v1, u0:u1] = stack.masks[held]
+    observed[v0:v1, u0:u1] = stack.mask(held)
     # A flat prior and a sharp likelihood: the silhouette alone decides.
     settings = FilterSettings(initial_sigma=100.0, likelihood_sigma=0.25, prune_fraction=1e-6)
     for cost in COSTS:
