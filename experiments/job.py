@@ -212,6 +212,9 @@ def summarize(
         "tracker": components.tracker.name if components else None,
         "config": OmegaConf.to_container(cfg, resolve=True),
     }
+    describe = getattr(components.tracker, "describe", None) if components else None
+    if describe is not None:  # what the tracker built at start (e.g. TBF's sample and tree sizes)
+        metrics.update(describe())
     if timings:
         stages = timings[-1].keys()  # frame 0 has no estimate_fit stage
         metrics["timing"] = {

@@ -18,6 +18,8 @@ import sys
 import time
 from pathlib import Path
 
+import pandas as pd
+
 from eval.figures import write_figures
 from eval.tables import collect, table_4c, write_reports
 
@@ -59,7 +61,8 @@ def paper_2() -> str:
     written = write_reports(runs, REPORTS)
     four_c = table_4c(runs)
     rows = "\n".join(f"  {r.cost:>5} + {r.motion}: fail {r.fail}, error {r.error}, success {r.success}  "
-                     f"(paper: {r.paper_fail}, {r.paper_error}, {r.paper_success}), MPJPE {r.mpjpe_mm} mm"
+                     + ("(paper: no such row)" if pd.isna(r.paper_fail) else
+                        f"(paper: {r.paper_fail}, {r.paper_error}, {r.paper_success})") + f", MPJPE {r.mpjpe_mm} mm"
                      for r in four_c.itertuples())  # fmt: skip
     return (f"\nPaper 2 (silhouette tree-based filtering), experiment A, {len(runs)} runs in "
             f"{time.perf_counter() - start:.0f} s:\n{rows}\n" + "\n".join(f"  {path}" for path in written))

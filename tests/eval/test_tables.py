@@ -16,6 +16,7 @@ def test_tables_collect_tbf_runs_next_to_the_papers_numbers(tbf_run, tmp_path):
     frames = pd.read_parquet(tbf_run / "frames.parquet").drop_duplicates("frame")
     assert six_d.loc[six_d["stage"] == "capture", "max"].item() == frames["capture_ms"].max()
     assert six_d.loc[six_d["stage"] == "estimation", "avg"].item() == frames["estimate_ms"].mean()
+    assert set(six_d["samples"]) == {runs.loc[0, "samples"]} and set(six_d["frames"]) == {len(frames)}
     written = write_reports(runs, tmp_path)
     assert {path.name for path in written} == {"table4c.md", "table4c.csv", "table6d.md"}
     assert pd.read_csv(tmp_path / "table4c.csv").shape == (1, 9)

@@ -9,6 +9,7 @@ def test_a_tbf_run_records_the_tree_search_per_level_and_its_timings(tbf_run):
     metrics = json.loads((tbf_run / "metrics.json").read_text())
     assert metrics["status"] == "ok" and metrics["tracker"] == "tbf"
     assert len(metrics["nodes_evaluated_mean"]) == 3 and all(n >= 1 for n in metrics["nodes_evaluated_mean"])
+    assert len(metrics["tree_nodes"]) == 3 and metrics["tree_nodes"][-1] <= metrics["samples"]
     assert metrics["mpjpe_mm"] < 60 and metrics["swing_error_deg_mean"] < 15
     for stage in ("capture", "estimate", "estimate_prior", "estimate_level1", "estimate_level2", "estimate_level3"):
         assert metrics["timing"][f"{stage}_ms_median"] > 0, stage

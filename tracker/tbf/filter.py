@@ -93,7 +93,7 @@ class TreeFilter:
         self._prior = PosePrior(samples.poses, motion)
         self._stacks = [samples.silhouettes(level.resolution) for level in tree.levels]
         # Each level's representatives' runs in node order (a level scored whole reads them straight through).
-        self._level_runs = [stack.runs.subset(level.representatives)
+        self.level_runs = [stack.runs.subset(level.representatives)
                             for stack, level in zip(self._stacks, tree.levels, strict=True)]  # fmt: skip
         self._occluded = samples.occluded(motion.occlusion_area_px)
         self.level_sigmas = [settings.likelihood_sigma * neighbour_scale(samples, cost, level.resolution)
@@ -176,7 +176,7 @@ class TreeFilter:
     def score_level(self, level: int, observation: np.ndarray, nodes: np.ndarray | None = None) -> np.ndarray:
         """Distances to the representatives of ``nodes`` of ``level`` (all of them for None)."""
         scorer = self.cost.scorer(observation, self._stacks[level].window)
-        return scorer.scores_of_runs(self._level_runs[level], nodes)
+        return scorer.scores_of_runs(self.level_runs[level], nodes)
 
 
 def _ms(start: float) -> float:

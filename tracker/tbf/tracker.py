@@ -115,6 +115,12 @@ class TbfTracker:
                  len(self.samples), self.tree.node_counts, [f"{s:.3g}" for s in self.filter.level_sigmas],
                  self.setup_s)  # fmt: skip
 
+    def describe(self) -> dict[str, Any]:
+        """What `start` built: the number of pose samples and the tree's nodes per level."""
+        if self.samples is None or self.tree is None:
+            return {}
+        return {"samples": len(self.samples), "tree_nodes": self.tree.node_counts}
+
     def _sample_poses(self, body: BodyMesh) -> np.ndarray:
         spec = self.sample_spec
         parts = []
