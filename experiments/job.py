@@ -1,8 +1,9 @@
 """One run: build the components a composed config names, run the frames, write the three outputs.
 
 Outputs in the job's directory, each written atomically: ``run.rrd`` (Rerun), ``frames.parquet`` (one row per
-frame and part; columns in `experiments.outputs`) and, last, ``metrics.json`` (choices, seed, frames, status,
-accuracy where the tracker estimates, timing medians in their own ``timing`` field).
+frame and part; columns in `experiments.outputs`), ``timings.json`` (per-stage medians, ms) and, last,
+``metrics.json`` (choices, seed, frames, status, accuracy where the tracker estimates). Timings are kept out of
+``metrics.json`` so that the same seed gives the same bytes; a complete ``metrics.json`` marks a finished job.
 A failure inside the loop is recorded as ``status: "failed: <reason>"`` with every output still written.
 """
 
@@ -145,6 +146,7 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
             recording.close()
         table = pd.DataFrame(rows)
         write_parquet(output_dir / "frames.parquet", table)
+        write_json(output_dir / "timings.json", timing_summary(timings, components.views if components else []))
         metrics = summarize(cfg, choices, components, table, timings, status)
         write_json(output_dir / "metrics.json", metrics)
     if stop.requested:  # outputs are safe; now stop like the signal asked (a sweep stops too)
@@ -201,7 +203,7 @@ def summarize(
     timings: list[dict[str, float]],
     status: str,
 ) -> dict[str, Any]:
-    """The run's metrics.json content. Timings live under ``timing`` only, so the rest is reproducible."""
+    """The run's metrics.json content: everything but the timings (`timing_summary`), so it is reproducible."""
     metrics: dict[str, Any] = {
         "status": status,
         "choices": dict(sorted(choices.items())),
@@ -215,18 +217,23 @@ def summarize(
     describe = getattr(components.tracker, "describe", None) if components else None
     if describe is not None:  # what the tracker built at start (e.g. TBF's sample and tree sizes)
         metrics.update(describe())
-    if timings:
-        stages = timings[-1].keys()  # frame 0 has no estimate_fit stage
-        metrics["timing"] = {
-            f"{stage}_ms_median": float(np.median([t[stage] for t in timings if stage in t])) for stage in stages
-        }
-        metrics["timing"]["render_ms_per_view_median"] = metrics["timing"]["render_ms_median"] / len(components.views)
     if not table.empty:
         metrics["min_visible_fraction"] = min_visible_fraction(table, components.views)
         metrics.update(silhouette_quality(table))
         metrics.update(body_tracking(table))
         metrics.update(accuracy(table))
     return metrics
+
+
+def timing_summary(timings: list[dict[str, float]], views: list[str]) -> dict[str, float]:
+    """timings.json: the median ms of every stage over the frames (frame 0 lacks some stages), and per view."""
+    if not timings:
+        return {}
+    stages = timings[-1].keys()
+    summary = {f"{stage}_ms_median": float(np.median([t[stage] for t in timings if stage in t])) for stage in stages}
+    if views and "render_ms_median" in summary:
+        summary["render_ms_per_view_median"] = summary["render_ms_median"] / len(views)
+    return summary
 
 
 def camera_nuisance(cfg: DictConfig) -> SensorNuisance | None:

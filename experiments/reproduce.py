@@ -80,11 +80,12 @@ def paper_1() -> str:
         run_dir = run_experiment("abis_fig8_fig9", f"abis_{optimizer}", f"tracker.fit.optimizer={optimizer}")
         figures = write_figures(run_dir)
         metrics = json.loads((run_dir / "metrics.json").read_text())
+        timing = json.loads((run_dir / "timings.json").read_text())
         lines.append(
             f"  {optimizer}: part2_b1_rms {metrics['part2_b1_rms'] * 1e3:.1f} mm "
             f"({100 * metrics['part2_b1_rms'] / metrics['part2_b1_range']:.1f}% of the b1 range), "
             f"part2_r2_rms {metrics['part2_r2_rms_deg']:.2f} deg, "
-            f"estimation {metrics['timing']['estimate_ms_median']:.0f} ms/frame (median), "
+            f"estimation {timing['estimate_ms_median']:.0f} ms/frame (median), "
             f"recording {run_dir / 'run.rrd'}"
         )
         if optimizer == "lm":

@@ -29,20 +29,20 @@ def frames_by_entity(path):
 
 def test_run_writes_the_three_outputs_and_nothing_half_written(five_frame_run):
     names = {p.name for p in five_frame_run.iterdir()}
-    assert {"run.rrd", "frames.parquet", "metrics.json", ".hydra"} <= names
+    assert {"run.rrd", "frames.parquet", "timings.json", "metrics.json", ".hydra"} <= names
     assert not [name for name in names if name.endswith(".tmp")]
 
 
 def test_metrics_summarise_the_run(five_frame_run):
     metrics = json.loads((five_frame_run / "metrics.json").read_text())
+    timing = json.loads((five_frame_run / "timings.json").read_text())
     assert metrics["status"] == "ok"
     assert metrics["choices"] == {"model": "dsq_arm", "rig": "orthogonal3", "scene": "arm_swing",
                                   "tracker": "render_only"}  # fmt: skip
     assert (metrics["seed"], metrics["frames"], metrics["frames_done"]) == (0, 5, 5)
     assert metrics["views"] == ["front", "left", "top"]
-    assert set(metrics["timing"]) == {"pose_ms_median", "render_ms_median", "record_ms_median",
-                                      "render_ms_per_view_median"}  # fmt: skip
-    assert all(value > 0 for value in metrics["timing"].values())
+    assert set(timing) == {"pose_ms_median", "render_ms_median", "record_ms_median", "render_ms_per_view_median"}
+    assert all(value > 0 for value in timing.values())
     assert metrics["min_visible_fraction"]["forearm"]["left"] == 0.0  # hidden end-on at frame 0
 
 
@@ -101,6 +101,20 @@ def test_each_run_has_its_own_recording_id(five_frame_run, tmp_path):
     assert result.returncode == 0, result.stderr
     ids = {RrdReader(d / "run.rrd").recordings()[0].recording_id for d in (five_frame_run, tmp_path / "again")}
     assert len(ids) == 2
+
+
+def test_the_same_seed_gives_the_same_metrics_bytes_and_another_seed_differs(tmp_path):
+    runs = {"a": "seed=3", "b": "seed=3", "c": "seed=4"}
+    for name, seed in runs.items():
+        result = run_cli(tmp_path / name, "tracker=abis", "frames=3", "record.images=false", seed, cwd=tmp_path)
+        assert result.returncode == 0, result.stderr
+    metrics = {name: (tmp_path / name / "metrics.json").read_bytes() for name in runs}
+    assert metrics["a"] == metrics["b"]
+    results = {name: {k: v for k, v in json.loads(text).items() if k not in ("seed", "config")}
+               for name, text in metrics.items()}  # fmt: skip
+    assert results["a"]["rms"] != results["c"]["rms"]  # the seed reached the tracker's start, not just the config
+    timings = {name: json.loads((tmp_path / name / "timings.json").read_text()) for name in runs}
+    assert timings["a"]["estimate_ms_median"] > 0  # timings live apart, so they may differ
 
 
 def test_a_failing_run_records_why_and_keeps_its_outputs_readable(tmp_path):
