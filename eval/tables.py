@@ -1,6 +1,8 @@
 """Tables from run directories: ``python -m eval.tables <sweep or run dir> [...] [--out reports]``.
 
-Every ``metrics.json`` under the given directories becomes one row keyed by its Hydra choices. TBF runs of
+Every ``metrics.json`` under the given directories becomes one row keyed by its Hydra choices and its job's
+overrides; the sweep table (`sweep_table`, printed, and written as ``sweep.csv``) groups the runs that differ only
+in ``seed`` and gives each numeric metric as mean ± std over those seeds. TBF runs of
 paper 2's experiment A give the Fig 4(c) table (Fail / Error / Success per cost and motion model, next to the
 paper's counts, plus MPJPE) as ``table4c.md`` / ``table4c.csv``, and the Fig 6(d) table (capture, estimation and
 total ms per frame: min / max / average over every frame of those runs, next to the paper's PC and Cell columns)
@@ -29,18 +31,59 @@ PAPER_6D = {"PC (2x Opteron 280, 4 cores)": {"capture": (21, 29, 22), "estimatio
                                       "total": (39, 202, 86)}}  # fmt: skip
 
 
+_NOT_METRICS = {"seed", "frames", "frames_done"}
+
+
 def collect(directories: list[Path]) -> pd.DataFrame:
-    """One row per run: its choices, status and the TBF figures (swing counts, MPJPE)."""
+    """One row per run: its choices, its overrides other than ``seed``, seed, status, every top-level numeric
+    metric, and the TBF swing counts."""
     rows = []
     for directory in directories:
         for path in sorted(Path(directory).rglob("metrics.json")):
             metrics = json.loads(path.read_text())
             swings = metrics.get("swings", {})
-            rows.append({**metrics.get("choices", {}), "seed": metrics.get("seed"), "status": metrics.get("status"),
-                         "frames": metrics.get("frames_done"), "fail": swings.get("fail"),
+            numbers = {k: v for k, v in metrics.items()
+                       if isinstance(v, int | float) and not isinstance(v, bool) and k not in _NOT_METRICS}  # fmt: skip
+            rows.append({**metrics.get("choices", {}), "overrides": " ".join(_overrides(path.parent)),
+                         "seed": metrics.get("seed"), "status": metrics.get("status"),
+                         "frames": metrics.get("frames_done"), **numbers, "fail": swings.get("fail"),
                          "error": swings.get("error"), "success": swings.get("success"),
-                         "mpjpe_mm": metrics.get("mpjpe_mm"), "samples": metrics.get("samples"),
-                         "run": str(path.parent)})  # fmt: skip
+                         "samples": metrics.get("samples"), "run": str(path.parent)})  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def _overrides(run: Path) -> list[str]:
+    """The job's command-line overrides (Hydra's ``.hydra/overrides.yaml``) other than ``seed``."""
+    path = run / ".hydra" / "overrides.yaml"
+    if not path.exists():
+        return []
+    lines = [line.removeprefix("- ").strip() for line in path.read_text().splitlines() if line.startswith("- ")]
+    return sorted(line for line in lines if not line.startswith("seed="))
+
+
+def sweep_table(runs: pd.DataFrame) -> pd.DataFrame:
+    """One row per set of runs that differ only in seed: the key (choices and overrides), the number of runs
+    and of finished ones, the seeds, and each numeric metric as ``mean ± std`` over the finished runs (the
+    value alone for one run)."""
+    if runs.empty:
+        return pd.DataFrame()
+    keys = [c for c in runs.columns if c in ("model", "scene", "rig", "tracker", "cost", "motion", "experiment")]
+    keys.append("overrides")
+    skip = {*keys, "seed", "status", "frames", "run", "samples"}
+    metrics = [c for c in runs.columns if c not in skip and pd.api.types.is_numeric_dtype(runs[c])]
+    rows = []
+    for key, group in runs.fillna({k: "" for k in keys}).groupby(keys, sort=True, dropna=False):
+        finished = group[group["status"] == "ok"]
+        row = dict(zip(keys, key, strict=True))
+        row.update({"runs": len(group), "ok": len(finished),
+                    "seeds": ",".join(str(s) for s in sorted(group["seed"].dropna().astype(int)))})  # fmt: skip
+        for column in metrics:
+            values = finished[column].dropna()
+            if len(values) == 1:
+                row[column] = f"{values.iloc[0]:.4g}"
+            elif len(values) > 1:
+                row[column] = f"{values.mean():.4g} ± {values.std(ddof=1):.2g}"
+        rows.append(row)
     return pd.DataFrame(rows)
 
 
@@ -55,6 +98,8 @@ def table_4c(runs: pd.DataFrame) -> pd.DataFrame:
     paper's counts for its cell."""
     tbf = _finished_tbf(runs)
     tbf = tbf[tbf["scene"] == "arm_swing"] if "scene" in tbf else tbf.iloc[:0]
+    if tbf.empty:
+        return pd.DataFrame()
     order = {"xor": 0, "wxor": 1, "nwxor": 2, "dm1": 0, "dm2": 1}
     rows = []
     for _, run in tbf.sort_values(["cost", "motion"], key=lambda c: c.map(order)).iterrows():
@@ -138,6 +183,12 @@ def main() -> None:
     runs = collect(args.directories)
     if runs.empty:
         raise SystemExit(f"no metrics.json under {', '.join(map(str, args.directories))}")
+    sweep = sweep_table(runs)
+    print(_markdown(sweep))
+    args.out.mkdir(parents=True, exist_ok=True)
+    with atomic_path(args.out / "sweep.csv") as temporary:
+        sweep.to_csv(temporary, index=False)
+    print(f"wrote {args.out / 'sweep.csv'}")
     four_c = table_4c(runs)
     if not four_c.empty:
         print(_markdown(four_c))

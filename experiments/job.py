@@ -10,6 +10,7 @@ A failure inside the loop is recorded as ``status: "failed: <reason>"`` with eve
 from __future__ import annotations
 
 import dataclasses
+import json
 import logging
 import signal
 import sys
@@ -65,9 +66,27 @@ def build(cfg: DictConfig) -> Components:
     )
 
 
+def finished_metrics(cfg: DictConfig, output_dir: Path) -> dict[str, Any] | None:
+    """The metrics of a finished job of this very config in ``output_dir`` (status ok, same resolved config), or
+    None. A killed job never leaves a complete ``metrics.json`` (it is written last, atomically)."""
+    try:
+        metrics = json.loads((output_dir / "metrics.json").read_text())
+    except (OSError, ValueError):
+        return None
+    same = metrics.get("config") == OmegaConf.to_container(cfg, resolve=True)
+    return metrics if isinstance(metrics, dict) and metrics.get("status") == "ok" and same else None
+
+
+def remove_stale_temporaries(output_dir: Path) -> None:
+    """Temporary files a killed job left behind (`tracker.atomic` names them ``.<name>.<random>.tmp``)."""
+    for path in output_dir.glob(".*.tmp"):
+        path.unlink(missing_ok=True)
+
+
 def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[str, Any]:
     """Run the configured scene for ``cfg.frames`` frames into ``output_dir``; return the metrics written."""
     check_config(cfg, choices)  # an invalid config raises before any output exists
+    remove_stale_temporaries(output_dir)
     rows: list[dict[str, Any]] = []
     timings: list[dict[str, float]] = []
     components: Components | None = None

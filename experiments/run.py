@@ -2,7 +2,9 @@
 
 Before Hydra creates any output directory, the command line is composed with Hydra's Compose API and checked
 (every value of a sweep included): a bad override exits with status 2 and one line on stderr naming the key, the
-value and what is allowed, and leaves no files behind. Then `hydra.main` runs the job(s).
+value and what is allowed, and leaves no files behind. Then `hydra.main` runs the job(s): a sweep (``-m``) runs on
+the joblib launcher (one job per core) unless ``hydra/launcher=...`` says otherwise; re-running a sweep into the
+same ``hydra.sweep.dir`` keeps every job already finished with the same config and redoes the rest.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from hydra.types import RunMode
 from omegaconf import DictConfig
 
 from experiments.config import CONFIG_DIR, CONFIG_NAME, ConfigError
-from experiments.job import run_job
+from experiments.job import finished_metrics, run_job
 from experiments.validate import validate_command_line
 
 log = logging.getLogger(__name__)
@@ -28,6 +30,9 @@ def hydra_main(cfg: DictConfig) -> dict:
     hydra_cfg = HydraConfig.get()
     choices = {k: v for k, v in hydra_cfg.runtime.choices.items() if not k.startswith("hydra") and v is not None}
     output_dir = Path(hydra_cfg.runtime.output_dir)
+    if hydra_cfg.mode == RunMode.MULTIRUN and (metrics := finished_metrics(cfg, output_dir)) is not None:
+        log.info("run finished earlier, kept: %s", output_dir)  # resuming a sweep redoes only the rest
+        return metrics
     metrics = run_job(cfg, output_dir, choices)
     log.info("run %s: %s", metrics["status"], output_dir)
     if metrics["status"] != "ok" and hydra_cfg.mode == RunMode.RUN:

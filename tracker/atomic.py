@@ -58,3 +58,19 @@ def write_parquet(target: str | Path, frame) -> None:
     """Write a pandas DataFrame as parquet, atomically."""
     with atomic_path(target) as temporary:
         frame.to_parquet(temporary, index=False)
+
+
+@contextmanager
+def exclusive(lock_path: str | Path) -> Iterator[None]:
+    """Hold an exclusive lock on ``lock_path`` (created if missing) while the block runs: parallel jobs that
+    would build the same cache entry take turns, and the later ones find it built."""
+    import fcntl
+
+    lock_path = Path(lock_path)
+    lock_path.parent.mkdir(parents=True, exist_ok=True)
+    with open(lock_path, "a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)

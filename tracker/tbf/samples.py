@@ -33,6 +33,7 @@ from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 from tqdm import tqdm
 
+from tracker.atomic import exclusive
 from tracker.geometry.cameras import Camera, resized
 from tracker.models.body_mesh import JOINT_NAMES, PART_NAMES, BodyMesh
 from tracker.render.mesh import SurfaceMesh
@@ -129,16 +130,17 @@ def load_or_build(body: BodyMesh, camera: Camera, poses: np.ndarray, cache_dir: 
     poses = np.asarray(poses, dtype=np.float64)
     key = cache_key(body, camera, poses, resolutions)
     folder = Path(cache_dir) / key
-    if folder.exists():
-        try:
-            return _load(folder, key, resolutions)
-        except (OSError, ValueError, KeyError) as problem:
-            log.warning("sample cache %s is unusable (%s): rebuilding it", folder, problem)
-            shutil.rmtree(folder, ignore_errors=True)
-    start = time.perf_counter()
-    _build(body, camera, poses, folder, key, resolutions, progress)
-    log.info("built %d samples in %.1f s into %s", len(poses), time.perf_counter() - start, folder)
-    return _load(folder, key, resolutions)
+    with exclusive(Path(cache_dir) / f".{key}.lock"):  # parallel jobs of a sweep build it once
+        if folder.exists():
+            try:
+                return _load(folder, key, resolutions)
+            except (OSError, ValueError, KeyError) as problem:
+                log.warning("sample cache %s is unusable (%s): rebuilding it", folder, problem)
+                shutil.rmtree(folder, ignore_errors=True)
+        start = time.perf_counter()
+        _build(body, camera, poses, folder, key, resolutions, progress)
+        log.info("built %d samples in %.1f s into %s", len(poses), time.perf_counter() - start, folder)
+        return _load(folder, key, resolutions)
 
 
 def _load(folder: Path, key: str, resolutions) -> PoseSampleSet:

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tracker.atomic import atomic_path
+from tracker.atomic import atomic_path, exclusive
 from tracker.tbf.samples import PoseSampleSet
 
 log = logging.getLogger(__name__)
@@ -77,12 +77,19 @@ def load_or_build_tree(samples: PoseSampleSet, thresholds: tuple[float, ...], ca
     if len(thresholds) != len(resolutions):
         raise ValueError(f"{len(thresholds)} thresholds for {len(resolutions)} levels")
     key = tree_key(samples, thresholds, resolutions)
-    path = None if cache_dir is None else Path(cache_dir) / f"tree-{key}.npz"
-    if path is not None and path.exists():
-        try:
-            return _load(path, key, len(samples), thresholds, resolutions)
-        except (OSError, ValueError, KeyError) as problem:
-            log.warning("tree cache %s is unusable (%s): rebuilding it", path, problem)
+    if cache_dir is None:
+        return _build_logged(samples, thresholds, resolutions, key, None)
+    path = Path(cache_dir) / f"tree-{key}.npz"
+    with exclusive(Path(cache_dir) / f".tree-{key}.lock"):  # parallel jobs of a sweep build it once
+        if path.exists():
+            try:
+                return _load(path, key, len(samples), thresholds, resolutions)
+            except (OSError, ValueError, KeyError) as problem:
+                log.warning("tree cache %s is unusable (%s): rebuilding it", path, problem)
+        return _build_logged(samples, thresholds, resolutions, key, path)
+
+
+def _build_logged(samples: PoseSampleSet, thresholds, resolutions, key: str, path: Path | None) -> PoseTree:
     start = time.perf_counter()
     tree = build_tree(samples, thresholds, resolutions, key)
     log.info("built a pose tree of %s nodes per level in %.1f s", tree.node_counts, time.perf_counter() - start)
