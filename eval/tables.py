@@ -151,7 +151,7 @@ def write_reports(runs: pd.DataFrame, out: Path) -> list[Path]:
             four_c.to_csv(temporary, index=False)
         text = ("# Fig 4(c): right-arm swings tracked (of the swings in each run)\n\n"
                 f"Machine: {machine()}. Swings are scored by the rule of `tracker/tbf/evaluation.py` "
-                "(the paper counted by eye).\n\n" + _markdown(four_c) + "\n")  # fmt: skip
+                "(the paper counted by eye).\n\n" + markdown(four_c) + "\n")  # fmt: skip
         with atomic_path(out / "table4c.md") as temporary:
             temporary.write_text(text)
         written += [out / "table4c.md", out / "table4c.csv"]
@@ -161,14 +161,14 @@ def write_reports(runs: pd.DataFrame, out: Path) -> list[Path]:
                 f"Ours: {machine()}, over every frame of the TBF runs, grouped by the number of pose samples "
                 "(capture = silhouette extraction at 320x240; estimation = the tree-based filter). The paper's "
                 "columns are its own machines, for its 57,136 samples.\n\n"
-                + _markdown(six_d.round(2)) + "\n")  # fmt: skip
+                + markdown(six_d.round(2)) + "\n")  # fmt: skip
         with atomic_path(out / "table6d.md") as temporary:
             temporary.write_text(text)
         written.append(out / "table6d.md")
     return written
 
 
-def _markdown(table: pd.DataFrame) -> str:
+def markdown(table: pd.DataFrame) -> str:
     header = "| " + " | ".join(map(str, table.columns)) + " |"
     rule = "|" + "---|" * len(table.columns)
     lines = ["| " + " | ".join("" if pd.isna(v) else str(v) for v in row) + " |" for row in table.itertuples(False)]
@@ -184,14 +184,14 @@ def main() -> None:
     if runs.empty:
         raise SystemExit(f"no metrics.json under {', '.join(map(str, args.directories))}")
     sweep = sweep_table(runs)
-    print(_markdown(sweep))
+    print(markdown(sweep))
     args.out.mkdir(parents=True, exist_ok=True)
     with atomic_path(args.out / "sweep.csv") as temporary:
         sweep.to_csv(temporary, index=False)
     print(f"wrote {args.out / 'sweep.csv'}")
     four_c = table_4c(runs)
     if not four_c.empty:
-        print(_markdown(four_c))
+        print(markdown(four_c))
     for path in write_reports(runs, args.out):
         print(f"wrote {path}")
 

@@ -450,8 +450,11 @@ def check_bvh_scene(cfg: DictConfig, choices: dict[str, str]) -> None:
         if missing:
             raise BvhError(f"{path}: not a CMU-style skeleton, missing joints {', '.join(missing)}")
         available = available_frames(clip, cfg.scene.start_s, cfg.scene.fps)
-    except BvhError as error:
-        raise ConfigError(f"scene.path={path}: {error}") from None
+    except BvhError as error:  # its message names the file, as the key already does
+        message = str(error)
+        for named, pronoun in ((f"{Path(path)}: ", ""), (f"{Path(path)} is ", "it is ")):
+            message = pronoun + message.removeprefix(named) if message.startswith(named) else message
+        raise ConfigError(f"scene.path={path}: {message}") from None
     if cfg.frames > available:
         raise ConfigError(f"frames={cfg.frames}: scene.path={path} has {available} frames at {cfg.scene.fps:g} fps "
                           f"from scene.start_s={cfg.scene.start_s}; allowed at most {available}")  # fmt: skip

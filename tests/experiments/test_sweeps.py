@@ -47,3 +47,11 @@ def test_a_job_with_a_changed_config_is_not_taken_for_finished(tmp_path):
     assert result.returncode == 0, result.stderr
     again = json.loads((sweep_dir / "0" / "metrics.json").read_text())
     assert json.loads(first)["frames"] == 2 and again["frames"] == 3
+
+
+def test_the_launcher_is_a_choice_on_the_command_line(tmp_path):
+    sweep_dir = tmp_path / "sweep"
+    result = run_sweep(sweep_dir, "hydra/launcher=basic", "frames=1", "record.images=false", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert "Joblib" not in (sweep_dir / "multirun.yaml").read_text()
+    assert json.loads((sweep_dir / "0" / "metrics.json").read_text())["status"] == "ok"

@@ -185,6 +185,9 @@ def _parse_motion(path: Path, body: str, width: int) -> tuple[int, float, np.nda
     if not (frame_time > 0 and math.isfinite(frame_time)):
         raise BvhError(f"{path}: Frame Time must be a positive number, got {frame_time}")
     rows = [line.split() for line in lines[2:] if line.strip()]
+    if len(rows) > 1 and len(rows[-1]) < width and all(len(row) == width for row in rows[:-1]):
+        raise BvhError(f"{path}: the file ends inside frame {len(rows) - 1} ({len(rows[-1])} of {width} values; "
+                       f"the header says {frames} frames): truncated?")  # fmt: skip
     lengths = sorted({len(row) for row in rows})
     if any(length != width for length in lengths):
         raise BvhError(f"{path}: every MOTION line must hold {width} values, found lines of {lengths}")

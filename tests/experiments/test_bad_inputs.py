@@ -1,0 +1,163 @@
+"""The bad-input suite: each input either stops the command at start (exit 2, one line on stderr naming what is
+wrong and what is allowed, no files) or, found inside a run, is recorded (a failed frame or ``status: failed:
+<reason>``) with every output still readable."""
+
+import json
+import re
+import subprocess
+import sys
+
+import pandas as pd
+import pytest
+
+from experiments.run import main
+from tests.conftest import MOCAP_DIR
+from tests.experiments.test_run import frames_by_entity
+
+CLIP = MOCAP_DIR / "143_33.bvh"
+
+
+def _bvh_variant(tmp_path, name, edit):
+    path = tmp_path / name
+    path.write_bytes(edit(CLIP.read_bytes()))
+    return path
+
+
+def _truncated(data: bytes) -> bytes:
+    return data[: len(data) * 2 // 3]  # cut in the middle of the MOTION lines
+
+
+def _with_nan(data: bytes) -> bytes:
+    head, motion = data.split(b"MOTION", 1)
+    lines = motion.split(b"\n")
+    lines[5] = b" ".join([b"nan", *lines[5].split()[1:]])
+    return head + b"MOTION" + b"\n".join(lines)
+
+
+BVH_VARIANTS = {
+    "truncated.bvh": (_truncated, r"the file ends inside frame \d+ \(\d+ of 96 values; the header says 36\d frames\): "
+                                  r"truncated\?$"),
+    "short.bvh": (lambda data: data[: data.rindex(b"\n", 0, len(data) * 2 // 3) + 1],
+                  r"header says 36\d frames, the file holds \d+ \(truncated\?\)$"),
+    "nan.bvh": (_with_nan, r"the MOTION section holds NaN or infinite values$"),
+    "binary.bvh": (lambda data: bytes(range(256)) * 4, r"it is not a BVH file \(not text\)$"),
+    "hierarchy_only.bvh": (lambda data: data.split(b"MOTION")[0], r"it is not a BVH file: no MOTION section$"),
+}
+
+BODY_TBF = ["model=body_mesh", "tracker=tbf", "cost=nwxor", "motion=dm2"]
+AT_START = [
+    (["model=nope"], r"^model=nope: no such option, allowed body_mesh, dsq_arm$"),
+    (["tracker=kalman"], r"^tracker=kalman: no such option, allowed abis, render_only, tbf$"),
+    (["nokey=1"], r"^nokey: unknown key, allowed keys here: "),
+    (["model.parts.0.shape.eps1=-1"], r"eps1=-1\.0 is out of range: allowed >= 0$"),
+    (["model.parts.1.shape.a1=1.5"], r"a1=1\.5 is out of range: allowed in \(0, 1\]$"),
+    (["model.parts.1.shape.b3=0"], r"b3=0\.0 is out of range: allowed in \(0, 1\]$"),
+    ([*BODY_TBF, "motion.sigma=-0.1"], r"^motion\.sigma=-0\.1 is out of range: allowed > 0$"),
+    ([*BODY_TBF, "motion.m=0.5"], r"^motion\.m=0\.5 is out of range: allowed >= 1$"),
+    ([*BODY_TBF, "motion.occlusion_area_px=-1"], r"^motion\.occlusion_area_px=-1\.0 is out of range: allowed >= 0$"),
+    ([*BODY_TBF, "cost.w=-1"], r"^cost\.w=-1\.0 is out of range: allowed >= 0$"),
+    ([*BODY_TBF, "tracker.thresholds=[0.01,0.002]"], r"^tracker\.thresholds=.* has 2 values: allowed exactly 3$"),
+    (["frames=0"], r"^frames=0 is out of range: allowed >= 1$"),
+    (["frames=ten"], r"^frames: Value 'ten' of type 'str' could not be converted to Integer$"),
+    (["seed=-1"], r"^seed=-1 is out of range: allowed in \[0, 4294967295\]$"),
+    (["scene.arm.bend_amplitude=nan"], r"^scene\.arm\.bend_amplitude=nan is out of range: allowed a finite number$"),
+    (["rig.width=8"], r"^rig\.width=8 is out of range: allowed in \[16, 4096\]$"),
+    (["model=body_mesh", "scene=bvh"], r"^scene\.path: missing value"),
+    (["model=body_mesh", "scene=bvh", "scene.path=missing.bvh"], r"^scene\.path=missing\.bvh: cannot read BVH file"),
+    (["tracker=tbf"], r"^tracker=tbf tracks the body: it needs model=body_mesh, not model=dsq_arm$"),
+    (["model=body_mesh", "cost=xor"], r"^cost=xor serves tracker=tbf only, not tracker=render_only: add tracker=tbf"),
+    (["tracker=abis", "tracker.fit.optimizer=newton"], r"^tracker\.fit\.optimizer='newton' is not allowed: allowed "),
+    (["-m", "frames=2,0"], r"^frames=0 is out of range: allowed >= 1$"),
+    (["frames=["], r"^cannot parse the overrides"),
+]
+
+
+def _fails_at_start(argv, message, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as stopped:
+        main(argv)
+    assert stopped.value.code == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.count("\n") == 1 and captured.err.startswith("error: ")
+    assert re.search(message, captured.err.removeprefix("error: ").strip()), captured.err
+    assert [p.name for p in tmp_path.iterdir() if not p.name.endswith(".bvh")] == []  # no runs/, multirun/, logs
+
+
+@pytest.mark.parametrize("argv, message", AT_START, ids=[" ".join(argv) for argv, _ in AT_START])
+def test_a_bad_override_stops_at_start_with_one_line(argv, message, tmp_path, monkeypatch, capsys):
+    _fails_at_start(argv, message, tmp_path, monkeypatch, capsys)
+
+
+@pytest.mark.parametrize("name", sorted(BVH_VARIANTS))
+def test_a_bad_bvh_file_stops_at_start_with_one_line(name, tmp_path, monkeypatch, capsys):
+    edit, message = BVH_VARIANTS[name]
+    path = _bvh_variant(tmp_path, name, edit)
+    argv = ["model=body_mesh", "scene=bvh", f"scene.path={path}"]
+    _fails_at_start(argv, rf"^scene\.path={re.escape(str(path))}: {message}", tmp_path, monkeypatch, capsys)
+
+
+def _run(tmp_path, *overrides):
+    run_dir = tmp_path / "run"
+    result = subprocess.run([sys.executable, "-m", "experiments.run", f"hydra.run.dir={run_dir}", *overrides],
+                            cwd=tmp_path, capture_output=True, text=True, timeout=300)  # fmt: skip
+    return result, run_dir
+
+
+def _outputs_readable(run_dir):
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    frames = pd.read_parquet(run_dir / "frames.parquet")
+    recorded = frames_by_entity(run_dir / "run.rrd")
+    assert not list(run_dir.glob(".*.tmp"))
+    return metrics, frames, recorded
+
+
+SMALL_GRID = ["tracker.samples.grid.swing_deg=[-30,60,10]", "tracker.samples.grid.abduction_deg=[0,0,8]",
+              "tracker.samples.grid.elbow_deg=[0,0,30]", "tracker.samples.grid.left_swing_deg=[0]",
+              "tracker.samples.grid.yaw_deg=[-90]"]  # fmt: skip
+
+
+def test_a_camera_looking_away_loses_every_feature_and_each_abis_frame_is_recorded_failed(tmp_path):
+    result, run_dir = _run(tmp_path, "tracker=abis", "rig=mono", "rig.target=[0,-9,1]", "frames=3")
+    assert result.returncode == 0, result.stderr
+    metrics, frames, recorded = _outputs_readable(run_dir)
+    assert metrics["status"] == "ok" and metrics["failed_frames"] == 3
+    assert set(frames["failure"]) == {"all pairs lost"} and (frames["tracked"] == 0).all()
+    assert recorded["/metrics/timing/estimate_ms"] == [0, 1, 2]
+
+
+def test_a_camera_looking_away_fails_the_tbf_run_with_its_reason(tmp_path):
+    result, run_dir = _run(tmp_path, *BODY_TBF, "rig.target=[0,9,0.9]", "frames=3", f"tracker.cache_dir={tmp_path}/c",
+                           *SMALL_GRID)  # fmt: skip
+    assert result.returncode == 1
+    metrics, _, _ = _outputs_readable(run_dir)
+    assert metrics["status"] == "failed: ValueError: the pose samples are not in the camera's view", metrics["status"]
+
+
+def test_a_subject_leaving_the_view_gives_failed_frames_and_the_run_goes_on(tmp_path):
+    # 69_20 walks forward out of the side camera's view: those frames have no silhouette to score.
+    walk = [f"scene.path={MOCAP_DIR / '69_20.bvh'}", "scene.fps=6", "frames=27"]
+    result, run_dir = _run(tmp_path, *BODY_TBF, "scene=bvh", *walk, f"tracker.cache_dir={tmp_path}/c",
+                           "record.images=false", *SMALL_GRID)  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    metrics, frames, recorded = _outputs_readable(run_dir)
+    per_frame = frames.drop_duplicates("frame")
+    failed = per_frame[per_frame["failure"] != ""]
+    assert metrics["status"] == "ok" and metrics["failed_frames"] == len(failed) > 0
+    assert failed["failure"].str.contains("silhouette").all(), failed["failure"].unique()
+    assert recorded["/metrics/tree/entropy"] == sorted(set(per_frame["frame"]) - set(failed["frame"]))
+
+
+def test_an_unreadable_cache_is_rebuilt_not_used(tmp_path):
+    cache = tmp_path / "c"
+    arguments = [*BODY_TBF, "frames=2", f"tracker.cache_dir={cache}", "record.images=false", *SMALL_GRID]
+    first, run_dir = _run(tmp_path, *arguments)
+    assert first.returncode == 0, first.stderr
+    for array in cache.glob("samples/*/labels_80x60.npy"):
+        array.write_bytes(array.read_bytes()[:-100])  # a truncated write
+    for tree in cache.glob("trees/*.npz"):
+        tree.write_bytes(b"not a tree")
+    again, run_dir = _run(tmp_path, *arguments)
+    assert again.returncode == 0, again.stderr
+    log = (run_dir / "run.log").read_text()
+    assert "is unusable" in log and "rebuilding it" in log
+    assert json.loads((run_dir / "metrics.json").read_text())["status"] == "ok"
