@@ -38,20 +38,24 @@ FEATURE_COLORS = {"tracked": (0, 220, 0), "new": (0, 160, 255), "discarded": (25
 TIMELINE = "frame"
 
 
-def default_blueprint(view_names: Sequence[str], part_names: Sequence[str], silhouettes: bool = False) -> rrb.Blueprint:
-    """Views with their label overlays on top (body scenes: with the silhouette and weight maps beside them);
-    the 3-D scene and the key time series below."""
+def default_blueprint(view_names: Sequence[str], part_names: Sequence[str], silhouettes: bool = False,
+                      weight_maps: bool = True) -> rrb.Blueprint:  # fmt: skip
+    """Views with their label overlays on top (body scenes: with the silhouette, and the weight maps when they are
+    recorded, beside them); the 3-D scene and the key time series below, the model's own first: the right arm's
+    swing and the tree search for the body, the pair counts for the DSQ arm."""
     if silhouettes:
         series = [rrb.TimeSeriesView(name="right arm swing (deg)", origin="metrics/swing_deg"),
                   rrb.TimeSeriesView(name="tree search", origin="metrics/tree"),
                   rrb.TimeSeriesView(name="silhouette IoU", origin="metrics/silhouette_iou"),
                   rrb.TimeSeriesView(name="joint angles", origin="metrics/params/joints")]  # fmt: skip
-        views = [rrb.Spatial2DView(name=name, origin=f"{root}/{v}{leaf}") for v in view_names for name, root, leaf in
-                 ((v, "world/cameras", "/image"), (f"{v} silhouette", "capture", "/silhouette"),
-                  (f"{v} wXOR weights", "capture", "/weights/wxor"),
-                  (f"{v} nwXOR weights", "capture", "/weights/nwxor"))]  # fmt: skip
+        panes = [(None, "world/cameras", "/image"), ("silhouette", "capture", "/silhouette")]
+        if weight_maps:
+            panes += [("wXOR weights", "capture", "/weights/wxor"), ("nwXOR weights", "capture", "/weights/nwxor")]
+        views = [rrb.Spatial2DView(name=f"{v} {name}" if name else v, origin=f"{root}/{v}{leaf}")
+                 for v in view_names for name, root, leaf in panes]  # fmt: skip
     else:
-        series = [rrb.TimeSeriesView(name=f"{part} truth", origin=f"metrics/params/{part}") for part in part_names]
+        series = [rrb.TimeSeriesView(name="pairs", origin="metrics/correspondences"),
+                  *(rrb.TimeSeriesView(name=f"{part} truth", origin=f"metrics/params/{part}") for part in part_names)]
         views = [rrb.Spatial2DView(name=v, origin=f"world/cameras/{v}/image") for v in view_names]
     return rrb.Blueprint(
         rrb.Vertical(
@@ -59,9 +63,8 @@ def default_blueprint(view_names: Sequence[str], part_names: Sequence[str], silh
             rrb.Horizontal(
                 rrb.Spatial3DView(name="3-D scene", origin="world"),
                 rrb.Tabs(
-                    rrb.TimeSeriesView(name="pairs", origin="metrics/correspondences"),
-                    rrb.TimeSeriesView(name="visible pixels", origin="metrics/visible_px"),
                     *series,
+                    rrb.TimeSeriesView(name="visible pixels", origin="metrics/visible_px"),
                     rrb.TimeSeriesView(name="timing (ms)", origin="metrics/timing"),
                 ),
             ),
@@ -94,7 +97,8 @@ class RunRecording:
         self.weight_maps = weight_maps
         self._file: AtomicFile | None = AtomicFile(self.path)
         self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=self.recording_id)
-        blueprint = default_blueprint([camera.name for camera in cameras], part_names, silhouettes)
+        blueprint = default_blueprint([camera.name for camera in cameras], part_names, silhouettes,
+                                      weight_maps and images)  # fmt: skip
         self.stream.save(self._file.temporary, default_blueprint=blueprint)
         self._log_static(cameras, part_colors)
         self._meshes_logged: set[str] = set()

@@ -72,15 +72,21 @@ def test_recording_has_images_labels_params_and_timings_for_every_frame(five_fra
         assert frames[f"/metrics/params/{part}/b1/truth"] == every_frame
 
 
-def test_default_blueprint_shows_the_views_the_scene_and_the_series(five_frame_run):
-    reader = RrdReader(five_frame_run / "run.rrd")
+def blueprint_origins(path) -> set[str]:
+    """The space origins of the views in a recording's default blueprint."""
+    reader = RrdReader(path)
     origins = set()
     for chunk in reader.stream(store=reader.blueprints()[0]).to_chunks():
         batch = chunk.to_record_batch()
         if "ViewBlueprint:space_origin" in batch.schema.names:
             origins.update(value[0] for value in batch.column("ViewBlueprint:space_origin").to_pylist() if value)
+    return origins
+
+
+def test_default_blueprint_shows_the_views_the_scene_and_the_series(five_frame_run):
+    origins = blueprint_origins(five_frame_run / "run.rrd")
     assert {f"world/cameras/{view}/image" for view in VIEWS} <= origins  # RGB with the label overlay
-    assert {"world", "metrics/visible_px", "metrics/timing"} <= origins
+    assert {"world", "metrics/correspondences", "metrics/visible_px", "metrics/timing"} <= origins
     assert {f"metrics/params/{part}" for part in PARTS} <= origins
 
 

@@ -2,7 +2,7 @@ import json
 
 import pandas as pd
 
-from tests.experiments.test_run import frames_by_entity
+from tests.experiments.test_run import blueprint_origins, frames_by_entity
 
 
 def test_a_tbf_run_records_the_tree_search_per_level_and_its_timings(tbf_run):
@@ -22,3 +22,11 @@ def test_a_tbf_run_records_the_tree_search_per_level_and_its_timings(tbf_run):
     for entity in ("/metrics/tree/level1/evaluated", "/metrics/tree/level3/kept", "/metrics/tree/entropy",
                    "/metrics/swing_deg/estimate", "/metrics/swing_deg/truth"):  # fmt: skip
         assert frames[entity] == list(range(6)), entity
+
+
+def test_the_tbf_blueprint_shows_the_silhouette_its_weights_and_the_tree_search(tbf_run):
+    origins = blueprint_origins(tbf_run / "run.rrd")
+    view = "main"
+    assert {f"world/cameras/{view}/image", f"capture/{view}/silhouette", f"capture/{view}/weights/nwxor"} <= origins
+    assert {"world", "metrics/swing_deg", "metrics/tree", "metrics/silhouette_iou"} <= origins
+    assert "metrics/correspondences" not in origins  # AbIS's pairs have no place here
