@@ -73,8 +73,9 @@ def finished_metrics(cfg: DictConfig, output_dir: Path) -> dict[str, Any] | None
         metrics = json.loads((output_dir / "metrics.json").read_text())
     except (OSError, ValueError):
         return None
-    same = metrics.get("config") == OmegaConf.to_container(cfg, resolve=True)
-    return metrics if isinstance(metrics, dict) and metrics.get("status") == "ok" and same else None
+    if not isinstance(metrics, dict) or metrics.get("status") != "ok":
+        return None
+    return metrics if metrics.get("config") == OmegaConf.to_container(cfg, resolve=True) else None
 
 
 def remove_stale_temporaries(output_dir: Path) -> None:
