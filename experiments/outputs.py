@@ -65,6 +65,7 @@ def _body_rows(frame: FrameInput, body: BodyMesh, result: object | None,
     if isinstance(result, TbfResult):
         columns.update(est_pose=result.estimate.tolist(), swing_est_deg=right_arm_swing_deg(body, result.estimate),
                        joint_error_mm=joint_error_mm(body, frame.truth, result.estimate),
+                       joint_error_aligned_mm=joint_error_mm(body, frame.truth, result.estimate, root_aligned=True),
                        failure=result.failure or "")  # fmt: skip
         if result.filter is not None:
             found = result.filter
@@ -111,6 +112,7 @@ def body_tracking(table: pd.DataFrame) -> dict[str, Any]:
     frames = table.drop_duplicates("frame").sort_values("frame")
     figures: dict[str, Any] = {
         "mpjpe_mm": float(frames["joint_error_mm"].mean()),
+        "mpjpe_root_aligned_mm": float(frames["joint_error_aligned_mm"].mean()),
         "swings": score_swings(frames["swing_truth_deg"].to_numpy(), frames["swing_est_deg"].to_numpy()),
         "swing_error_deg_mean": float((frames["swing_est_deg"] - frames["swing_truth_deg"]).abs().mean()),
         "failed_frames": int((frames["failure"] != "").sum()),

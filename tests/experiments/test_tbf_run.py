@@ -12,6 +12,7 @@ def test_a_tbf_run_records_the_tree_search_per_level_and_its_timings(tbf_run):
     assert len(metrics["nodes_evaluated_mean"]) == 3 and all(n >= 1 for n in metrics["nodes_evaluated_mean"])
     assert len(metrics["tree_nodes"]) == 3 and metrics["tree_nodes"][-1] <= metrics["samples"]
     assert metrics["mpjpe_mm"] < 60 and metrics["swing_error_deg_mean"] < 15
+    assert 0 <= metrics["mpjpe_root_aligned_mm"] < 60
     for stage in ("capture", "estimate", "estimate_prior", "estimate_level1", "estimate_level2", "estimate_level3"):
         assert timing[f"{stage}_ms_median"] > 0, stage
     table = pd.read_parquet(tbf_run / "frames.parquet").drop_duplicates("frame")

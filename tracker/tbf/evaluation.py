@@ -13,7 +13,8 @@ angle trace over the same frames (`score_swing`):
     Success  it followed, with every frame within ``max_error_deg``.
 
 MPJPE: the mean over frames of the mean distance (mm) between estimated and true positions of the 15
-HumanEva-style joints (`MPJPE_JOINTS`).
+HumanEva-style joints (`MPJPE_JOINTS`); the root-aligned MPJPE first moves the estimate's pelvis onto the
+truth's, so it measures the posture alone (the sample sets are postures in place).
 """
 
 from __future__ import annotations
@@ -79,8 +80,12 @@ def score_swings(truth_deg: np.ndarray, estimate_deg: np.ndarray, rule: SwingRul
     return counts
 
 
-def joint_error_mm(body: BodyMesh, truth: np.ndarray, estimate: np.ndarray) -> float:
-    """Mean distance (mm) between the estimated and true positions of `MPJPE_JOINTS` in one frame."""
+def joint_error_mm(body: BodyMesh, truth: np.ndarray, estimate: np.ndarray, root_aligned: bool = False) -> float:
+    """Mean distance (mm) between the estimated and true positions of `MPJPE_JOINTS` in one frame; with
+    ``root_aligned``, after moving the estimate so that its pelvis ("Hips") is on the truth's (posture only)."""
     joints = [JOINT_INDEX[name] for name in MPJPE_JOINTS]
-    difference = body.joint_positions(estimate)[joints] - body.joint_positions(truth)[joints]
-    return float(1e3 * np.linalg.norm(difference, axis=1).mean())
+    estimated, true = body.joint_positions(estimate)[joints], body.joint_positions(truth)[joints]
+    if root_aligned:
+        pelvis = MPJPE_JOINTS.index("Hips")
+        estimated = estimated - estimated[pelvis] + true[pelvis]
+    return float(1e3 * np.linalg.norm(estimated - true, axis=1).mean())

@@ -4,7 +4,14 @@ import pytest
 from tracker.geometry.rigs import mono
 from tracker.models.body_mesh import JOINT_INDEX, PART_NAMES
 from tracker.tbf.distances import COSTS, SilhouetteCost, silhouette_distance
-from tracker.tbf.evaluation import OUTCOMES, right_arm_swing_deg, score_swing, score_swings, split_swings
+from tracker.tbf.evaluation import (
+    OUTCOMES,
+    joint_error_mm,
+    right_arm_swing_deg,
+    score_swing,
+    score_swings,
+    split_swings,
+)
 from tracker.tbf.filter import FilterSettings, TreeFilter
 from tracker.tbf.motion import MotionModel, PosePrior
 from tracker.tbf.pose_sets import arm_grid
@@ -129,3 +136,18 @@ def test_swing_scoring_on_hand_made_traces():
     assert score_swing(truth[:40], np.minimum(truth[:40], 5)) == "fail"  # never came forward
     counts = score_swings(truth, np.r_[truth[:40] + 5, np.zeros(41)])
     assert counts == {"fail": 1, "error": 0, "success": 1} and tuple(counts) == OUTCOMES
+
+
+def test_root_aligned_mpjpe_ignores_where_the_body_stands_but_not_its_posture(body):
+    pose = arm_grid(body, [30.0], [8.0], [0.0], [0.0], yaw_deg=-90.0)[0]
+    moved = pose.copy()
+    moved[:3] += [0.3, -0.4, 0.0]  # 0.5 m away, same posture
+    assert joint_error_mm(body, pose, moved) == pytest.approx(500.0)
+    assert joint_error_mm(body, pose, moved, root_aligned=True) == pytest.approx(0.0, abs=1e-9)
+    raised = arm_grid(body, [90.0], [8.0], [0.0], [0.0], yaw_deg=-90.0)[0]
+    raised[:3] = moved[:3]
+    # The arm turns at the shoulder: only the right elbow and wrist move, so the aligned error is theirs over 15.
+    joints = body.joint_positions(raised) - body.joint_positions(pose)
+    arm = [JOINT_INDEX[name] for name in ("RightForeArm", "RightHand")]
+    expected = 1e3 * np.linalg.norm(joints[arm] - (joints[JOINT_INDEX["Hips"]]), axis=1).sum() / 15
+    assert joint_error_mm(body, pose, raised, root_aligned=True) == pytest.approx(expected, rel=1e-9)
