@@ -42,6 +42,8 @@ BVH_VARIANTS = {
     "nan.bvh": (_with_nan, r"the MOTION section holds NaN or infinite values$"),
     "binary.bvh": (lambda data: bytes(range(256)) * 4, r"it is not a BVH file \(not text\)$"),
     "hierarchy_only.bvh": (lambda data: data.split(b"MOTION")[0], r"it is not a BVH file: no MOTION section$"),
+    "not_cmu.bvh": (lambda data: data.replace(b"JOINT RightHand\n", b"JOINT RightPaw\n"),
+                    r"not a CMU-style skeleton, missing joints RightHand$"),
 }
 
 BODY_TBF = ["model=body_mesh", "tracker=tbf", "cost=nwxor", "motion=dm2"]
