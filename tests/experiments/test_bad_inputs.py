@@ -14,12 +14,12 @@ from experiments.run import main
 from tests.conftest import MOCAP_DIR
 from tests.experiments.test_run import frames_by_entity
 
-CLIP = MOCAP_DIR / "143_33.bvh"
+CLIP, SHORT_CLIP = MOCAP_DIR / "69_20.bvh", MOCAP_DIR / "143_33.bvh"
 
 
 def _bvh_variant(tmp_path, name, edit):
     path = tmp_path / name
-    path.write_bytes(edit(CLIP.read_bytes()))
+    path.write_bytes(edit(SHORT_CLIP.read_bytes()))
     return path
 
 
@@ -49,28 +49,50 @@ BVH_VARIANTS = {
 BODY_TBF = ["model=body_mesh", "tracker=tbf", "cost=nwxor", "motion=dm2"]
 AT_START = [
     (["model=nope"], r"^model=nope: no such option, allowed body_mesh, dsq_arm$"),
-    (["tracker=kalman"], r"^tracker=kalman: no such option, allowed abis, render_only, tbf$"),
-    (["nokey=1"], r"^nokey: unknown key, allowed keys here: "),
-    (["model.parts.0.shape.eps1=-1"], r"eps1=-1\.0 is out of range: allowed >= 0$"),
+    (["model.parts.0.shape.eps1=-1"], r"^model\.parts\[0\]\.shape\.eps1=-1\.0 is out of range: allowed >= 0$"),
     (["model.parts.1.shape.a1=1.5"], r"a1=1\.5 is out of range: allowed in \(0, 1\]$"),
     (["model.parts.1.shape.b3=0"], r"b3=0\.0 is out of range: allowed in \(0, 1\]$"),
-    ([*BODY_TBF, "motion.sigma=-0.1"], r"^motion\.sigma=-0\.1 is out of range: allowed > 0$"),
-    ([*BODY_TBF, "motion.m=0.5"], r"^motion\.m=0\.5 is out of range: allowed >= 1$"),
-    ([*BODY_TBF, "motion.occlusion_area_px=-1"], r"^motion\.occlusion_area_px=-1\.0 is out of range: allowed >= 0$"),
-    ([*BODY_TBF, "cost.w=-1"], r"^cost\.w=-1\.0 is out of range: allowed >= 0$"),
-    ([*BODY_TBF, "tracker.thresholds=[0.01,0.002]"], r"^tracker\.thresholds=.* has 2 values: allowed exactly 3$"),
+    (["model.parts.2.shape.t1=-2"], r"t1=-2\.0 is out of range: allowed in \[-1, 1\]"),
     (["frames=0"], r"^frames=0 is out of range: allowed >= 1$"),
-    (["frames=ten"], r"^frames: Value 'ten' of type 'str' could not be converted to Integer$"),
-    (["seed=-1"], r"^seed=-1 is out of range: allowed in \[0, 4294967295\]$"),
-    (["scene.arm.bend_amplitude=nan"], r"^scene\.arm\.bend_amplitude=nan is out of range: allowed a finite number$"),
+    (["frames=abc"], r"^frames: Value 'abc' of type 'str' could not be converted to Integer$"),
+    (["nokey=1"], r"^nokey: unknown key, allowed keys here: model, scene"),
+    (["+nokey=1"], r"^nokey: unknown key"),
+    (["rig.fov=3"], r"^rig\.fov: unknown key, allowed keys here: target, front_distance"),
     (["rig.width=8"], r"^rig\.width=8 is out of range: allowed in \[16, 4096\]$"),
+    (["rig.target=[1,2]"], r"^rig\.target=\[1\.0, 2\.0\] has 2 values: allowed exactly 3$"),
+    (["scene.arm.period_frames=nan"], r"^scene\.arm\.period_frames=nan is out of range: allowed > 0$"),
     (["model=body_mesh", "scene=bvh"], r"^scene\.path: missing value"),
-    (["model=body_mesh", "scene=bvh", "scene.path=missing.bvh"], r"^scene\.path=missing\.bvh: cannot read BVH file"),
+    (["scene=bvh", f"scene.path={CLIP}"], r"^scene=bvh drives the body: it needs model=body_mesh, not model=dsq_arm$"),
+    (["model=body_mesh", "scene=bvh", "scene.path=nope.bvh"],
+     r"^scene\.path=nope\.bvh: cannot read BVH file nope\.bvh"),
+    (["model=body_mesh", "scene=bvh", f"scene.path={SHORT_CLIP}", "frames=1000"],
+     rf"^frames=1000: scene\.path={re.escape(str(SHORT_CLIP))} has 90 frames at 30 fps from scene\.start_s=0\.0; "
+     r"allowed at most 90$"),  # 360 steps of .0083333 s = 2.99999 s: 89 steps of 1/30 s
+    (["model=body_mesh", "model.triangles=10"], r"^model\.triangles=10 is out of range"),
+    (["cost=nwxor"], r"^cost=nwxor serves tracker=tbf only, not tracker=render_only: add tracker=tbf"),
     (["tracker=tbf"], r"^tracker=tbf tracks the body: it needs model=body_mesh, not model=dsq_arm$"),
-    (["model=body_mesh", "cost=xor"], r"^cost=xor serves tracker=tbf only, not tracker=render_only: add tracker=tbf"),
-    (["tracker=abis", "tracker.fit.optimizer=newton"], r"^tracker\.fit\.optimizer='newton' is not allowed: allowed "),
-    (["-m", "frames=2,0"], r"^frames=0 is out of range: allowed >= 1$"),
+    (["model=body_mesh", "tracker=tbf", "motion=dm1"], r"^tracker=tbf needs a cost and a motion model: add cost=nwxor"),
+    (["model=body_mesh", "cost=wxor", "cost.w=-1"], r"^cost\.w=-1\.0 is out of range: allowed >= 0$"),
+    (["model=body_mesh", "cost=xor", "cost.kind=and"], r"^cost\.kind='and' is not allowed: allowed xor, wxor, nwxor$"),
+    (["experiment=tbf_table4c", "tracker.thresholds=[0.1,-1,0.1]"], r"^tracker\.thresholds\[1\]=-1\.0 is out of range"),
+    (["experiment=tbf_table4c", "tracker.filter.prune_fraction=1"], r"^tracker\.filter\.prune_fraction=1\.0 is out"),
+    (["model=body_mesh", "render.noise_std=-2"], r"^render\.noise_std=-2\.0 is out of range"),
+    (["seed=-1"], r"^seed=-1 is out of range: allowed in \[0, 4294967295\]$"),
+    (["motion=dm2", "motion.m=0.5"], r"^motion\.m=0\.5 is out of range: allowed >= 1$"),
+    (["motion=dm1", "motion.sigma=-0.1"], r"^motion\.sigma=-0\.1 is out of range: allowed > 0$"),
+    (["motion=dm2", "motion.occlusion_area_px=-1"], r"occlusion_area_px=-1\.0 is out of range: allowed >= 0"),
+    (["tracker=abis", "tracker.fit.optimizer=newton"], r"^tracker\.fit\.optimizer='newton' is not allowed: allowed sd"),
+    (["tracker=abis", "tracker.pairing_radius_px=0"], r"^tracker\.pairing_radius_px=0\.0 is out of range: allowed > 0"),
+    (["tracker=abis", "tracker.fit.huber_px=-1"], r"^tracker\.fit\.huber_px=-1\.0 is out of range: allowed > 0$"),
+    (["tracker=abis", "tracker.features.max_features=0"], r"max_features=0 is out of range: allowed >= 1"),
+    (["model=schema_dsq_arm"], r"^model=schema_dsq_arm is a schema, not an option"),
     (["frames=["], r"^cannot parse the overrides"),
+    (["experiment=nope"],
+     r"^experiment=nope: no such option, allowed abis_fig8_fig9, arm_scene, tbf_paper_scale, tbf_table4c$"),
+    (["tracker=kalman"], r"^tracker=kalman: no such option, allowed abis, render_only, tbf$"),
+    ([*BODY_TBF, "tracker.thresholds=[0.01,0.002]"], r"^tracker\.thresholds=.* has 2 values: allowed exactly 3$"),
+    (["scene.arm.bend_amplitude=nan"], r"^scene\.arm\.bend_amplitude=nan is out of range: allowed a finite number$"),
+    (["-m", "frames=2,0"], r"^frames=0 is out of range: allowed >= 1$"),
 ]
 
 
