@@ -237,13 +237,9 @@ def _compare_scoring(filter_, level: int, silhouette: np.ndarray, nodes: np.ndar
     and naively (per node: XOR of the two masks, times the weights, summed), after computing the observation's
     weight map once for both. Returns (weight-map s, vectorised s, naive s, bytes the vectorised scoring read)
     and the largest relative difference of the two."""
-    from tracker.observe.silhouettes import resize_silhouette
-
     tree_level = filter_.tree.levels[level]
     stack = filter_.samples.silhouettes(tree_level.resolution)
-    observed = silhouette
-    if silhouette.shape[::-1] != tuple(tree_level.resolution):
-        observed = resize_silhouette(silhouette, *tree_level.resolution)
+    observed = filter_.observation_at(level, silhouette)
     start = time.perf_counter()
     scorer = filter_.cost.scorer(observed, stack.window)
     weights_s = time.perf_counter() - start

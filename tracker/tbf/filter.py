@@ -135,9 +135,7 @@ class TreeFilter:
             nodes, mass = nodes[mass > 0], mass[mass > 0]
             if len(nodes) == 0:
                 raise RuntimeError("the prior gives no sample any weight")
-            observation = observed
-            if observed.shape[::-1] != tuple(level.resolution):
-                observation = resize_silhouette(observed, *level.resolution)
+            observation = self.observation_at(k, observed)
             distances = self.score_level(k, observation, None if len(nodes) == len(level) else nodes)
             self.last_evaluated.append(nodes)
             log_likelihood = -0.5 * (distances / self.level_sigmas[k]) ** 2
@@ -172,6 +170,11 @@ class TreeFilter:
             entropy=float(-(nonzero * np.log(nonzero)).sum()),
             timings_ms=timings,
         )
+
+    def observation_at(self, level: int, observed: np.ndarray) -> np.ndarray:
+        """The observed silhouette at ``level``'s resolution."""
+        resolution = tuple(self.tree.levels[level].resolution)
+        return observed if observed.shape[::-1] == resolution else resize_silhouette(observed, *resolution)
 
     def score_level(self, level: int, observation: np.ndarray, nodes: np.ndarray | None = None) -> np.ndarray:
         """Distances to the representatives of ``nodes`` of ``level`` (all of them for None)."""
