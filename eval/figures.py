@@ -12,6 +12,7 @@ import numpy as np
 
 from eval.recordings import read_rgb_frames
 from tracker.atomic import atomic_path
+from tracker.evaluation.arm import PAPER_PART
 
 log = logging.getLogger(__name__)
 
@@ -38,9 +39,6 @@ def views_sheet(run_dir: str | Path, frames: Sequence[int] | None = None, out: s
     return _save(plt, figure, Path(out) if out is not None else run_dir / "views.png")
 
 
-PAPER_PART = "forearm"  # paper 1's part 2
-
-
 def fig8_part2_b1_r2(run_dir: str | Path, out: str | Path | None = None) -> Path:
     """Paper 1, Fig 8: part 2's bending b1 and rotation r2, estimated and true, over the frames."""
     plt = _pyplot()
@@ -56,9 +54,9 @@ def fig8_part2_b1_r2(run_dir: str | Path, out: str | Path | None = None) -> Path
     turn.set_xlabel("frame")
     _shade_hidden(bend, rows), _shade_hidden(turn, rows)
     metrics = json.loads((run_dir / "metrics.json").read_text())
-    bend.set_title(f"part 2 ({PAPER_PART}): b1 RMS {metrics['part2_b1_rms'] * 1e3:.1f} mm "
+    bend.set_title(f"part 2 ({rows['part'].iloc[0]}): b1 RMS {metrics['part2_b1_rms'] * 1e3:.1f} mm "
                    f"(range {metrics['part2_b1_range'] * 1e3:.0f} mm), r2 RMS {metrics['part2_r2_rms_deg']:.2f} deg, "
-                   f"optimizer {metrics['config']['tracker']['fit']['optimizer']}", fontsize=9)  # fmt: skip
+                   f"{_tracker_name(metrics)}", fontsize=9)  # fmt: skip
     bend.legend(loc="upper right", fontsize=8)
     return _save(plt, figure, Path(out) if out else run_dir / "fig8_part2_b1_r2.png")
 
@@ -80,12 +78,20 @@ def fig9_part2_correspondences(run_dir: str | Path, out: str | Path | None = Non
 
 
 def _paper_part_rows(run_dir: Path):
+    """Paper 1's part 2 (`tracker.evaluation.arm.PAPER_PART`), frame by frame."""
     import pandas as pd
 
     table = pd.read_parquet(run_dir / "frames.parquet")
     if "est_b1" not in table.columns:
-        raise ValueError(f"{run_dir} has no estimates (run it with tracker=abis)")
-    return table[table["part"] == PAPER_PART].sort_values("frame")
+        raise ValueError(f"{run_dir} has no estimates of the DSQ arm (run it with a tracker, e.g. tracker=abis)")
+    part = table["part"].drop_duplicates().iloc[PAPER_PART]
+    return table[table["part"] == part].sort_values("frame")
+
+
+def _tracker_name(metrics: dict) -> str:
+    """The run's tracker, with its optimiser where it has one (AbIS: lm or sd)."""
+    optimizer = metrics["config"]["tracker"].get("fit", {}).get("optimizer")
+    return f"tracker {metrics['choices']['tracker']}" + (f", optimizer {optimizer}" if optimizer else "")
 
 
 def _shade_hidden(axis, rows) -> None:
@@ -117,14 +123,19 @@ def _save(plt, figure, out: Path) -> Path:
     return out
 
 
+# Each figure and the frames.parquet columns it draws: a run gets every figure its table has the columns of.
+FIGURES = ((fig8_part2_b1_r2, {"truth_b1", "est_b1", "truth_r2", "est_r2"}),
+           (fig9_part2_correspondences, {"tracked", "new", "discarded_occlusion", "discarded_error", "lost"}))
+
+
 def write_figures(run_dir: str | Path) -> list[Path]:
-    """Every figure the run supports: the views sheet, and Fig 8 and Fig 9 for an AbIS run."""
+    """Every figure the run supports: the views sheet, and those whose columns its table has (Fig 8: estimates of
+    the DSQ arm; Fig 9: AbIS's pair counts)."""
+    import pyarrow.parquet as pq
+
     run_dir = Path(run_dir)
-    written = [views_sheet(run_dir)]
-    metrics = json.loads((run_dir / "metrics.json").read_text())
-    if metrics.get("tracker") == "abis":
-        written += [fig8_part2_b1_r2(run_dir), fig9_part2_correspondences(run_dir)]
-    return written
+    columns = set(pq.read_schema(run_dir / "frames.parquet").names)
+    return [views_sheet(run_dir)] + [figure(run_dir) for figure, needs in FIGURES if needs <= columns]
 
 
 def main() -> None:

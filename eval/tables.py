@@ -2,11 +2,12 @@
 
 Every ``metrics.json`` under the given directories becomes one row keyed by its Hydra choices and its job's
 overrides; the sweep table (`sweep_table`, printed, and written as ``sweep.csv``) groups the runs that differ only
-in ``seed`` and gives each numeric metric as mean ± std over those seeds. TBF runs of
-paper 2's experiment A give the Fig 4(c) table (Fail / Error / Success per cost and motion model, next to the
+in ``seed`` and gives each numeric metric as mean ± std over those seeds. Runs of paper 2's experiment A give
+the Fig 4(c) table (Fail / Error / Success per cost and motion model, next to the
 paper's counts, plus MPJPE) as ``table4c.md`` / ``table4c.csv``, and the Fig 6(d) table (capture, estimation and
 total ms per frame: min / max / average over every frame of those runs, next to the paper's PC and Cell columns)
-as ``table6d.md``. Both name the machine.
+as ``table6d.md``. Both name the machine. A run belongs to Fig 4(c) when it scored swings, and to Fig 6(d) when
+it timed a capture and an estimation stage: whatever its tracker.
 """
 
 from __future__ import annotations
@@ -19,7 +20,9 @@ from pathlib import Path
 
 import pandas as pd
 
+from tracker import catalog  # noqa: F401  (registers the built-in components)
 from tracker.atomic import atomic_path
+from tracker.registry import REGISTRIES
 
 # Fig 4(c) of paper 2: swings out of 24 (fail, error, success).
 PAPER_4C = {("wxor", "dm1"): (24, 0, 0), ("wxor", "dm2"): (24, 0, 0), ("nwxor", "dm1"): (7, 7, 10),
@@ -36,7 +39,7 @@ _NOT_METRICS = {"seed", "frames", "frames_done"}
 
 def collect(directories: list[Path]) -> pd.DataFrame:
     """One row per run: its choices, its overrides other than ``seed``, seed, status, every top-level numeric
-    metric, and the TBF swing counts."""
+    metric, the swing counts where it scored swings, and its stage timings (medians, ``timings.json``)."""
     rows = []
     for directory in directories:
         for path in sorted(Path(directory).rglob("metrics.json")):
@@ -44,11 +47,13 @@ def collect(directories: list[Path]) -> pd.DataFrame:
             swings = metrics.get("swings", {})
             numbers = {k: v for k, v in metrics.items()
                        if isinstance(v, int | float) and not isinstance(v, bool) and k not in _NOT_METRICS}  # fmt: skip
+            timings_path = path.parent / "timings.json"
+            timings = json.loads(timings_path.read_text()) if timings_path.exists() else {}
             rows.append({**metrics.get("choices", {}), "overrides": " ".join(_overrides(path.parent)),
                          "seed": metrics.get("seed"), "status": metrics.get("status"),
                          "frames": metrics.get("frames_done"), **numbers, "fail": swings.get("fail"),
                          "error": swings.get("error"), "success": swings.get("success"),
-                         "samples": metrics.get("samples"), "run": str(path.parent)})  # fmt: skip
+                         "samples": metrics.get("samples"), **timings, "run": str(path.parent)})  # fmt: skip
     return pd.DataFrame(rows)
 
 
@@ -67,7 +72,7 @@ def sweep_table(runs: pd.DataFrame) -> pd.DataFrame:
     value alone for one run)."""
     if runs.empty:
         return pd.DataFrame()
-    keys = [c for c in runs.columns if c in ("model", "scene", "rig", "tracker", "cost", "motion", "experiment")]
+    keys = [c for c in runs.columns if c in (*REGISTRIES, "experiment")]
     keys.append("overrides")
     skip = {*keys, "seed", "status", "frames", "run", "samples"}
     metrics = [c for c in runs.columns if c not in skip and pd.api.types.is_numeric_dtype(runs[c])]
@@ -87,22 +92,22 @@ def sweep_table(runs: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _finished_tbf(runs: pd.DataFrame) -> pd.DataFrame:
-    if "tracker" not in runs or "status" not in runs:
+def _finished(runs: pd.DataFrame, *columns: str) -> pd.DataFrame:
+    """The finished runs that have a value in every one of ``columns``."""
+    if "status" not in runs or not set(columns) <= set(runs.columns):
         return runs.iloc[:0]
-    return runs[(runs["tracker"] == "tbf") & (runs["status"] == "ok")]
+    return runs[(runs["status"] == "ok") & runs[list(columns)].notna().all(axis=1)]
 
 
 def table_4c(runs: pd.DataFrame) -> pd.DataFrame:
-    """One row per finished TBF run of the arm swing (experiment A): its swing outcomes and MPJPE next to the
-    paper's counts for its cell."""
-    tbf = _finished_tbf(runs)
-    tbf = tbf[tbf["scene"] == "arm_swing"] if "scene" in tbf else tbf.iloc[:0]
-    if tbf.empty:
+    """One row per finished run that scored swings (experiment A): its outcomes and MPJPE next to the paper's counts
+    for its cell, cells in the order the costs and motion models are registered."""
+    scored = _finished(runs, "fail", "cost", "motion")
+    if scored.empty:
         return pd.DataFrame()
-    order = {"xor": 0, "wxor": 1, "nwxor": 2, "dm1": 0, "dm2": 1}
+    order = {name: k for kind in ("cost", "motion") for k, name in enumerate(REGISTRIES[kind].names())}
     rows = []
-    for _, run in tbf.sort_values(["cost", "motion"], key=lambda c: c.map(order)).iterrows():
+    for _, run in scored.sort_values(["cost", "motion"], key=lambda c: c.map(order)).iterrows():
         paper = PAPER_4C.get((run["cost"], run["motion"]))
         rows.append({"cost": run["cost"], "motion": run["motion"], "fail": int(run["fail"]),
                      "error": int(run["error"]), "success": int(run["success"]),
@@ -117,13 +122,13 @@ def table_4c(runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def table_6d(runs: pd.DataFrame) -> pd.DataFrame:
-    """Capture, estimation and total ms per frame over every frame of the finished TBF runs, one group of rows per
-    sample-set size (the paper's timings are for its 57,136 samples)."""
-    tbf = _finished_tbf(runs)
-    if tbf.empty:
+    """Capture, estimation and total ms per frame over every frame of the finished runs that captured and
+    estimated, one group of rows per sample-set size (the paper's timings are for its 57,136 samples)."""
+    timed = _finished(runs, "capture_ms_median", "estimate_ms_median")
+    if timed.empty:
         return pd.DataFrame()
     rows = []
-    for samples, group in tbf.groupby(tbf["samples"].fillna(0).astype(int), sort=True):
+    for samples, group in timed.groupby(timed["samples"].fillna(0).astype(int), sort=True):
         every = pd.concat([pd.read_parquet(Path(run) / "frames.parquet").drop_duplicates("frame")[
             ["capture_ms", "estimate_ms"]] for run in group["run"]])  # fmt: skip
         every["total_ms"] = every["capture_ms"] + every["estimate_ms"]
@@ -150,7 +155,7 @@ def write_reports(runs: pd.DataFrame, out: Path) -> list[Path]:
         with atomic_path(out / "table4c.csv") as temporary:
             four_c.to_csv(temporary, index=False)
         text = ("# Fig 4(c): right-arm swings tracked (of the swings in each run)\n\n"
-                f"Machine: {machine()}. Swings are scored by the rule of `tracker/tbf/evaluation.py` "
+                f"Machine: {machine()}. Swings are scored by the rule of `tracker/evaluation/body.py` "
                 "(the paper counted by eye).\n\n" + markdown(four_c) + "\n")  # fmt: skip
         with atomic_path(out / "table4c.md") as temporary:
             temporary.write_text(text)
@@ -158,8 +163,8 @@ def write_reports(runs: pd.DataFrame, out: Path) -> list[Path]:
     six_d = table_6d(runs)
     if not six_d.empty:
         text = ("# Fig 6(d): processing time (ms per frame)\n\n"
-                f"Ours: {machine()}, over every frame of the TBF runs, grouped by the number of pose samples "
-                "(capture = silhouette extraction at 320x240; estimation = the tree-based filter). The paper's "
+                f"Ours: {machine()}, over every frame of the runs, grouped by the number of pose samples "
+                "(capture = silhouette extraction at 320x240; estimation = the tracker's step). The paper's "
                 "columns are its own machines, for its 57,136 samples.\n\n"
                 + markdown(six_d.round(2)) + "\n")  # fmt: skip
         with atomic_path(out / "table6d.md") as temporary:

@@ -8,7 +8,7 @@ in the same run.
 ``silhouettes`` (paper 2's observation and costs): builds a pose sample set of ``--samples`` poses (the right-arm
 grid, side-on) into a fresh cache and reports the build time per 1,000 samples; extracts the silhouette of a
 rendered frame under the nuisance model (ms and IoU); scores it against every sample at 80x60 with each cost
-(ms for the whole set, one sparse matrix-vector product), checked against the per-pair function on 100 samples.
+(ms for the whole set, from the samples' runs), checked against the per-pair function on 100 samples.
 
 ``abis``: AbIS estimation per frame with ``lm`` and with ``sd`` on the same rendered frames (the rendering of the
 synthetic input excluded, the tracker's visibility z-buffer included), with their ratio measured in the same run.
@@ -31,28 +31,25 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.config import option_values
-from tracker.abis.tracker import AbisTracker
-from tracker.geometry.rigs import mono, orthogonal3
+from experiments.components import Components, build, compose
 from tracker.models.dsq import PARAM_INDEX
-from tracker.models.dsq_arm import build_arm
-from tracker.motion.arm_swing import ArmSwing
+from tracker.registry import COSTS
 from tracker.render.offscreen import SceneRenderer
 from tracker.sequence import simulate
+from tracker.tbf.distances import ObservationScorer
 
 log = logging.getLogger(__name__)
 
 
-def default_scene(width: int, height: int):
-    """The configured default arm, its motion and the orthogonal rig at ``width`` x ``height``."""
-    arm = build_arm(**option_values("model", "dsq_arm"), seed=0)
-    motion = ArmSwing(**option_values("scene", "arm_swing")["arm"])
-    rig = orthogonal3(**{**option_values("rig", "orthogonal3"), "width": width, "height": height})
-    return arm, motion, rig
+def default_scene(width: int, height: int, *overrides: str) -> Components:
+    """The default run's components (the arm, its swing, the orthogonal rig) at ``width`` x ``height``, built as a
+    run builds them."""
+    return build(compose([f"rig.width={width}", f"rig.height={height}", *overrides]))
 
 
 def bench_render(frames: int, width: int, height: int) -> dict[str, float]:
-    arm, motion, rig = default_scene(width, height)
+    scene = default_scene(width, height)
+    arm, motion, rig = scene.model, scene.scene, scene.cameras
     frame_ms, rgb_ms, label_ms, pose_ms = [], [], [], []
     with SceneRenderer(width, height) as renderer:
         renderer.render(rig, arm.surface_meshes(motion.params(arm, 0)))  # warm-up: shader compilation, uploads
@@ -88,13 +85,13 @@ def _resident_mb() -> float:
 def bench_abis(frames: int, width: int, height: int) -> dict[str, dict[str, float]]:
     """AbIS estimation time per frame (features, fit, visibility z-buffer, pairing; the synthetic input's own
     rendering excluded) for `lm` and `sd`, on the same rendered frames, after frame 0."""
-    arm, motion, rig = default_scene(width, height)
+    scene = default_scene(width, height)
+    arm, rig = scene.model, scene.cameras
     with SceneRenderer(width, height) as renderer:
-        inputs = list(simulate(arm, motion, rig, renderer, frames))
+        inputs = list(simulate(arm, scene.scene, rig, renderer, frames))
     results = {}
     for optimizer in ("lm", "sd"):
-        settings = option_values("tracker", "abis")
-        tracker = AbisTracker.from_config(**{**settings, "fit": {**settings["fit"], "optimizer": optimizer}})
+        tracker = default_scene(width, height, "tracker=abis", f"tracker.fit.optimizer={optimizer}").tracker
         tracker.start(arm, rig, inputs[0].truth, np.random.default_rng([0, 1]))
         per_frame, stages, estimates = [], {}, []
         try:
@@ -124,17 +121,14 @@ def bench_silhouettes(samples: int) -> dict[str, float]:
     """Sample-set build time, silhouette extraction, and scoring one observation against every sample at 80x60."""
     import tempfile
 
-    from tracker.models.body_mesh import build_body
-    from tracker.motion.body_swing import BodySwing
     from tracker.observe.silhouettes import SilhouetteCapture, resize_silhouette
-    from tracker.render.nuisance import SensorNuisance
     from tracker.sequence import background_frames
-    from tracker.tbf.distances import COSTS, ObservationScorer, silhouette_distance
+    from tracker.tbf.distances import silhouette_distance
     from tracker.tbf.pose_sets import arm_grid
     from tracker.tbf.samples import load_or_build, remove_near_duplicates
 
-    body = build_body(**{k: v for k, v in option_values("model", "body_mesh")["model"].items() if k != "_target_"})
-    rig = mono(**option_values("rig", "body_side"))
+    scene = build(compose(["model=body_mesh"]))  # the body, side-on, with its capture setting
+    body, rig, render = scene.model, scene.cameras, scene.settings.render
     left = (0.0, -30.0, 30.0, 60.0, 90.0, -60.0, 120.0)
     poses = arm_grid(body, np.arange(-60.0, 121.0, 6.0), np.arange(0.0, 61.0, 10.0), np.arange(0.0, 101.0, 10.0),
                      left_swing_deg=left[: max(1, -(-samples // 2387))])  # fmt: skip
@@ -146,13 +140,10 @@ def bench_silhouettes(samples: int) -> dict[str, float]:
         sample_set = load_or_build(body, rig[0], poses[kept], cache)
         build_s = time.perf_counter() - start
         stack = sample_set.silhouettes((80, 60))
-        nuisance = SensorNuisance(**{k: v for k, v in option_values("model", "body_mesh")["render"].items()
-                                     if k != "background_rgb"})  # fmt: skip
-        rng = np.random.default_rng(0)
-        render = option_values("model", "body_mesh")["render"]
-        with SceneRenderer(320, 240, background_rgb=tuple(render["background_rgb"])) as renderer:
+        nuisance, rng = render.nuisance(), np.random.default_rng(0)
+        with render.renderer(320, 240) as renderer:
             capture = SilhouetteCapture.learn(background_frames(rig, renderer, 20, nuisance, rng))
-            view = renderer.render(rig, body.surface_meshes(BodySwing().params(body, 10)))["main"]
+            view = renderer.render(rig, body.surface_meshes(scene.scene.params(body, 10)))["main"]
         captured = [capture.step({"main": nuisance.apply(view.rgb, 10, rng)}, {"main": view.labels > 0})
                     for _ in range(20)]  # fmt: skip
         observed = resize_silhouette(captured[-1].silhouettes["main"], 80, 60)
@@ -161,7 +152,7 @@ def bench_silhouettes(samples: int) -> dict[str, float]:
                    "build_s_per_1000": 1e3 * build_s / len(sample_set), "window_80x60": stack.window,
                    "capture_ms": statistics.median(c.ms for c in captured),
                    "capture_iou": captured[-1].iou["main"]}  # fmt: skip
-        for cost in COSTS:
+        for cost in COSTS.names():
             times = []
             for _ in range(7):
                 start = time.perf_counter()
@@ -180,25 +171,14 @@ def bench_tbf(frames: int, experiment: str, overrides: list[str]) -> dict[str, o
     tbf_table4c: the arm swing on ~3,400 samples, tbf_paper_scale: a held-out CMU clip on ~57,000): the filter's
     median, and for the nodes it evaluated the same scoring done naively, node by
     node (XOR of the two silhouettes, times the weights, summed), with the bytes the vectorised scoring read."""
-    from hydra import compose, initialize_config_dir
-    from hydra.utils import instantiate
-
-    from experiments.config import CONFIG_DIR
     from tracker.observe.silhouettes import SilhouetteCapture
-    from tracker.render.nuisance import SensorNuisance
     from tracker.sequence import background_frames, simulate
 
-    with initialize_config_dir(config_dir=str(CONFIG_DIR), version_base="1.3"):
-        cfg = compose("config", overrides=[f"experiment={experiment}", *overrides])
-    body = instantiate(cfg.model, _convert_="all")
-    rig = instantiate(cfg.rig, _convert_="all")
-    scene = instantiate(cfg.scene, _convert_="all")
-    tracker = instantiate(cfg.tracker, _convert_="all", _partial_=True)(cost=instantiate(cfg.cost),
-                                                                        motion=instantiate(cfg.motion))  # fmt: skip
+    run = build(compose([f"experiment={experiment}", *overrides]))
+    body, rig, scene, tracker, render = run.model, run.cameras, run.scene, run.tracker, run.settings.render
     tracker.start(body, rig, scene.params(body, 0), np.random.default_rng(0))
-    nuisance = SensorNuisance(cfg.render.noise_std, cfg.render.gain_amplitude, cfg.render.gain_period_frames)
-    rng = np.random.default_rng(1)
-    with SceneRenderer(rig[0].width, rig[0].height, background_rgb=tuple(cfg.render.background_rgb)) as renderer:
+    nuisance, rng = render.nuisance(), np.random.default_rng(1)
+    with render.renderer(rig[0].width, rig[0].height) as renderer:
         capture = SilhouetteCapture.learn(background_frames(rig, renderer, 20, nuisance, rng))
         observed = [capture.step({"main": f.views["main"].rgb}).silhouettes["main"]
                     for f in simulate(body, scene, rig, renderer, frames, nuisance, rng)]  # fmt: skip
@@ -241,7 +221,7 @@ def _compare_scoring(filter_, level: int, silhouette: np.ndarray, nodes: np.ndar
     stack = filter_.samples.silhouettes(tree_level.resolution)
     observed = filter_.observation_at(level, silhouette)
     start = time.perf_counter()
-    scorer = filter_.cost.scorer(observed, stack.window)
+    scorer = ObservationScorer(filter_.cost, observed, stack.window)
     weights_s = time.perf_counter() - start
     runs = filter_.level_runs[level]
     start = time.perf_counter()
@@ -335,7 +315,7 @@ def main() -> None:
                  figures["samples"], figures["grid_poses"], figures["dedupe_s"], figures["build_s_per_1000"])
         log.info("  silhouette extraction 320x240: %.2f ms (median of 20), IoU %.4f against the render mask",
                  figures["capture_ms"], figures["capture_iou"])
-        for cost in ("xor", "wxor", "nwxor"):
+        for cost in COSTS.names():
             log.info("  %-5s one observation vs %d samples at 80x60 (window %s): %.2f ms; max relative difference "
                      "to the per-pair function %.1e", cost, figures["samples"], figures["window_80x60"],
                      figures[f"{cost}_ms"], figures[f"{cost}_max_relative_difference"])

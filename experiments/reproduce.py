@@ -118,7 +118,7 @@ def paper_2(paper_scale: bool) -> Section:
     console = (f"\nPaper 2 (silhouette tree-based filtering), {len(runs)} runs in {seconds:.0f} s:\n{rows}\n"
                + "\n".join(f"  {path}" for path in written))  # fmt: skip
     text = ("## Paper 2: silhouette tree-based filtering (Okada & Stenger)\n\n"
-            f"{len(runs)} runs, {seconds:.0f} s. Swings are scored by the fixed rule of `tracker/tbf/evaluation.py` "
+            f"{len(runs)} runs, {seconds:.0f} s. Swings are scored by the fixed rule of `tracker/evaluation/body.py` "
             "(the paper counted by eye); one parameter set serves every cell.\n\n"
             "### Fig 4(c): right-arm swings (of 24)\n\n" + markdown(four_c) + "\n\n"
             "### Fig 6(d): ms per frame\n\n" + markdown(six_d.round(2)) + "\n")  # fmt: skip

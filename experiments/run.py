@@ -5,6 +5,8 @@ Before Hydra creates any output directory, the command line is composed with Hyd
 value and what is allowed, and leaves no files behind. Then `hydra.main` runs the job(s): a sweep (``-m``) runs on
 the joblib launcher (one job per core) unless ``hydra/launcher=...`` says otherwise; re-running a sweep into the
 same ``hydra.sweep.dir`` keeps every job already finished with the same config and redoes the rest.
+``plugins=[my.module,...]`` imports modules that register components of their own (`tracker.registry`) first; their
+option files join with ``hydra.searchpath=[file://<folder>]``.
 """
 
 from __future__ import annotations
@@ -18,9 +20,11 @@ from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from omegaconf import DictConfig
 
-from experiments.config import CONFIG_DIR, CONFIG_NAME, ConfigError
+from experiments.checks import ConfigError
+from experiments.components import import_plugins
 from experiments.job import finished_metrics, run_job
-from experiments.validate import validate_command_line
+from experiments.schemas import CONFIG_DIR, CONFIG_NAME
+from experiments.validate import plugins_named, validate_command_line
 
 log = logging.getLogger(__name__)
 
@@ -43,6 +47,7 @@ def hydra_main(cfg: DictConfig) -> dict:
 def main(argv: list[str] | None = None) -> None:
     argv = sys.argv[1:] if argv is None else argv
     try:
+        import_plugins(plugins_named(argv))  # their components and schemas, before anything is composed
         validate_command_line(argv, CONFIG_DIR, CONFIG_NAME)
     except ConfigError as error:
         print(f"error: {error}", file=sys.stderr)

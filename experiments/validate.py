@@ -6,6 +6,7 @@ Each failure becomes a `ConfigError` whose message is one line: the key, the val
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
 from pathlib import Path
 
 from hydra import compose, initialize_config_dir
@@ -13,13 +14,13 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.errors import HydraException, MissingConfigException, OverrideParseException
 from omegaconf.errors import ConfigAttributeError, ConfigKeyError, MissingMandatoryValue, OmegaConfBaseException
 
-from experiments.config import GROUP_SCHEMAS, ConfigError, check_config
+from experiments.checks import ConfigError, check_config, unknown_key
+from experiments.schemas import SCHEMA_PREFIX
 
 # Flags after which Hydra runs nothing (help, printing the config, shell completion): nothing to validate.
 _INFORMATIONAL_FLAGS = {"--help", "-h", "--hydra-help", "--cfg", "-c", "--info", "-i", "--version",
                         "--shell-completion", "-sc", "--resolve", "--package", "-p"}  # fmt: skip
 _MULTIRUN_FLAGS = {"--multirun", "-m"}
-_SCHEMA_PREFIX = "schema_"
 
 
 def validate_command_line(argv: list[str], config_dir: Path, config_name: str) -> None:
@@ -32,12 +33,29 @@ def validate_command_line(argv: list[str], config_dir: Path, config_name: str) -
         cfg = _compose(config_dir, config_name, combination)
         choices = {k: v for k, v in cfg.hydra.runtime.choices.items() if not k.startswith("hydra") and v is not None}
         for group, option in choices.items():
-            if option.startswith(_SCHEMA_PREFIX):
-                raise ConfigError(f"{group}={option} is a schema, not an option: allowed {', '.join(_options(group))}")
+            if option.startswith(SCHEMA_PREFIX):
+                raise ConfigError(f"{group}={option} is a schema, not an option: allowed "
+                                  f"{', '.join(_options(config_dir, group))}")
         try:
             check_config(cfg, choices)
         except OmegaConfBaseException as error:
             raise ConfigError(_describe(error)) from None
+
+
+def plugins_named(argv: list[str]) -> list[str]:
+    """The modules a ``plugins=[a.b,c]`` override names (none without one)."""
+    overrides = [arg for arg in argv if not arg.startswith("-") and arg.split("=", 1)[0].lstrip("+~") == "plugins"]
+    if not overrides:
+        return []
+    try:
+        value = OverridesParser.create().parse_overrides(overrides)[-1].value()
+    except OverrideParseException as error:
+        raise ConfigError(f"cannot parse {overrides[-1]!r}: {_first_line(error)}") from None
+    modules = value if isinstance(value, list) else [value]
+    for module in modules:
+        if importlib.util.find_spec(str(module).split(".")[0]) is None:
+            raise ConfigError(f"plugins={module}: no such module (it must be importable from here)")
+    return [str(module) for module in modules]
 
 
 def sweep_combinations(overrides: list[str]) -> list[list[str]]:
@@ -66,7 +84,7 @@ def _compose(config_dir: Path, config_name: str, overrides: list[str]):
             return compose(config_name, overrides=overrides, return_hydra_config=True)
     except MissingConfigException as error:
         group, _, option = (error.missing_cfg_file or "").rpartition("/")
-        options = [o for o in (error.options or []) if not o.startswith(_SCHEMA_PREFIX)]
+        options = [o for o in (error.options or []) if not o.startswith(SCHEMA_PREFIX)]
         raise ConfigError(f"{group}={option}: no such option, allowed {', '.join(options)}") from None
     except HydraException as error:
         cause = error.__cause__
@@ -78,16 +96,15 @@ def _describe(error: OmegaConfBaseException) -> str:
     key = getattr(error, "full_key", None) or getattr(error, "key", None) or "?"
     schema = getattr(error, "object_type", None)
     if isinstance(error, (ConfigAttributeError, ConfigKeyError)) and dataclasses.is_dataclass(schema):  # unknown key
-        known = [f.name for f in dataclasses.fields(schema) if not f.name.startswith("_")]
-        return f"{key}: unknown key, allowed keys here: {', '.join(known)}"
+        return unknown_key(key, schema)
     if isinstance(error, MissingMandatoryValue):
         return f"{key}: missing value, it is required (add {key}=...)"
     message = getattr(error, "msg", None) or str(error)
     return f"{key}: {message.strip().splitlines()[0] if message.strip() else type(error).__name__}"
 
 
-def _options(group: str) -> list[str]:
-    return sorted(GROUP_SCHEMAS.get(group, {}))
+def _options(config_dir: Path, group: str) -> list[str]:
+    return sorted(path.stem for path in (config_dir / group).glob("*.yaml"))
 
 
 def _first_line(error: BaseException) -> str:

@@ -1,4 +1,4 @@
-"""Shared fixtures. The arm, its motion and the rig are the defaults of ``conf/`` (read as plain YAML, no Hydra)."""
+"""Shared fixtures. The arm, its motion and the rig are the defaults of ``conf/``, built as a run builds them."""
 
 import subprocess
 import sys
@@ -6,32 +6,37 @@ from pathlib import Path
 
 import pytest
 
-from experiments.config import option_values
-from tracker.geometry.rigs import orthogonal3
-from tracker.models.dsq_arm import DSQArm, build_arm
+from experiments.components import Components, build, compose
+from tracker.models.dsq_arm import DSQArm
 from tracker.motion.arm_swing import ArmSwing
 
 MOCAP_DIR = Path(__file__).resolve().parent.parent / "data" / "mocap"
 
 
 @pytest.fixture(scope="session")
-def arm() -> DSQArm:
-    return build_arm(**option_values("model", "dsq_arm"), seed=0)
+def default_run() -> Components:
+    """The components of ``python -m experiments.run`` with no overrides (seed 0)."""
+    return build(compose())
 
 
 @pytest.fixture(scope="session")
-def motion() -> ArmSwing:
-    return ArmSwing(**option_values("scene", "arm_swing")["arm"])
+def arm(default_run) -> DSQArm:
+    return default_run.model
 
 
 @pytest.fixture(scope="session")
-def rig():
-    return orthogonal3(**option_values("rig", "orthogonal3"))
+def motion(default_run) -> ArmSwing:
+    return default_run.scene.arm
+
+
+@pytest.fixture(scope="session")
+def rig(default_run):
+    return default_run.cameras
 
 
 @pytest.fixture(scope="session")
 def body():
-    from tracker.models.body_mesh import build_body
+    from tracker.models.makehuman import build_body
 
     return build_body()
 

@@ -1,9 +1,15 @@
-"""Allowed ranges of numeric parameters, checked at the boundary with a message that names key, value and range."""
+"""Allowed values of numeric settings, declared in their types and checked at the boundary.
+
+A setting's type says what it allows: ``Annotated[float, Range(...)]`` (the aliases below name the common ones),
+``Literal["sd", "lm"]`` for a choice, ``tuple[float, float, float]`` for a fixed length. `tracker.settings`
+reads these types; `check_in_range` words the message: the key, the value and the range.
+"""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Annotated
 
 
 @dataclass(frozen=True)
@@ -47,4 +53,15 @@ def check_in_range(name: str, value: float, allowed: Range) -> None:
 ANY = Range()
 POSITIVE = Range(0.0, math.inf, low_open=True)
 NON_NEGATIVE = Range(0.0, math.inf)
-UNIT_INTERVAL = Range(0.0, 1.0)
+
+# Types of settings, with what they allow.
+Finite = Annotated[float, ANY]
+Positive = Annotated[float, POSITIVE]
+NonNegative = Annotated[float, NON_NEGATIVE]
+Count = Annotated[int, Range(1, math.inf)]  # one or more
+Fraction = Annotated[float, Range(0.0, 1.0)]
+Byte = Annotated[int, Range(0, 255)]
+ImageSide = Annotated[int, Range(16, 4096)]  # pixels
+Seed = Annotated[int, Range(0, 2**32 - 1)]
+Vector3 = tuple[Finite, Finite, Finite]
+RGB = tuple[Byte, Byte, Byte]

@@ -1,6 +1,6 @@
-"""A synthetic sequence: truth motion -> rendered views, frame by frame, with per-stage timings.
+"""A synthetic sequence: the scene's truth motion -> rendered views, frame by frame, with per-stage timings.
 
-`simulate` is the loop every run drives; trackers will consume its `FrameInput`s. It logs nothing: results go to
+`simulate` is the loop every run drives; trackers consume its `FrameInput`s. It logs nothing: results go to
 whoever iterates (the recording and the tables in `experiments`).
 """
 
@@ -9,7 +9,7 @@ from __future__ import annotations
 import time
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -18,15 +18,8 @@ from tracker.render.mesh import SurfaceMesh
 from tracker.render.nuisance import SensorNuisance
 from tracker.render.offscreen import RenderedView, SceneRenderer
 
-
-class Model(Protocol):
-    part_names: tuple[str, ...]
-
-    def surface_meshes(self, params: np.ndarray) -> list[SurfaceMesh]: ...
-
-
-class Motion(Protocol):
-    def params(self, model: Model, frame: int) -> np.ndarray: ...
+if TYPE_CHECKING:
+    from tracker.protocol import Model, Scene
 
 
 @dataclass(frozen=True, eq=False)
@@ -50,19 +43,19 @@ class FrameInput:
 
 def simulate(
     model: Model,
-    motion: Motion,
+    scene: Scene,
     cameras: Sequence[Camera],
     renderer: SceneRenderer,
     frames: int,
     nuisance: SensorNuisance | None = None,
     rng: np.random.Generator | None = None,
 ) -> Iterator[FrameInput]:
-    """Yield frames ``0 .. frames - 1`` of ``motion`` applied to ``model``, rendered from every camera; with a
+    """Yield frames ``0 .. frames - 1`` of the ``scene``'s motion of ``model``, rendered from every camera; with a
     ``nuisance`` (and its ``rng``) the RGB images are what a real camera would give (depth and labels stay exact)."""
     n_parts = len(model.part_names)
     for frame in range(frames):
         start = time.perf_counter()
-        truth = motion.params(model, frame)
+        truth = scene.params(model, frame)
         meshes = model.surface_meshes(truth)
         posed = time.perf_counter()
         views = renderer.render(cameras, meshes)
@@ -94,32 +87,3 @@ def background_frames(
 def label_areas(labels: np.ndarray, n_parts: int) -> np.ndarray:
     """``(n_parts,)`` pixel counts of labels 1..n_parts in a label image (paper 2's A_j, eq 3)."""
     return np.bincount(labels.ravel(), minlength=n_parts + 1)[1 : n_parts + 1]
-
-
-class Tracker(Protocol):
-    """What a run drives: `start` once with the model, cameras and frame-0 truth (a tracker may use it only to
-    initialise, as the papers' user-assisted alignment), `step` once per frame (images only), `close`."""
-
-    name: str
-
-    def start(self, model: Model, cameras: Sequence[Camera], truth: np.ndarray, rng: np.random.Generator) -> None: ...
-
-    def step(self, frame: FrameInput) -> object | None: ...
-
-    def close(self) -> None: ...
-
-
-@dataclass(frozen=True)
-class RenderOnly:
-    """The tracker that estimates nothing: the run renders and records what every tracker would observe."""
-
-    name: str = "render_only"
-
-    def start(self, model: Model, cameras: Sequence[Camera], truth: np.ndarray, rng: np.random.Generator) -> None:
-        pass
-
-    def step(self, frame: FrameInput) -> None:
-        return None
-
-    def close(self) -> None:
-        pass

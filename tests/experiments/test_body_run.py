@@ -6,7 +6,7 @@ import pandas as pd
 from eval.recordings import read_images
 from tests.conftest import MOCAP_DIR, run_cli
 from tests.experiments.test_run import frames_by_entity
-from tracker.models.body_mesh import POSE_SIZE
+from tracker.models.body_skeleton import POSE_SIZE
 from tracker.motion.body_swing import BodySwing
 from tracker.tbf.distances import weight_map
 

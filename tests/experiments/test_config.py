@@ -2,73 +2,67 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
-from hydra import compose, initialize_config_dir
-from hydra.utils import instantiate
+from omegaconf import OmegaConf
 
-from experiments.config import CONFIG_DIR, GROUP_SCHEMAS, ConfigError, check_config
+from experiments.checks import ConfigError, check_config
+from experiments.components import build, choices_of, compose
+from experiments.schemas import CONFIG_DIR, GROUPS, entry_schema
 from experiments.validate import sweep_combinations, validate_command_line
 from tests.conftest import MOCAP_DIR
-from tracker.abis.tracker import AbisTracker
-from tracker.geometry.cameras import Camera
-from tracker.models.body_mesh import BodyMesh
-from tracker.models.dsq_arm import DSQArm
-from tracker.motion.mocap import MocapScene
-from tracker.motion.scenes import ArmSwingScene
-from tracker.sequence import RenderOnly
-from tracker.tbf.distances import COSTS, SilhouetteCost
-from tracker.tbf.motion import MotionModel
-from tracker.tbf.tracker import TbfTracker
+from tracker.models.dsq import DSQShape
+from tracker.registry import REGISTRIES
+from tracker.settings import REQUIRED, to_plain
 
-OPTIONS = sorted((p.parent.name, p.stem) for p in CONFIG_DIR.glob("*/*.yaml") if p.parent.name != "experiment")
+OPTIONS = sorted((p.parent.name, p.stem) for p in CONFIG_DIR.glob("*/*.yaml") if p.parent.name in GROUPS)
 CLIP = MOCAP_DIR / "69_20.bvh"
 PRESETS = sorted(p.stem for p in (CONFIG_DIR / "experiment").glob("*.yaml"))
+TBF = ["model=body_mesh", "tracker=tbf", "cost=xor", "motion=dm1"]
+# What an option needs beside it to make a run.
+COMPANIONS = {("scene", "bvh"): ["model=body_mesh", f"scene.path={CLIP}"], ("tracker", "tbf"): TBF,
+              ("cost", None): TBF, ("motion", None): TBF, ("rig", "orthogonal3"): [], ("rig", None): []}  # fmt: skip
 
 
-def compose_run(overrides):
-    with initialize_config_dir(config_dir=str(CONFIG_DIR), version_base="1.3"):
-        cfg = compose("config", overrides=overrides, return_hydra_config=True)
-    choices = {k: v for k, v in cfg.hydra.runtime.choices.items() if not k.startswith("hydra") and v is not None}
-    return cfg, choices
-
-
-def test_every_option_file_has_a_schema_and_every_schema_a_file():
-    assert {(g, o) for g, options in GROUP_SCHEMAS.items() for o in options} == set(OPTIONS)
+def companions(group, option):
+    return COMPANIONS.get((group, option), COMPANIONS.get((group, None), []))
 
 
 @pytest.mark.parametrize("group, option", OPTIONS)
-def test_every_group_option_composes_and_instantiates(group, option):
-    tbf = ["model=body_mesh", "tracker=tbf"]
-    needs = {("scene", "bvh"): ["model=body_mesh", f"scene.path={CLIP}"], ("tracker", "tbf"): [*tbf, "cost=xor",
-             "motion=dm1"], **{("cost", kind): [*tbf, "motion=dm1"] for kind in COSTS},
-             **{("motion", kind): [*tbf, "cost=xor"] for kind in ("dm1", "dm2")}}  # fmt: skip
-    cfg, choices = compose_run([f"{group}={option}", *needs.get((group, option), [])])
-    check_config(cfg, choices)
-    extras = {"cost": instantiate(cfg.cost), "motion": instantiate(cfg.motion)} if group == "tracker" and \
-        option == "tbf" else {}  # fmt: skip
-    built = instantiate(cfg[group], _convert_="all", _partial_=bool(extras))
-    built = built(**extras) if extras else built
-    expected_type = {"model": {"dsq_arm": DSQArm, "body_mesh": BodyMesh}.get(option),
-                     "scene": {"arm_swing": ArmSwingScene, "bvh": MocapScene}.get(option), "rig": tuple,
-                     "tracker": {"render_only": RenderOnly, "abis": AbisTracker, "tbf": TbfTracker}.get(option),
-                     "cost": SilhouetteCost, "motion": MotionModel}[group]  # fmt: skip
-    assert isinstance(built, expected_type)
-    if group == "rig":
-        assert all(isinstance(camera, Camera) for camera in built)
+def test_every_option_file_composes_checks_and_builds_its_registered_component(group, option):
+    cfg = compose([*companions(group, option), f"{group}={option}"])
+    check_config(cfg, choices_of(cfg))
+    assert build(cfg).entries[group].target == cfg[group]["_target_"]
+
+
+def test_every_registered_component_has_an_option_file():
+    targets = {(group, OmegaConf.select(compose([*companions(group, option), f"{group}={option}"]), group)._target_)
+               for group, option in OPTIONS}  # fmt: skip
+    assert {(kind, entry.target) for kind, registry in REGISTRIES.items() for entry in registry} <= targets
+
+
+@pytest.mark.parametrize("kind, name", [(kind, entry.name) for kind, registry in REGISTRIES.items()
+                                        for entry in registry])  # fmt: skip
+def test_a_schema_holds_the_core_defaults_and_nothing_else(kind, name):
+    entry = REGISTRIES[kind][name]
+    schema = OmegaConf.to_container(OmegaConf.structured(entry_schema(entry)))
+    assert schema.pop("_target_") == entry.target
+    assert list(schema) == [setting.name for setting in entry.fields]
+    for setting in entry.fields:
+        expected = "???" if setting.default is REQUIRED else to_plain(setting.default)
+        assert schema[setting.name] == expected, setting.name
+
+
+def test_the_default_components_are_built_from_their_settings(arm, motion):
+    forearm = DSQShape(a=0.22, a1=0.30, a2=0.30, a3=1.0, eps1=0.5, eps2=1.0, t1=-0.2, t2=-0.2, b3=0.5)
+    assert arm.parts[1].shape == forearm  # conf/model/dsq_arm.yaml, the rest the core's defaults
+    assert motion == REGISTRIES["scene"].defaults("arm_swing").arm  # the scene's YAML states no value of its own
+    again = build(compose(["seed=0"]))
+    assert (again.model.textures[1] == arm.textures[1]).all()  # textures follow the run's seed
 
 
 @pytest.mark.parametrize("preset", PRESETS)
 def test_experiment_presets_compose_and_validate(preset):
     validate_command_line([f"experiment={preset}"], CONFIG_DIR, "config")
-
-
-def test_composed_defaults_build_what_the_yaml_files_say(arm, motion):
-    cfg, _ = compose_run([])  # schema defaults + YAML, through Hydra; the fixtures read the YAML alone
-    built = instantiate(cfg.model, _convert_="all")
-    assert built.parts == arm.parts and built.mesh == arm.mesh and built.samples == arm.samples
-    assert instantiate(cfg.scene, _convert_="all").arm == motion
-    np.testing.assert_array_equal(built.textures[1], arm.textures[1])  # textures follow the seed
 
 
 def test_every_value_of_a_sweep_is_checked():

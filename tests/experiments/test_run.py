@@ -83,11 +83,13 @@ def blueprint_origins(path) -> set[str]:
     return origins
 
 
-def test_default_blueprint_shows_the_views_the_scene_and_the_series(five_frame_run):
+def test_default_blueprint_shows_the_views_the_scene_and_the_series(five_frame_run, abis_run):
     origins = blueprint_origins(five_frame_run / "run.rrd")
     assert {f"world/cameras/{view}/image" for view in VIEWS} <= origins  # RGB with the label overlay
-    assert {"world", "metrics/correspondences", "metrics/visible_px", "metrics/timing"} <= origins
-    assert {f"metrics/params/{part}" for part in PARTS} <= origins
+    assert {"world", "metrics/visible_px", "metrics/timing"} <= origins
+    assert {f"metrics/params/{part}" for part in PARTS} <= origins  # the model's own panels
+    assert "metrics/correspondences" not in origins  # no tracker, no pairs
+    assert "metrics/correspondences" in blueprint_origins(abis_run / "run.rrd")  # the tracker's own panels
 
 
 def test_recorded_truth_series_equals_the_frames_table(five_frame_run):

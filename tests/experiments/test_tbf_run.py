@@ -21,7 +21,7 @@ def test_a_tbf_run_records_the_tree_search_per_level_and_its_timings(tbf_run):
     assert len(table["est_pose"].iloc[0]) == 96 and table["entropy"].ge(0).all()
     frames = frames_by_entity(tbf_run / "run.rrd")
     for entity in ("/metrics/tree/level1/evaluated", "/metrics/tree/level3/kept", "/metrics/tree/entropy",
-                   "/metrics/swing_deg/estimate", "/metrics/swing_deg/truth"):  # fmt: skip
+                   "/metrics/params/swing/right_arm_deg/estimate", "/metrics/params/swing/right_arm_deg/truth"):
         assert frames[entity] == list(range(6)), entity
 
 
@@ -29,5 +29,5 @@ def test_the_tbf_blueprint_shows_the_silhouette_its_weights_and_the_tree_search(
     origins = blueprint_origins(tbf_run / "run.rrd")
     view = "main"
     assert {f"world/cameras/{view}/image", f"capture/{view}/silhouette", f"capture/{view}/weights/nwxor"} <= origins
-    assert {"world", "metrics/swing_deg", "metrics/tree", "metrics/silhouette_iou"} <= origins
+    assert {"world", "metrics/params/swing", "metrics/tree", "metrics/silhouette_iou"} <= origins
     assert "metrics/correspondences" not in origins  # AbIS's pairs have no place here

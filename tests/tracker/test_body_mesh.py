@@ -2,7 +2,8 @@ import numpy as np
 import pytest
 
 from tracker.geometry.rotations import matrix_to_rotation_vector, rotation_z
-from tracker.models.body_mesh import JOINT_INDEX, PART_NAMES, POSE_SIZE, T_POSE_DIRECTIONS, BodyDataError, build_body
+from tracker.models.body_skeleton import JOINT_INDEX, PART_NAMES, POSE_SIZE, T_POSE_DIRECTIONS
+from tracker.models.makehuman import BodyDataError, build_body
 
 
 def test_the_mesh_is_decimated_to_the_papers_polygon_count_with_valid_weights(body):
@@ -63,7 +64,7 @@ def test_joints_stay_at_their_rest_distance_from_the_parent_in_any_pose(body):
 
 def test_missing_data_files_give_a_clear_error(tmp_path):
     with pytest.raises(BodyDataError, match=r"missing body data file .*base\.obj: run `make setup`"):
-        build_body(data_dir=tmp_path)
+        build_body(tmp_path)
 
 
 def _rotation(vector):

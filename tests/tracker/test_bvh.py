@@ -3,7 +3,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from tests.conftest import MOCAP_DIR
-from tracker.models.body_mesh import BVH_TO_BODY, JOINT_INDEX, JOINT_NAMES
+from tracker.models.body_skeleton import BVH_TO_BODY, JOINT_INDEX, JOINT_NAMES
 from tracker.motion.bvh import BvhError, read_bvh
 from tracker.motion.mocap import ClipSelection, MocapScene, clip_poses
 

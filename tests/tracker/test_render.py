@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from tracker.geometry.cameras import look_at
-from tracker.models.dsq import DSQShape, dsq_points, mesh_topology, vertex_normals
-from tracker.render.mesh import SurfaceMesh
+from tracker.models.dsq import DSQShape, dsq_points, mesh_topology
+from tracker.render.mesh import SurfaceMesh, vertex_normals
 
 
 def rasterize(camera, vertices, faces):
@@ -39,7 +39,7 @@ def sphere_mesh(center, radius, label=1, resolution=(40, 48)):
     topology = mesh_topology(*resolution)
     vertices = dsq_points(DSQShape(a=radius).to_params(), topology.eta, topology.omega) + center
     return SurfaceMesh(key=f"sphere{label}", label=label, vertices=vertices, faces=topology.faces,
-                       normals=vertex_normals(vertices, topology), color=(200, 100, 50))
+                       normals=vertex_normals(vertices, topology.faces, topology.weld), color=(200, 100, 50))
 
 
 def test_label_image_agrees_with_the_projected_mesh(arm, motion, rig, renderer):

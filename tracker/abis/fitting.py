@@ -23,6 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
@@ -35,23 +36,26 @@ from tracker.geometry.rotations import (
     rotation_vector_to_matrix,
 )
 from tracker.models.dsq import PARAM_INDEX, PARAM_NAMES, PARAM_RANGES
+from tracker.ranges import Count, Positive
+from tracker.settings import validate
 
-OPTIMIZERS = ("sd", "lm")
 _ASPECTS = [PARAM_INDEX[name] for name in ("a1", "a2", "a3")]
 _ROTATION = np.array([PARAM_INDEX[name] for name in ("r1", "r2", "r3")])
 
 
 @dataclass(frozen=True)
 class FitSettings:
-    optimizer: str = "lm"
-    max_iterations: int = 20  # lm; sd gets `sd_iterations_factor` times as many (each is cheaper)
-    sd_iterations_factor: int = 10
-    relative_tolerance: float = 1e-6  # stop when the cost falls by less than this fraction
-    huber_px: float | None = None  # eq 7's rho: Huber with this threshold (pixels), or plain squares (None)
+    """Per-part fitting: the optimiser (``sd``: the paper's steepest descent, eq 9; ``lm``: Levenberg-Marquardt),
+    its iterations and stopping rule, and eq 7's robust rho."""
+
+    optimizer: Literal["sd", "lm"] = "lm"
+    max_iterations: Count = 20  # lm; sd gets `sd_iterations_factor` times as many (each is cheaper)
+    sd_iterations_factor: Count = 10
+    relative_tolerance: Positive = 1e-6  # stop when the cost falls by less than this fraction
+    huber_px: Positive | None = None  # eq 7's rho: Huber with this threshold (pixels), or plain squares (None)
 
     def __post_init__(self) -> None:
-        if self.optimizer not in OPTIMIZERS:
-            raise ValueError(f"optimizer={self.optimizer!r}: allowed {', '.join(OPTIMIZERS)}")
+        validate(self)
 
 
 @dataclass(frozen=True, eq=False)

@@ -16,7 +16,7 @@ from __future__ import annotations
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Annotated, Any, ClassVar
 
 import cv2
 import numpy as np
@@ -28,19 +28,24 @@ from tracker.geometry.cameras import Camera
 from tracker.models.dsq import PARAM_INDEX, pole_point
 from tracker.models.dsq_arm import DSQArm
 from tracker.observe.features import FeatureFrame, FeatureSettings, FeatureTracker
+from tracker.protocol import Points, StepResult, Tracker
+from tracker.ranges import NonNegative, Positive, Range
+from tracker.registry import TRACKERS
 from tracker.render.offscreen import DepthLabels, SceneRenderer
 from tracker.sequence import FrameInput
+from tracker.timing import elapsed_ms
 
 TRACKED, NEW, DISCARDED_OCCLUSION, DISCARDED_ERROR, LOST = range(len(COUNT_NAMES))
 
 
 @dataclass(frozen=True)
 class InitialNoise:
-    """Frame 0's estimate is the truth plus Gaussian noise of these sizes (standard deviations)."""
+    """Frame 0's estimate is the truth plus Gaussian noise of these sizes (standard deviations): the paper aligns
+    the model with a user's help."""
 
-    translation_m: float = 0.003  # root position
-    rotation_rad: float = 0.01  # every part's r
-    scale_fraction: float = 0.01  # every part's a, relative
+    translation_m: NonNegative = 0.003  # root position
+    rotation_rad: NonNegative = 0.01  # every part's r
+    scale_fraction: NonNegative = 0.01  # every part's a, relative
 
 
 @dataclass(frozen=True)
@@ -50,14 +55,14 @@ class PriorSigmas:
     One pixel of image residual weighs as much as one sigma of change (`tracker.abis.fitting.Prior`).
     """
 
-    scale: float = 0.002  # a (m) and a1..a3
-    roundness: float = 0.01  # eps1, eps2
-    tapering: float = 0.01  # t1, t2
+    scale: Positive = 0.002  # a (m) and a1..a3
+    roundness: Positive = 0.01  # eps1, eps2
+    tapering: Positive = 0.01  # t1, t2
     # b1 (m), b2, b3. Bending trades against the rotation about the joint (both swing the far end), so a loose
     # prior lets b1 wander with r. 5 mm is a little above the arm-swing scene's fastest b1 change (3.9 mm/frame).
-    bending: float = 0.005
-    translation_m: float = 0.01  # the root's c
-    rotation_rad: float = 0.1  # r
+    bending: Positive = 0.005
+    translation_m: Positive = 0.01  # the root's c
+    rotation_rad: Positive = 0.1  # r
 
     def vector(self) -> np.ndarray:
         groups = {"scale": ("a", "a1", "a2", "a3"), "roundness": ("eps1", "eps2"), "tapering": ("t1", "t2"),
@@ -71,13 +76,16 @@ class PriorSigmas:
 
 @dataclass(frozen=True)
 class AbisSettings:
+    """Paper 1's Analysis-by-Image-Synthesis: KLT features, z-buffer visibility, pairs, top-down fitting."""
+
     fit: FitSettings = field(default_factory=lambda: FitSettings(huber_px=1.0))
     features: FeatureSettings = field(default_factory=FeatureSettings)
     prior: PriorSigmas | None = field(default_factory=PriorSigmas)  # None: eq 8 alone
-    pairing_radius_px: float = 2.0  # a feature pairs with the nearest visible sample within this
-    refined_tolerance_px: float = 0.5  # ... and keeps the pair if its own point then lies this close under it
-    boundary_margin_px: int = 5  # features this close to a silhouette or occlusion edge do not pair
-    max_residual_px: float = 2.0  # after fitting, a pair farther off is a false match
+    pairing_radius_px: Positive = 2.0  # a feature pairs with the nearest visible sample within this
+    refined_tolerance_px: Positive = 0.5  # ... and keeps the pair if its own point then lies this close under it
+    # Features this close to a silhouette or occlusion edge do not pair.
+    boundary_margin_px: Annotated[int, Range(0, 50)] = 5
+    max_residual_px: Positive = 2.0  # after fitting, a pair farther off is a false match
     initial_noise: InitialNoise = field(default_factory=InitialNoise)
 
 
@@ -102,35 +110,44 @@ class ViewResult:
 FEATURE_STATES = ("tracked", "new", "discarded", "unpaired")
 
 
-@dataclass(frozen=True, eq=False)
-class AbisResult:
-    frame: int
-    estimate: np.ndarray  # (n_parts, 17)
-    counts: dict[str, np.ndarray]  # view -> (n_parts, 5) in COUNT_NAMES order
-    pairs: dict[str, np.ndarray]  # view -> (n_parts,) pairs held after the frame
-    cost: np.ndarray  # (n_parts,) eq 8 at the end of the fit (0 where a part had no pairs)
+@dataclass(frozen=True, eq=False, kw_only=True)
+class AbisResult(StepResult):
+    """A frame of AbIS: per view the pair counts (`COUNT_NAMES` order), the pairs held after the frame, what each
+    view saw and did; per part eq 8's cost at the end of its fit (0 where it had no pairs) and the iterations.
+    Build it with `AbisResult.of`, which also fills the columns, series and points every run records."""
+
+    counts: dict[str, np.ndarray]  # view -> (n_parts, 5)
+    pairs: dict[str, np.ndarray]  # view -> (n_parts,)
+    cost: np.ndarray  # (n_parts,)
     iterations: np.ndarray  # (n_parts,)
     views: dict[str, ViewResult]
-    timings_ms: dict[str, float]
-    failure: str | None = None
+
+    @classmethod
+    def of(cls, part_names: Sequence[str], **fields: Any) -> AbisResult:
+        counts, pairs, views = fields["counts"], fields["pairs"], fields["views"]
+        columns: dict[str, np.ndarray] = {}
+        for index, count in enumerate(COUNT_NAMES):
+            per_view = {view: view_counts[:, index] for view, view_counts in counts.items()}
+            columns[count] = sum(per_view.values())
+            columns.update({f"{count}_{view}": values for view, values in per_view.items()})
+        columns.update(pairs=sum(pairs.values()), cost=fields["cost"], iterations=fields["iterations"])
+        series = {f"correspondences/{part}/{count}": float(columns[count][k])
+                  for k, part in enumerate(part_names) for count in COUNT_NAMES}  # fmt: skip
+        series.update({f"cost/{part}": float(fields["cost"][k]) for k, part in enumerate(part_names)})
+        points = {view: {"features": Points(seen.features.points, seen.feature_states, FEATURE_STATES),
+                         "estimate": Points(seen.visible.uv)} for view, seen in views.items()}  # fmt: skip
+        return cls(part_columns=columns, series=series, points=points, **fields)
 
 
-class AbisTracker:
+@TRACKERS.register("abis", settings=AbisSettings, models=("dsq_arm",))
+class AbisTracker(Tracker):
     """`start` with the model, the cameras and the frame-0 truth; then `step` once per frame; `close`."""
 
-    name = "abis"
+    name: ClassVar[str] = "abis"
 
     def __init__(self, settings: AbisSettings = AbisSettings()) -> None:
         self.settings = settings
         self._renderer: SceneRenderer | None = None
-
-    @classmethod
-    def from_config(cls, **values: Any) -> AbisTracker:
-        """From plain values (as a config gives them): fit, features and initial_noise are mappings."""
-        nested = {"fit": FitSettings, "features": FeatureSettings, "initial_noise": InitialNoise,
-                  "prior": PriorSigmas}  # fmt: skip
-        return cls(AbisSettings(**{k: nested[k](**v) if k in nested and v is not None else v
-                                   for k, v in values.items()}))  # fmt: skip
 
     def start(self, model: DSQArm, cameras: Sequence[Camera], truth: np.ndarray, rng: np.random.Generator) -> None:
         """Begin a sequence: frame 0's estimate is ``truth`` with the configured `InitialNoise` drawn from ``rng``
@@ -154,25 +171,18 @@ class AbisTracker:
         n_parts = len(self.model.parts)
         names = [camera.name for camera in self.cameras]
         counts = {name: np.zeros((n_parts, len(COUNT_NAMES)), int) for name in names}
-        discarded: dict[str, np.ndarray] = {}
         timings: dict[str, float] = {}
         failure = None
         cost, iterations = np.zeros(n_parts), np.zeros(n_parts, int)
 
         start = time.perf_counter()
         features = {name: self._trackers[name].step(frame.views[name].rgb) for name in names}
-        timings["features"] = _ms(start)
-
+        timings["features"] = elapsed_ms(start)
         if self._frame > 0:
-            for name in names:  # 1. carry over the pairs whose feature was tracked
-                pairs = self._pairs[name]
-                live = np.isin(pairs.feature_ids, features[name].ids)
-                counts[name][:, LOST] = pairs.subset(~live).count_by_part(n_parts)
-                self._pairs[name] = pairs.subset(live)
-                counts[name][:, TRACKED] = self._pairs[name].count_by_part(n_parts)
+            self._carry_over(features, counts)  # 1. pairs whose feature was tracked
             start = time.perf_counter()  # 2. fit top-down
             estimate, cost, iterations, failure = self._fit(features)
-            timings["fit"] = _ms(start)
+            timings["fit"] = elapsed_ms(start)
             if failure is None:
                 self._estimate = estimate
 
@@ -180,30 +190,31 @@ class AbisTracker:
         zbuffers = self._renderer.render_depth_labels(self.cameras, self.model.zbuffer_meshes(self._estimate))
         samples = self.model.sample_points(self._estimate)
         visible = {c.name: visible_samples(c, zbuffers[c.name], samples) for c in self.cameras}
-        timings["visibility"] = _ms(start)
+        timings["visibility"] = elapsed_ms(start)
         start = time.perf_counter()  # 4. pair upkeep
         world = self.model.world_transforms(self._estimate)
+        views = {}
         for camera in self.cameras:
-            discarded[camera.name] = self._upkeep(camera, features[camera.name], zbuffers[camera.name],
-                                                  visible[camera.name], world, counts[camera.name])
-        timings["pairing"] = _ms(start)
+            name = camera.name
+            discarded = self._upkeep(camera, features[name], zbuffers[name], visible[name], world, counts[name])
+            views[name] = ViewResult(features[name], self._feature_states(name, features[name], discarded),
+                                     visible[name])  # fmt: skip
+        timings["pairing"] = elapsed_ms(start)
         if failure is None and all(len(pairs) == 0 for pairs in self._pairs.values()):
             failure = "all pairs lost"
-
-        result = AbisResult(
-            frame=frame.frame,
-            estimate=self._estimate.copy(),
-            counts=counts,
-            pairs={name: self._pairs[name].count_by_part(n_parts) for name in names},
-            cost=cost,
-            iterations=iterations,
-            views={name: ViewResult(features[name], self._feature_states(name, features[name], discarded[name]),
-                                    visible[name]) for name in names},  # fmt: skip
-            timings_ms=timings,
-            failure=failure,
-        )
         self._frame += 1
-        return result
+        return AbisResult.of(self.model.part_names, frame=frame.frame, estimate=self._estimate.copy(), counts=counts,
+                             pairs={name: self._pairs[name].count_by_part(n_parts) for name in names}, cost=cost,
+                             iterations=iterations, views=views, timings_ms=timings, failure=failure)  # fmt: skip
+
+    def _carry_over(self, features: Mapping[str, FeatureFrame], counts: dict[str, np.ndarray]) -> None:
+        """Keep the pairs whose feature was tracked into this frame; count them and the lost ones."""
+        n_parts = len(self.model.parts)
+        for name, pairs in self._pairs.items():
+            live = np.isin(pairs.feature_ids, features[name].ids)
+            counts[name][:, LOST] = pairs.subset(~live).count_by_part(n_parts)
+            self._pairs[name] = pairs.subset(live)
+            counts[name][:, TRACKED] = self._pairs[name].count_by_part(n_parts)
 
     def _fit(self, features: Mapping[str, FeatureFrame]) -> tuple[np.ndarray, np.ndarray, np.ndarray, str | None]:
         """Fit every part top-down against the current pairs; a failure leaves the previous estimate."""
@@ -307,6 +318,3 @@ def _rows(features: FeatureFrame, ids: np.ndarray) -> np.ndarray:
     order = np.argsort(features.ids)
     return features.points[order[np.searchsorted(features.ids[order], ids)]]
 
-
-def _ms(start: float) -> float:
-    return 1e3 * (time.perf_counter() - start)

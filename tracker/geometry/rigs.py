@@ -6,28 +6,29 @@ World frame of the rigs: metres, z up. The orthogonal rig's views are named afte
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 
 from tracker.geometry.cameras import Camera, look_at
+from tracker.ranges import ImageSide, Positive, Vector3
+from tracker.registry import RIGS
 
 Rig = tuple[Camera, ...]
 
 _UP = np.array([0.0, 0.0, 1.0])
 
 
+@RIGS.register("orthogonal3", views=(3, 3))
 def orthogonal3(
     *,
-    target: Sequence[float],
-    front_distance: float,
-    left_distance: float,
-    top_distance: float,
-    focal_px: float,
-    width: int,
-    height: int,
+    target: Vector3 = (0.0, 0.0, 0.0),
+    front_distance: Positive = 2.0,
+    left_distance: Positive = 2.0,
+    top_distance: Positive = 2.0,
+    focal_px: Positive = 400.0,
+    width: ImageSide = 320,
+    height: ImageSide = 240,
 ) -> Rig:
-    """Three orthogonal views (front, left, top) of ``target``, as in paper 1's experiment."""
+    """Paper 1's three orthogonal views (front, left, top) of ``target``."""
     target = np.asarray(target, dtype=np.float64)
     intrinsics = dict(width=width, height=height, focal_px=focal_px)
     return (
@@ -38,16 +39,17 @@ def orthogonal3(
     )
 
 
+@RIGS.register("mono", views=(1, 1))
 def mono(
     *,
-    position: Sequence[float],
-    target: Sequence[float],
-    up: Sequence[float] = (0.0, 0.0, 1.0),
-    focal_px: float,
-    width: int,
-    height: int,
+    position: Vector3 = (0.0, -3.0, 1.0),
+    target: Vector3 = (0.0, 0.0, 1.0),
+    up: Vector3 = (0.0, 0.0, 1.0),
+    focal_px: Positive = 400.0,
+    width: ImageSide = 320,
+    height: ImageSide = 240,
     name: str = "main",
 ) -> Rig:
-    """A single camera (paper 2's setting)."""
+    """One camera at ``position`` looking at ``target`` (paper 2's setting)."""
     return (look_at(name, np.asarray(position), np.asarray(target), np.asarray(up), width=width, height=height,
                     focal_px=focal_px),)

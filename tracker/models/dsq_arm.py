@@ -8,12 +8,12 @@ so joints stay connected for any shape or rotation.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Annotated, ClassVar
 
 import numpy as np
 
+from tracker.evaluation.arm import ArmEvaluation
 from tracker.geometry.rotations import euler_to_matrix, transform_points
 from tracker.models.articulated import KinematicTree, forward_kinematics, jointed_translation, local_transforms
 from tracker.models.dsq import (
@@ -26,13 +26,18 @@ from tracker.models.dsq import (
     mesh_topology,
     pole_point,
     sample_grid,
-    vertex_normals,
 )
 from tracker.models.textures import block_noise_texture
-from tracker.render.mesh import SurfaceMesh
+from tracker.ranges import RGB, Range, Seed
+from tracker.registry import MODELS
+from tracker.render.mesh import SurfaceMesh, vertex_normals
 
 _C = slice(PARAM_INDEX["c1"], PARAM_INDEX["c3"] + 1)
 _R = slice(PARAM_INDEX["r1"], PARAM_INDEX["r3"] + 1)
+
+
+CellCount = Annotated[int, Range(1, 256)]
+GridSide = Annotated[int, Range(3, 1024)]
 
 
 @dataclass(frozen=True)
@@ -40,28 +45,30 @@ class ArmPart:
     """A part of the arm: its rest shape, the colour its texture is tinted with and the texture's block count."""
 
     name: str
-    shape: DSQShape
-    tint: tuple[int, int, int] = (220, 220, 220)
-    texture_cells: tuple[int, int] = (12, 12)  # blocks along (eta, omega)
+    shape: DSQShape = field(default_factory=DSQShape)
+    tint: RGB = (220, 220, 220)
+    texture_cells: tuple[CellCount, CellCount] = (12, 12)  # blocks along (eta, omega)
 
 
 @dataclass(frozen=True)
 class Resolution:
     """Grid sizes over (eta, omega)."""
 
-    n_eta: int
-    n_omega: int
+    n_eta: GridSide
+    n_omega: GridSide
 
 
+@MODELS.register("dsq_arm", evaluation=ArmEvaluation())
 @dataclass(eq=False)
 class DSQArm:
-    """A chain of DSQ parts (root first). ``seed`` draws the textures."""
+    """Paper 1's object: deformable superquadrics joined pole to pole, textured (eq 1-4)."""
 
-    parts: Sequence[ArmPart]
-    mesh: Resolution = field(default_factory=lambda: Resolution(40, 48))
-    samples: Resolution = field(default_factory=lambda: Resolution(16, 24))
-    zbuffer: Resolution = field(default_factory=lambda: Resolution(24, 32))  # visibility mesh
-    seed: int = 0
+    name: ClassVar[str] = "dsq_arm"
+    parts: tuple[ArmPart, ...]  # root first
+    mesh: Resolution = field(default_factory=lambda: Resolution(40, 48))  # the rendered surface
+    samples: Resolution = field(default_factory=lambda: Resolution(16, 24))  # model samples for fitting
+    zbuffer: Resolution = field(default_factory=lambda: Resolution(24, 32))  # the visibility mesh
+    seed: Seed = 0  # draws the textures
     # Derived in __post_init__:
     tree: KinematicTree = field(init=False, repr=False)
     topology: MeshTopology = field(init=False, repr=False)  # of the render mesh
@@ -154,7 +161,7 @@ class DSQArm:
                     label=k + 1,
                     vertices=vertices,
                     faces=self.topology.faces,
-                    normals=vertex_normals(vertices, self.topology),
+                    normals=vertex_normals(vertices, self.topology.faces, self.topology.weld),
                     color=part.tint,
                     uv=self.topology.uv,
                     texture=self.textures[k],
@@ -178,26 +185,3 @@ class DSQArm:
             for k, part in enumerate(self.parts)
         ]
 
-
-def build_arm(
-    parts: Sequence[Mapping[str, Any]],
-    mesh: Mapping[str, int],
-    samples: Mapping[str, int],
-    seed: int = 0,
-) -> DSQArm:
-    """A `DSQArm` from plain values (as a config gives them): parts are ``{name, shape: {a, a1, ...}, tint,
-    texture_cells}``; mesh and samples are ``{n_eta, n_omega}``."""
-    return DSQArm(
-        parts=[
-            ArmPart(
-                name=part["name"],
-                shape=DSQShape(**part["shape"]),
-                tint=tuple(part["tint"]),
-                texture_cells=tuple(part["texture_cells"]),
-            )
-            for part in parts
-        ],
-        mesh=Resolution(**mesh),
-        samples=Resolution(**samples),
-        seed=seed,
-    )

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Annotated
 
 import numpy as np
 
@@ -18,22 +19,23 @@ from tracker.geometry.rotations import euler_to_matrix
 from tracker.models.articulated import jointed_translation
 from tracker.models.dsq import PARAM_INDEX, pole_point
 from tracker.models.dsq_arm import DSQArm
+from tracker.ranges import Finite, Positive, Range, Vector3
 
 N_PARTS = 3
+Angle = Annotated[float, Range(-math.pi, math.pi)]
 
 
 @dataclass(frozen=True)
 class ArmSwing:
-    period_frames: float = 48.0
-    elbow_swing: float = 1.2
-    bend_amplitude: float = 0.04
-    bend_period_frames: float = 64.0
-    wrist_rock: float = 0.35
-    shoulder_sway: float = 0.06
-    shoulder: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """Paper 1's elbow swing of the DSQ arm, with dwell near straight, forearm bending and a rocking wrist."""
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "shoulder", tuple(float(x) for x in self.shoulder))  # a config passes a list
+    period_frames: Positive = 48.0
+    elbow_swing: Angle = 1.2  # forearm r2 between 0 and this (69 deg)
+    bend_amplitude: Finite = 0.04  # forearm b1 in [-a, a] m
+    bend_period_frames: Positive = 64.0
+    wrist_rock: Angle = 0.35  # hand r1 amplitude (20 deg)
+    shoulder_sway: Angle = 0.06  # upper-arm r3 amplitude (3.4 deg)
+    shoulder: Vector3 = (0.0, 0.0, 0.0)  # where the upper arm's bottom pole sits
 
     def params(self, arm: DSQArm, frame: int) -> np.ndarray:
         """``(3, 17)`` truth parameters of every part at ``frame``, joints connected."""

@@ -11,11 +11,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Annotated
 
 import numpy as np
 
 from tracker.geometry.rotations import matrix_to_rotation_vector, rotation_x, rotation_y, rotation_z
-from tracker.models.body_mesh import JOINT_INDEX, BodyMesh
+from tracker.models.body_mesh import BodyMesh
+from tracker.models.body_skeleton import JOINT_INDEX
+from tracker.ranges import Finite, Positive, Range
 
 # The T-pose's arms hang this far below the horizontal already (frame 0 of the CMU clips).
 _T_POSE_DROOP_DEG = 8.0
@@ -23,11 +26,13 @@ _T_POSE_DROOP_DEG = 8.0
 
 @dataclass(frozen=True)
 class BodySwing:
-    period_frames: float = 40.0
-    forward_deg: float = 60.0
-    backward_deg: float = 40.0
-    abduction_deg: float = 8.0
-    yaw_deg: float = -90.0  # the direction the body faces, world xy angle from +x (-90: facing -y)
+    """Paper 2's experiment A: the body's right arm swings forward and back at constant angular speed."""
+
+    period_frames: Positive = 40.0
+    forward_deg: Annotated[float, Range(0.0, 180.0)] = 60.0  # in front of the vertical
+    backward_deg: Annotated[float, Range(0.0, 90.0)] = 40.0  # behind it
+    abduction_deg: Annotated[float, Range(0.0, 90.0)] = 8.0  # both arms this far out from the trunk
+    yaw_deg: Finite = -90.0  # the direction the body faces, world xy angle from +x (-90: facing -y)
 
     def swing_angle_deg(self, frame: float) -> float:
         """The right arm's elevation in the sagittal plane: + in front of the vertical, - behind."""

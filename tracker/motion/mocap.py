@@ -9,13 +9,18 @@ root displacement from frame 0, scaled so that the clip's leg length becomes the
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Annotated
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from tracker.models.body_mesh import BVH_TO_BODY, JOINT_INDEX, JOINT_NAMES, POSE_SIZE, BodyMesh
+from tracker.models.body_mesh import BodyMesh
+from tracker.models.body_skeleton import BVH_TO_BODY, JOINT_INDEX, JOINT_NAMES, POSE_SIZE, missing_joints
 from tracker.motion.bvh import BvhClip, BvhError, read_bvh
+from tracker.ranges import Finite, NonNegative, Range
+from tracker.registry import SCENES
 
 _LEG = ("LeftUpLeg", "LeftLeg", "LeftFoot")
 
@@ -32,7 +37,7 @@ class ClipSelection:
 
 def clip_poses(clip: BvhClip, body: BodyMesh, selection: ClipSelection = ClipSelection()) -> np.ndarray:
     """``(n, POSE_SIZE)`` body pose vectors of ``clip`` resampled at ``selection.fps`` (slerp between frames)."""
-    missing = [name for name in JOINT_NAMES if name not in clip.names]
+    missing = missing_joints(clip.names)
     if missing:
         raise BvhError(f"{clip.path}: not a CMU-style skeleton, missing joints {', '.join(missing)}")
     if clip.frames < 2:
@@ -94,17 +99,38 @@ def _scale(clip: BvhClip, body: BodyMesh) -> float:
     return float(np.linalg.norm(np.diff(heads, axis=0), axis=1).sum() / clip_length)
 
 
+def check_clip(scene: MocapScene, frames: int, key: str) -> None:
+    """Before a run: the scene's file is a readable CMU-style clip holding ``frames`` frames from its start.
+    Raises ``ValueError`` naming the config keys (``key``: the scene's, e.g. ``scene``)."""
+    try:
+        clip = read_bvh(scene.path)
+        missing = missing_joints(clip.names)
+        if missing:
+            raise BvhError(f"not a CMU-style skeleton, missing joints {', '.join(missing)}")
+        available = available_frames(clip, scene.start_s, scene.fps)
+    except BvhError as error:  # its message may name the file, as the key already does
+        message = str(error)
+        for named, pronoun in ((f"{Path(scene.path)}: ", ""), (f"{Path(scene.path)} is ", "it is ")):
+            message = pronoun + message.removeprefix(named) if message.startswith(named) else message
+        raise ValueError(f"{key}.path={scene.path}: {message}") from None
+    if frames > available:
+        raise ValueError(f"frames={frames}: {key}.path={scene.path} has {available} frames at {scene.fps:g} fps "
+                         f"from {key}.start_s={scene.start_s}; allowed at most {available}")  # fmt: skip
+
+
+@SCENES.register("bvh", models=("body_mesh",), check=check_clip)
 @dataclass(frozen=True)
 class MocapScene:
-    """A BVH clip driving the body: ``frames`` at ``fps`` from ``start_s``; the body is turned about the vertical
-    so that it faces ``yaw_deg`` (world xy angle from +x; -90 faces -y) at the first frame, and with ``center``
-    its first-frame root stands over the world origin."""
+    """A CMU-style BVH clip drives the body: ``frames`` at ``fps`` from ``start_s``; the body is turned about the
+    vertical so that it faces ``yaw_deg`` (world xy angle from +x; -90 faces -y) at the first frame, and with
+    ``center`` its first-frame root stands over the world origin."""
 
     path: str
-    start_s: float = 0.0
-    fps: float = 30.0
-    yaw_deg: float = -90.0
+    start_s: NonNegative = 0.0  # seconds after the clip's T-pose frame
+    fps: Annotated[float, Range(1.0, 1000.0)] = 30.0  # resampled (slerp) to this rate
+    yaw_deg: Finite = -90.0
     center: bool = True
+    _cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)  # the poses of one body
 
     def poses(self, body: BodyMesh, frames: int | None = None) -> np.ndarray:
         """``(frames, POSE_SIZE)`` the scene's pose vectors (all the clip holds from ``start_s`` when None)."""
@@ -112,16 +138,17 @@ class MocapScene:
         return face(poses, self.yaw_deg, self.center)
 
     def params(self, body: BodyMesh, frame: int) -> np.ndarray:
-        cached = _POSE_CACHE.get((self, id(body)))
-        if cached is None:
-            cached = _POSE_CACHE[(self, id(body))] = self.poses(body)
-        if frame >= len(cached):
-            raise BvhError(f"{self.path}: frame {frame} asked, the clip has {len(cached)} frames at {self.fps:g} fps "
+        poses = self._poses(body)
+        if frame >= len(poses):
+            raise BvhError(f"{self.path}: frame {frame} asked, the clip has {len(poses)} frames at {self.fps:g} fps "
                            f"from {self.start_s} s")  # fmt: skip
-        return cached[frame]
+        return poses[frame]
 
-
-_POSE_CACHE: dict[tuple[MocapScene, int], np.ndarray] = {}
+    def _poses(self, body: BodyMesh) -> np.ndarray:
+        """The clip's poses for ``body``, computed once per scene and body."""
+        if self._cache.get("body") is not body:
+            self._cache.update(body=body, poses=self.poses(body))
+        return self._cache["poses"]
 
 
 def face(poses: np.ndarray, yaw_deg: float, center: bool) -> np.ndarray:

@@ -1,27 +1,25 @@
-"""Scenes that drive either model: ``scene=arm_swing`` is paper 1's elbow swing for the DSQ arm and paper 2's
-right-arm swing (experiment A) for the body mesh; each keeps its settings in its own block."""
+"""``scene=arm_swing``: an arm swinging, for either model. Paper 1's elbow swing drives the DSQ arm (`ArmSwing`) and
+paper 2's right-arm swing (experiment A) the body (`BodySwing`); each keeps its settings in its own block."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from tracker.models.body_mesh import BodyMesh
 from tracker.motion.arm_swing import ArmSwing
 from tracker.motion.body_swing import BodySwing
+from tracker.registry import SCENES
 
 
+@SCENES.register("arm_swing", models=("dsq_arm", "body_mesh"))
 @dataclass(frozen=True)
-class ArmSwingScene:
-    arm: ArmSwing
-    body: BodySwing
+class SwingScene:
+    """An arm swinging: the DSQ arm's elbow (paper 1) or the body's right arm (paper 2), by the model."""
 
-    @classmethod
-    def from_config(cls, arm: dict[str, Any], body: dict[str, Any]) -> ArmSwingScene:
-        return cls(ArmSwing(**arm), BodySwing(**body))
+    arm: ArmSwing = field(default_factory=ArmSwing)
+    body: BodySwing = field(default_factory=BodySwing)
 
-    def params(self, model: Any, frame: int) -> np.ndarray:
-        motion = self.body if isinstance(model, BodyMesh) else self.arm
-        return motion.params(model, frame)
+    def params(self, model, frame: int) -> np.ndarray:
+        swing = {"dsq_arm": self.arm, "body_mesh": self.body}[model.name]
+        return swing.params(model, frame)

@@ -10,23 +10,29 @@ tracker sees only the images: never the model or the truth.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Annotated
 
 import cv2
 import numpy as np
 
+from tracker.ranges import Count, Positive, Range
+
 
 @dataclass(frozen=True)
 class FeatureSettings:
-    max_features: int = 300  # per view
-    quality_level: float = 0.01  # Shi-Tomasi: corners weaker than this fraction of the strongest are ignored
-    min_distance_px: float = 5.0  # between corners, and between a new corner and a surviving track
-    block_size: int = 5
-    window_px: int = 15  # Lucas-Kanade window side
-    pyramid_levels: int = 3
+    """Shi-Tomasi corners tracked by pyramidal Lucas-Kanade with a forward-backward check."""
+
+    max_features: Count = 300  # per view
+    # Shi-Tomasi: corners weaker than this fraction of the strongest are ignored
+    quality_level: Annotated[float, Range(0.0, 1.0, low_open=True)] = 0.01
+    min_distance_px: Positive = 5.0  # between corners, and between a new corner and a surviving track
+    block_size: Annotated[int, Range(3, 31)] = 5
+    window_px: Annotated[int, Range(5, 101)] = 15  # Lucas-Kanade window side
+    pyramid_levels: Annotated[int, Range(1, 8)] = 3
     # Tracks on the rendered arm come back within 0.17 px 95% of the time (0.25 px: 96.3%, 0.5 px: 97.6%); at
     # 0.25 px two thirds of the "swaps" to a look-alike corner of an occluder are rejected, which 0.5 px lets pass.
     # The swaps that remain are the false matches AbIS discards by their residual after fitting (paper 1, 4.3).
-    max_forward_backward_px: float = 0.25
+    max_forward_backward_px: Positive = 0.25
 
 
 @dataclass(frozen=True, eq=False)

@@ -13,21 +13,28 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Annotated
 
 import cv2
 import numpy as np
 
+from tracker.ranges import Positive, Range
+from tracker.settings import validate
+
 
 @dataclass(frozen=True)
 class SilhouetteSettings:
-    chroma_threshold: float = 5.0  # sigmas of the background's normalised colour
-    color_threshold: float = 60.0  # 8-bit levels, Euclidean over RGB
-    min_chroma_std: float = 0.004  # floor of the learnt per-pixel sigma (a perfectly still pixel has none)
-    cleanup_px: int = 3  # side of the opening/closing kernel; 0 or 1: none
+    """Background subtraction: the thresholds, the clean-up, and how many empty frames the background is learnt
+    from."""
+
+    chroma_threshold: Positive = 5.0  # sigmas of the background's normalised colour
+    color_threshold: Positive = 60.0  # 8-bit levels, Euclidean over RGB
+    min_chroma_std: Positive = 0.004  # floor of the learnt per-pixel sigma (a perfectly still pixel has none)
+    cleanup_px: Annotated[int, Range(0, 15)] = 3  # side of the opening/closing kernel; 0 or 1: none
+    background_frames: Annotated[int, Range(2, 1000)] = 20  # of the empty scene, before the subject walks in
 
     def __post_init__(self) -> None:
-        if self.chroma_threshold <= 0 or self.color_threshold <= 0 or self.min_chroma_std <= 0 or self.cleanup_px < 0:
-            raise ValueError(f"SilhouetteSettings needs positive thresholds and cleanup_px >= 0, got {self}")
+        validate(self)
 
 
 @dataclass(frozen=True, eq=False)

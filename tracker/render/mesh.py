@@ -26,3 +26,17 @@ class SurfaceMesh:
     color: tuple[int, int, int]
     uv: np.ndarray | None = None
     texture: np.ndarray | None = None
+
+
+def vertex_normals(vertices: np.ndarray, faces: np.ndarray, weld: np.ndarray | None = None) -> np.ndarray:
+    """Area-weighted unit vertex normals ``(n, 3)`` of a triangle mesh. ``weld`` (optional, ``(n,)``) maps each
+    vertex to the one whose position it repeats (a seam or a pole): repeated vertices share one normal."""
+    weld = np.arange(len(vertices)) if weld is None else weld
+    corners = vertices[faces]
+    face_normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    accumulated = np.zeros_like(vertices)
+    for corner in range(3):
+        np.add.at(accumulated, weld[faces[:, corner]], face_normals)
+    normals = accumulated[weld]
+    length = np.linalg.norm(normals, axis=1, keepdims=True)
+    return normals / np.where(length > 0, length, 1.0)

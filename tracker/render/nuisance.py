@@ -10,20 +10,22 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Annotated
 
 import numpy as np
+
+from tracker.ranges import Positive, Range
+from tracker.settings import validate
 
 
 @dataclass(frozen=True)
 class SensorNuisance:
-    noise_std: float = 2.0
-    gain_amplitude: float = 0.04
-    gain_period_frames: float = 150.0
+    noise_std: Annotated[float, Range(0.0, 64.0)]  # 8-bit levels
+    gain_amplitude: Annotated[float, Range(0.0, 0.5)] = 0.0  # relative
+    gain_period_frames: Positive = 150.0
 
     def __post_init__(self) -> None:
-        if self.noise_std < 0 or not 0 <= self.gain_amplitude < 1 or self.gain_period_frames <= 0:
-            raise ValueError(f"SensorNuisance needs noise_std >= 0, 0 <= gain_amplitude < 1 and "
-                             f"gain_period_frames > 0, got {self}")  # fmt: skip
+        validate(self)
 
     def gain(self, frame: float) -> float:
         return 1.0 + self.gain_amplitude * math.sin(2 * math.pi * frame / self.gain_period_frames)

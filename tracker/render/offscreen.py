@@ -35,6 +35,9 @@ class DepthLabels:
     labels: np.ndarray
 
 
+DEFAULT_BACKGROUND = (40, 40, 48)  # RGB, 8-bit
+
+
 @dataclass(frozen=True)
 class Lighting:
     """Ambient level and directional lights ``(direction the light travels, intensity)``, fixed in the world."""
@@ -51,7 +54,7 @@ class SceneRenderer:
         width: int,
         height: int,
         *,
-        background_rgb: tuple[int, int, int] = (40, 40, 48),
+        background_rgb: tuple[int, int, int] = DEFAULT_BACKGROUND,
         lighting: Lighting = Lighting(),
         znear: float = 0.05,
         zfar: float = 100.0,

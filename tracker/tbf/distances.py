@@ -13,6 +13,10 @@ weight map d_P of P alone:
 Distances are Euclidean, in pixels of the silhouette's resolution. Silhouettes are ``(h, w)`` bool; a window is
 ``(u0, v0, u1, v1)``, half-open pixel bounds.
 
+Each cost is a function of the observed silhouette (cropped to W) that returns its weights d_P there, registered
+by name in `tracker.registry.COSTS` with its settings (wXOR's ``w``) as keyword-only parameters; a new cost is one
+such function and its registration.
+
 Because d_P depends on P only, the distance is affine in Q's pixels: ``d = (c + sum_x a(x) Q(x)) / N_W`` with
 ``a = d_P (1 - 2P)`` and ``c = sum d_P P``. `ObservationScorer` computes ``a`` and ``c`` once per observation and
 scores any number of model silhouettes at once. A model silhouette is stored as its runs of inside pixels along
@@ -23,14 +27,18 @@ one per inside pixel (thousands).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Any
 
 import cv2
 import numpy as np
 from skimage.morphology import skeletonize
 
-COSTS = ("xor", "wxor", "nwxor")
+from tracker.ranges import NonNegative
+from tracker.registry import COSTS
+
 Window = tuple[int, int, int, int]
 
 
@@ -65,60 +73,48 @@ def medial_axis_distance(silhouette: np.ndarray) -> np.ndarray:
     return cv2.distanceTransform((~axis).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE).astype(np.float64)
 
 
-def xor_weights(observed: np.ndarray, window: Window | None = None) -> np.ndarray:
-    """Eq 6's d_P: 1 inside the window, 0 outside it."""
-    u0, v0, u1, v1 = window or full_window(observed.shape)
-    weights = np.zeros(observed.shape)
-    weights[v0:v1, u0:u1] = 1.0
-    return weights
+@COSTS.register("xor")
+def xor(inside: np.ndarray) -> np.ndarray:
+    """Eq 6: every pixel where the silhouettes differ counts 1 (the fraction of the window that differs)."""
+    return np.ones(inside.shape)
 
 
-def wxor_weights(observed: np.ndarray, window: Window | None = None, w: float = 1.0) -> np.ndarray:
-    """Eq 8's d_P = D_P + w D_Pbar inside the window, 0 outside it."""
-    inside, (u0, v0, u1, v1) = _window_crop(observed, window)
-    weights = np.zeros(observed.shape)
-    weights[v0:v1, u0:u1] = inside_distance(inside) + w * outside_distance(inside)
-    return weights
+@COSTS.register("wxor")
+def wxor(inside: np.ndarray, *, w: NonNegative = 1.0) -> np.ndarray:
+    """Eq 7-8: XOR weighted by the distance to the observed silhouette's contour, inside + w outside."""
+    return inside_distance(inside) + w * outside_distance(inside)
 
 
-def nwxor_weights(observed: np.ndarray, window: Window | None = None) -> np.ndarray:
-    """Eq 9's d_P = D_P / (D_P + D_Pmed) + w' D_Pbar inside the window (w' equalises the two terms' maxima),
-    0 outside it."""
-    inside, (u0, v0, u1, v1) = _window_crop(observed, window)
+@COSTS.register("nwxor")
+def nwxor(inside: np.ndarray) -> np.ndarray:
+    """Eq 9: XOR weighted by the inside distance normalised by the local thickness, outside scaled to the same
+    maximum (w' makes the two terms' maxima equal)."""
     core, to_axis, outer = inside_distance(inside), medial_axis_distance(inside), outside_distance(inside)
     inner = np.divide(core, core + to_axis, out=np.zeros_like(core), where=inside)
     w_prime = inner.max() / outer.max() if outer.max() > 0 else 0.0
+    return inner + w_prime * outer
+
+
+Cost = Callable[[np.ndarray], np.ndarray]  # the observed silhouette, cropped to the window -> its weights there
+
+
+def weight_map(cost: str | Cost, observed: np.ndarray, window: Window | None = None, **settings: Any) -> np.ndarray:
+    """``(h, w)`` float64 d_P of ``cost`` (a registered name, with ``settings``, or a configured cost) for the
+    observed silhouette, 0 outside the window. A cost that needs a silhouette to measure from (wXOR, nwXOR) raises
+    `EmptySilhouette` when the window holds none of it."""
+    weights_of = COSTS.build(cost, settings) if isinstance(cost, str) else cost
+    u0, v0, u1, v1 = window or full_window(observed.shape)
+    inside = np.asarray(observed, bool)[v0:v1, u0:u1]
     weights = np.zeros(observed.shape)
-    weights[v0:v1, u0:u1] = inner + w_prime * outer
+    weights[v0:v1, u0:u1] = weights_of(inside)
     return weights
 
 
-def weight_map(cost: str, observed: np.ndarray, window: Window | None = None, w: float = 1.0) -> np.ndarray:
-    """``(h, w)`` float64 d_P of ``cost`` for the observed silhouette, 0 outside the window. ``w`` is wXOR's
-    outside weight (eq 8); nwXOR sets its own w'."""
-    if cost == "xor":
-        return xor_weights(observed, window)
-    if cost == "wxor":
-        return wxor_weights(observed, window, w)
-    if cost == "nwxor":
-        return nwxor_weights(observed, window)
-    raise ValueError(f"cost={cost!r}: allowed {', '.join(COSTS)}")
-
-
-def _window_crop(observed: np.ndarray, window: Window | None) -> tuple[np.ndarray, Window]:
-    window = window or full_window(observed.shape)
-    u0, v0, u1, v1 = window
-    inside = np.asarray(observed, bool)[v0:v1, u0:u1]
-    if not inside.any():
-        raise EmptySilhouette(f"the observed silhouette has no pixel in the window {window}")
-    return inside, window
-
-
-def silhouette_distance(cost: str, observed: np.ndarray, model: np.ndarray, window: Window | None = None,
-                        w: float = 1.0) -> float:  # fmt: skip
+def silhouette_distance(cost: str | Cost, observed: np.ndarray, model: np.ndarray, window: Window | None = None,
+                        **settings: Any) -> float:  # fmt: skip
     """d(P, Q) for one pair, straight from the definition (the reference for `ObservationScorer`)."""
     u0, v0, u1, v1 = window or full_window(observed.shape)
-    weights = weight_map(cost, observed, window, w)
+    weights = weight_map(cost, observed, window, **settings)
     differs = np.logical_xor(observed, model)[v0:v1, u0:u1]
     return float((weights[v0:v1, u0:u1] * differs).sum() / ((u1 - u0) * (v1 - v0)))
 
@@ -204,34 +200,14 @@ class SilhouetteStack:
         return SilhouetteRuns.from_masks(self.images)
 
 
-@dataclass(frozen=True)
-class SilhouetteCost:
-    """A configured distance: which one (`COSTS`) and wXOR's ``w``."""
-
-    kind: str
-    w: float = 1.0
-
-    def __post_init__(self) -> None:
-        if self.kind not in COSTS:
-            raise ValueError(f"kind={self.kind!r}: allowed {', '.join(COSTS)}")
-        if self.w < 0:
-            raise ValueError(f"w={self.w} must be >= 0")
-
-    def weight_map(self, observed: np.ndarray, window: Window | None = None) -> np.ndarray:
-        return weight_map(self.kind, observed, window, self.w)
-
-    def scorer(self, observed: np.ndarray, window: Window) -> ObservationScorer:
-        return ObservationScorer(self.kind, observed, window, self.w)
-
-
 class ObservationScorer:
     """One observed silhouette's distance to many model silhouettes: ``scores(stack)`` equals
     `silhouette_distance` for every member (to rounding), from the stack's runs."""
 
-    def __init__(self, cost: str, observed: np.ndarray, window: Window, w: float = 1.0) -> None:
+    def __init__(self, cost: str | Cost, observed: np.ndarray, window: Window, **settings: Any) -> None:
         u0, v0, u1, v1 = window
         self.window = window
-        self.weights = weight_map(cost, observed, window, w)
+        self.weights = weight_map(cost, observed, window, **settings)
         crop = self.weights[v0:v1, u0:u1]
         inside = np.asarray(observed, bool)[v0:v1, u0:u1]
         self._slope = (crop * np.where(inside, -1.0, 1.0)).ravel()

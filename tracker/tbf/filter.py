@@ -5,7 +5,8 @@ Per frame, given the observed silhouette P_o:
               previous estimate widening the occluded parts' sigmas (DM2);
     levels    from the top: the nodes under the surviving nodes of the level above are scored by their
               representative's silhouette distance at the level's resolution (the observation's weight map is
-              computed once per level, so all of them take one sparse matrix-vector product); a node's posterior
+              computed once per level, and each representative is scored from its runs of inside pixels,
+              `tracker.tbf.distances.ObservationScorer`); a node's posterior
               is ``exp(-d^2 / 2 sigma_l^2)`` (eq 10-11, vol(S) constant) times its members' prior mass; nodes
               below ``prune_fraction`` of the level's best are pruned;
     leaves    each member sample of a surviving leaf gets ``p(z | leaf) * prior(sample)`` (eq 12-13); the best
@@ -23,31 +24,36 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Annotated
 
 import numpy as np
 
 from tracker.observe.silhouettes import resize_silhouette
-from tracker.tbf.distances import SilhouetteCost
-from tracker.tbf.motion import MotionModel, PosePrior
+from tracker.ranges import Positive, Range
+from tracker.settings import validate
+from tracker.tbf.distances import Cost, ObservationScorer
+from tracker.tbf.motion import PosePrior, RandomWalk
 from tracker.tbf.samples import PoseSampleSet
 from tracker.tbf.tree import PoseTree
+from tracker.timing import elapsed_ms
 
 CALIBRATION_SAMPLES = 200
 
 
 @dataclass(frozen=True)
 class FilterSettings:
-    likelihood_sigma: float = 1.0  # eq 10's sigma, in units of the cost's neighbour step at each level
-    prune_fraction: float = 0.01  # keep a node whose posterior is at least this fraction of its level's best
-    initial_sigma: float = 0.3  # frame 0's prior: N(initial pose, this sigma on every joint component)
+    """Eq 10's sigma, the pruning threshold and frame 0's prior."""
+
+    likelihood_sigma: Positive = 1.0  # eq 10's sigma, in units of the cost's neighbour step at each level
+    # Keep a node whose posterior is at least this fraction of its level's best.
+    prune_fraction: Annotated[float, Range(0.0, 1.0, high_open=True)] = 0.01
+    initial_sigma: Positive = 0.3  # frame 0's prior: N(initial pose, this sigma on every joint component)
 
     def __post_init__(self) -> None:
-        if self.likelihood_sigma <= 0 or not 0 <= self.prune_fraction < 1 or self.initial_sigma <= 0:
-            raise ValueError(f"FilterSettings needs likelihood_sigma > 0, 0 <= prune_fraction < 1 and "
-                             f"initial_sigma > 0, got {self}")  # fmt: skip
+        validate(self)
 
 
-def neighbour_scale(samples: PoseSampleSet, cost: SilhouetteCost, resolution: tuple[int, int],
+def neighbour_scale(samples: PoseSampleSet, cost: Cost, resolution: tuple[int, int],
                     count: int = CALIBRATION_SAMPLES) -> float:  # fmt: skip
     """The median distance (with ``cost``, at ``resolution``) from a sample's silhouette, taken as the
     observation, to the nearest other sample's; over ``count`` samples picked evenly through the set."""
@@ -59,7 +65,7 @@ def neighbour_scale(samples: PoseSampleSet, cost: SilhouetteCost, resolution: tu
         full[v0:v1, u0:u1] = stack.mask(index)
         if not full.any():
             continue
-        distances = cost.scorer(full, stack.window).scores(stack)
+        distances = ObservationScorer(cost, full, stack.window).scores(stack)
         distances[index] = np.inf
         distances[distances == 0] = np.inf  # identical silhouettes are no step
         if np.isfinite(distances).any():
@@ -80,14 +86,9 @@ class FilterResult:
     entropy: float  # of the posterior over samples (nats)
     timings_ms: dict[str, float]
 
-    @property
-    def pruned_fraction(self) -> list[float]:
-        return [1 - kept / evaluated if evaluated else 0.0 for kept, evaluated in
-                zip(self.nodes_kept, self.nodes_evaluated, strict=True)]  # fmt: skip
-
 
 class TreeFilter:
-    def __init__(self, samples: PoseSampleSet, tree: PoseTree, cost: SilhouetteCost, motion: MotionModel,
+    def __init__(self, samples: PoseSampleSet, tree: PoseTree, cost: Cost, motion: RandomWalk,
                  settings: FilterSettings = FilterSettings()) -> None:  # fmt: skip
         self.samples, self.tree, self.cost, self.motion, self.settings = samples, tree, cost, motion, settings
         self._prior = PosePrior(samples.poses, motion)
@@ -122,7 +123,7 @@ class TreeFilter:
             self._first = False
         else:
             prior, terms = self._prior.prior(self._posterior, self._previous_flags)
-        timings["prior"] = _ms(start)
+        timings["prior"] = elapsed_ms(start)
         levels = self.tree.levels
         survivors = np.array([0])
         evaluated, kept = [], []
@@ -144,7 +145,7 @@ class TreeFilter:
             evaluated.append(len(nodes))
             kept.append(int(keep.sum()))
             survivors, node_likelihood = nodes[keep], log_likelihood[keep]
-            timings[f"level{k + 1}"] = _ms(start)
+            timings[f"level{k + 1}"] = elapsed_ms(start)
         start = time.perf_counter()
         members = self.tree.leaf_members(survivors)
         leaf_of = levels[-1].node_of_sample[members]
@@ -159,7 +160,7 @@ class TreeFilter:
         self._posterior = posterior
         self._previous_flags = self._occluded[best]
         nonzero = posterior[posterior > 0]
-        timings["leaves"] = _ms(start)
+        timings["leaves"] = elapsed_ms(start)
         return FilterResult(
             sample=best,
             pose=np.asarray(self.samples.poses[best]).copy(),
@@ -178,9 +179,6 @@ class TreeFilter:
 
     def score_level(self, level: int, observation: np.ndarray, nodes: np.ndarray | None = None) -> np.ndarray:
         """Distances to the representatives of ``nodes`` of ``level`` (all of them for None)."""
-        scorer = self.cost.scorer(observation, self._stacks[level].window)
+        scorer = ObservationScorer(self.cost, observation, self._stacks[level].window)
         return scorer.scores_of_runs(self.level_runs[level], nodes)
 
-
-def _ms(start: float) -> float:
-    return 1e3 * (time.perf_counter() - start)

@@ -1,8 +1,9 @@
 """Paper 2's motion models over pose samples (section 4, eq 3-5) and the prior they give (eq 14).
 
-DM1: ``p(x_t | x_{t-1}) = N(x_{t-1}, Sigma)``, ``Sigma = diag(sigma_j^2)``: a random walk with ``sigma`` (radians)
-on every joint rotation component and ``sigma_root_m`` on the root position. DM2: the same with ``sigma_j * m``
-for the joints of the parts flagged occluded (eq 3: area below T_A) in the previous estimate.
+DM1 (`RandomWalk`, ``motion=dm1``): ``p(x_t | x_{t-1}) = N(x_{t-1}, Sigma)``, ``Sigma = diag(sigma_j^2)``: a random
+walk with ``sigma`` (radians) on every joint rotation component and ``sigma_root_m`` on the root position.
+DM2 (`OccludedWiderWalk`, ``motion=dm2``): the same with ``sigma_j * m`` for the joints of the parts flagged occluded
+(eq 3: area below T_A) in the previous estimate.
 
 The prior of eq 14, ``p(x^n | z_1:t-1) = sum_i N(x^n; x^i, Sigma) p(x^i | z_1:t-1)``, is a dense N x N sum at N
 samples. `PosePrior.prior` keeps the terms that matter: from the previous posterior's support (its
@@ -15,29 +16,30 @@ support is reported per frame (`PosePrior.last_mass_used`).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import Annotated
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from tracker.models.body_mesh import JOINT_INDEX, PART_BONES, POSE_SIZE
+from tracker.models.body_skeleton import JOINT_INDEX, PART_BONES, POSE_SIZE
+from tracker.ranges import NonNegative, Positive, Range
+from tracker.registry import MOTION_MODELS
+from tracker.settings import validate
 
-MOTION_KINDS = ("dm1", "dm2")
 
-
+@MOTION_MODELS.register("dm1")
 @dataclass(frozen=True)
-class MotionModel:
-    kind: str = "dm2"
-    sigma: float = 0.1  # radians per frame, every joint rotation component
-    m: float = 5.0  # DM2's factor for occluded parts (>= 1)
-    occlusion_area_px: float = 50.0  # T_A (eq 3), pixels at the finest resolution
-    sigma_root_m: float = 0.02  # metres per frame, the root position
+class RandomWalk:
+    """DM1: a Gaussian random walk over joint rotations (paper 2, eq 4)."""
+
+    sigma: Positive = 0.1  # radians per frame, every joint rotation component
+    sigma_root_m: Positive = 0.02  # metres per frame, the root position
+    occlusion_area_px: NonNegative = 50.0  # T_A (eq 3): a part with fewer pixels (at 320x240) is occluded
 
     def __post_init__(self) -> None:
-        if self.kind not in MOTION_KINDS:
-            raise ValueError(f"kind={self.kind!r}: allowed {', '.join(MOTION_KINDS)}")
-        if self.sigma <= 0 or self.sigma_root_m <= 0 or self.m < 1 or self.occlusion_area_px < 0:
-            raise ValueError(f"MotionModel needs sigma > 0, sigma_root_m > 0, m >= 1, T_A >= 0; got {self}")
+        validate(self)
 
     def base_sigmas(self) -> np.ndarray:
         """``(POSE_SIZE,)`` the DM1 standard deviation of each pose component."""
@@ -46,22 +48,32 @@ class MotionModel:
         return sigmas
 
     def sigmas(self, occluded_parts: np.ndarray) -> np.ndarray:
-        """``(POSE_SIZE,)`` eq 5's sigma' given the previous estimate's occlusion flags ``(parts,)`` (DM1 ignores
-        them)."""
+        """``(POSE_SIZE,)`` eq 5's sigma' given the previous estimate's occlusion flags ``(parts,)`` (DM1: none
+        widened)."""
+        return self.base_sigmas()
+
+
+@MOTION_MODELS.register("dm2")
+@dataclass(frozen=True)
+class OccludedWiderWalk(RandomWalk):
+    """DM2: DM1 with sigma multiplied by m for the joints of parts occluded in the previous estimate (eq 3-5)."""
+
+    m: Annotated[float, Range(1.0, math.inf)] = 5.0  # the paper's factor
+
+    def sigmas(self, occluded_parts: np.ndarray) -> np.ndarray:
         sigmas = self.base_sigmas()
-        if self.kind == "dm2":
-            for part, bones in enumerate(PART_BONES.values()):
-                if occluded_parts[part]:
-                    for bone in bones:
-                        start = 3 + 3 * JOINT_INDEX[bone]
-                        sigmas[start : start + 3] *= self.m
+        for part, bones in enumerate(PART_BONES.values()):
+            if occluded_parts[part]:
+                for bone in bones:
+                    start = 3 + 3 * JOINT_INDEX[bone]
+                    sigmas[start : start + 3] *= self.m
         return sigmas
 
 
 class PosePrior:
     """Eq 14 over a fixed sample set, sparse (see the module docstring)."""
 
-    def __init__(self, poses: np.ndarray, motion: MotionModel, reach: float = 4.0, support_fraction: float = 1e-4,
+    def __init__(self, poses: np.ndarray, motion: RandomWalk, reach: float = 4.0, support_fraction: float = 1e-4,
                  max_support: int = 256):  # fmt: skip
         self.poses = np.asarray(poses, dtype=np.float64)
         self.motion, self.reach = motion, reach

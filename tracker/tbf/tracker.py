@@ -11,25 +11,32 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, ClassVar
 
 import numpy as np
 
 from tracker.geometry.cameras import Camera
-from tracker.models.body_mesh import BodyMesh, build_body
+from tracker.models.body_mesh import BodyMesh
+from tracker.models.makehuman import Triangles, build_body
 from tracker.motion.body_swing import arms_pose
+from tracker.protocol import StepResult, Tracker
+from tracker.ranges import Finite, NonNegative, Positive, Range, Seed
+from tracker.registry import TRACKERS
 from tracker.sequence import FrameInput
-from tracker.tbf.distances import EmptySilhouette, SilhouetteCost
+from tracker.tbf.distances import Cost, EmptySilhouette
 from tracker.tbf.filter import FilterResult, FilterSettings, TreeFilter
-from tracker.tbf.motion import MotionModel
+from tracker.tbf.motion import RandomWalk
 from tracker.tbf.pose_sets import arm_grid, clip_samples, varied
 from tracker.tbf.samples import PoseSampleSet, load_or_build, remove_near_duplicates
 from tracker.tbf.tree import PoseTree, load_or_build_tree
+from tracker.timing import elapsed_ms
 
 log = logging.getLogger(__name__)
+
+DegreeSpan = tuple[Finite, Finite, Finite]  # start, stop (included), step
 
 
 @dataclass(frozen=True)
@@ -37,11 +44,11 @@ class GridSpec:
     """The right-arm grid (`tracker.tbf.pose_sets.arm_grid`): ranges as ``[start, stop, step]`` degrees, stop
     included; lists of values for the left arm's swing and the body's yaw."""
 
-    swing_deg: tuple[float, float, float] = (-60.0, 120.0, 6.0)
-    abduction_deg: tuple[float, float, float] = (0.0, 40.0, 8.0)
-    elbow_deg: tuple[float, float, float] = (0.0, 60.0, 30.0)
-    left_swing_deg: tuple[float, ...] = (0.0, 20.0)
-    yaw_deg: tuple[float, ...] = (-100.0, -90.0, -80.0)
+    swing_deg: DegreeSpan = (-60.0, 120.0, 6.0)  # in front (+) / behind (-) the vertical
+    abduction_deg: DegreeSpan = (0.0, 40.0, 8.0)
+    elbow_deg: DegreeSpan = (0.0, 60.0, 30.0)
+    left_swing_deg: tuple[Finite, ...] = (0.0, 20.0)
+    yaw_deg: tuple[Finite, ...] = (-100.0, -90.0, -80.0)
 
     def poses(self, body: BodyMesh) -> np.ndarray:
         def values(start, stop, step):
@@ -54,61 +61,79 @@ class GridSpec:
 
 @dataclass(frozen=True)
 class SampleSpec:
+    """Where the pose samples come from: a grid and/or BVH clips with procedural variation."""
+
     grid: GridSpec | None = field(default_factory=GridSpec)
     clips: tuple[str, ...] = ()  # BVH files: every frame at clip_fps, facing clip_yaw_deg at its start
-    clip_fps: float = 10.0
-    clip_yaw_deg: float = -90.0
+    clip_fps: Positive = 10.0
+    clip_yaw_deg: Finite = -90.0
     clip_in_place: bool = True  # postures only: every clip pose's root moved over the origin (height kept)
-    clip_turns_deg: tuple[float, ...] = (0.0,)  # procedural variation: each clip pose also turned by these
-    clip_copies: int = 0  # ... and this many jittered copies of each (every joint, clip_jitter_deg per axis)
-    clip_jitter_deg: float = 10.0
-    seed: int = 0  # of the jitter
-    min_joint_deg: float = 5.0  # near-duplicates (within this in every joint) are removed
+    clip_turns_deg: tuple[Finite, ...] = (0.0,)  # procedural variation: each clip pose also turned by these
+    # ... and this many copies of each with every joint jittered by clip_jitter_deg per axis.
+    clip_copies: Annotated[int, Range(0, 1000)] = 0
+    clip_jitter_deg: NonNegative = 10.0
+    seed: Seed = 0  # of the jitter
+    min_joint_deg: NonNegative = 5.0  # near-duplicates (within this in every joint) are removed
 
 
-@dataclass(frozen=True, eq=False)
-class TbfResult:
-    frame: int
-    estimate: np.ndarray  # pose vector
+@dataclass(frozen=True)
+class TbfSettings:
+    """Paper 2's silhouette tree-based filter: pose samples -> tree by silhouette distance -> Bayesian filtering
+    down the tree with pruning."""
+
+    samples: SampleSpec = field(default_factory=SampleSpec)
+    # T_l: XOR distance (fraction of the window) at 80x60, 160x120, 320x240.
+    thresholds: tuple[Positive, Positive, Positive] = (0.006, 0.002, 0.001)
+    filter: FilterSettings = field(default_factory=FilterSettings)
+    initial_yaw_deg: Finite = -90.0  # the initial pose: upright, arms down, facing this way (the body faces -y)
+    cache_dir: str = ".cache/tbf"  # sample sets and trees, keyed by everything that affects them
+    body_triangles: Triangles = 4500  # the tracker's model: the standard body (the subject may differ)
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class TbfResult(StepResult):
+    """A frame of tree-based filtering: the filter's result (None when the frame failed). Build it with
+    `TbfResult.of`, which also fills the columns and series every run records."""
+
     filter: FilterResult | None
-    timings_ms: dict[str, float]
-    failure: str | None = None
+
+    @classmethod
+    def of(cls, part_names: Sequence[str], found: FilterResult | None, **fields: Any) -> TbfResult:
+        if found is None:
+            return cls(filter=None, **fields)
+        columns: dict[str, Any] = {"est_sample": found.sample, "entropy": found.entropy,
+                                   "prior_terms": found.prior_terms}  # fmt: skip
+        series: dict[str, float] = {"tree/entropy": found.entropy}
+        for level, (evaluated, kept) in enumerate(zip(found.nodes_evaluated, found.nodes_kept, strict=True), 1):
+            columns[f"nodes_level{level}"], columns[f"kept_level{level}"] = evaluated, kept
+            series[f"tree/level{level}/evaluated"], series[f"tree/level{level}/kept"] = float(evaluated), float(kept)
+        return cls(filter=found, frame_columns=columns, part_columns={"occluded_est": found.occluded.copy()},
+                   series=series, **fields)  # fmt: skip
 
 
-class TbfTracker:
-    name = "tbf"
+@TRACKERS.register("tbf", settings=TbfSettings, needs={"cost": "nwxor", "motion": "dm2"}, models=("body_mesh",),
+                   views=(1, 1), observes=("silhouettes",))  # fmt: skip
+class TbfTracker(Tracker):
+    name: ClassVar[str] = "tbf"
 
-    def __init__(self, cost: SilhouetteCost, motion: MotionModel, samples: SampleSpec | None = None,
-                 thresholds: Sequence[float] = (0.006, 0.002, 0.001), filter: FilterSettings | None = None,
-                 initial_yaw_deg: float = -90.0, cache_dir: str = ".cache/tbf",
-                 body_triangles: int = 4500) -> None:  # fmt: skip
-        self.cost, self.motion, self.sample_spec = cost, motion, samples or SampleSpec()
-        self.thresholds, self.filter_settings = tuple(thresholds), filter or FilterSettings()
-        self.initial_yaw_deg, self.cache_dir = initial_yaw_deg, Path(cache_dir)
-        self.body_triangles = body_triangles
+    def __init__(self, settings: TbfSettings, cost: Cost, motion: RandomWalk) -> None:
+        self.settings, self.cost, self.motion = settings, cost, motion
         self.samples: PoseSampleSet | None = None
         self.tree: PoseTree | None = None
 
-    @classmethod
-    def from_config(cls, cost: SilhouetteCost, motion: MotionModel, samples: dict[str, Any],
-                    filter: dict[str, Any], **values: Any) -> TbfTracker:  # fmt: skip
-        grid = samples.get("grid")
-        sources = {k: tuple(v) if isinstance(v, list) else v for k, v in samples.items() if k != "grid"}
-        spec = SampleSpec(grid=None if grid is None else GridSpec(**{k: tuple(v) for k, v in grid.items()}), **sources)
-        return cls(cost, motion, spec, filter=FilterSettings(**filter), **values)
-
     def start(self, model: BodyMesh, cameras: Sequence[Camera], truth: np.ndarray, rng: np.random.Generator) -> None:
-        if not isinstance(model, BodyMesh) or len(cameras) != 1:
-            raise ValueError("tracker=tbf tracks the body mesh from one camera")
         self.camera = cameras[0]
+        self.part_names = model.part_names
         start = time.perf_counter()
+        settings = self.settings
+        cache_dir = Path(settings.cache_dir)
         # The tracker's own model is the standard body, whatever the subject's height and girth.
-        self.body = build_body(triangles=self.body_triangles)
+        self.body = build_body(triangles=settings.body_triangles)
         poses = self._sample_poses(self.body)
-        self.samples = load_or_build(self.body, self.camera, poses, self.cache_dir / "samples")
-        self.tree = load_or_build_tree(self.samples, self.thresholds, self.cache_dir / "trees")
-        self.filter = TreeFilter(self.samples, self.tree, self.cost, self.motion, self.filter_settings)
-        self.filter.start(arms_pose(self.body, (0.0, 8.0, 0.0), (0.0, 8.0, 0.0), yaw_deg=self.initial_yaw_deg))
+        self.samples = load_or_build(self.body, self.camera, poses, cache_dir / "samples")
+        self.tree = load_or_build_tree(self.samples, settings.thresholds, cache_dir / "trees")
+        self.filter = TreeFilter(self.samples, self.tree, self.cost, self.motion, settings.filter)
+        self.filter.start(arms_pose(self.body, (0.0, 8.0, 0.0), (0.0, 8.0, 0.0), yaw_deg=settings.initial_yaw_deg))
         self._estimate = np.asarray(self.samples.poses[0]).copy()
         self.setup_s = time.perf_counter() - start
         log.info("tbf: %d samples, tree %s nodes per level, likelihood sigma per level %s (%.1f s)",
@@ -121,8 +146,19 @@ class TbfTracker:
             return {}
         return {"samples": len(self.samples), "tree_nodes": self.tree.node_counts}
 
+    def summarize(self, table: Mapping[str, np.ndarray]) -> dict[str, Any]:
+        """The tree search's mean effort: nodes evaluated per level, and the fraction of them pruned."""
+        frame = table["part"] == self.part_names[0]  # one row per frame
+        levels = sorted(column for column in table if column.startswith("nodes_level"))
+        evaluated = [table[column][frame] for column in levels]
+        kept = [table[column.replace("nodes", "kept")][frame] for column in levels]
+        # (failed frames have no tree search: NaN in these columns)
+        return {"nodes_evaluated_mean": [float(np.nanmean(values)) for values in evaluated],
+                "pruned_fraction_mean": [float(1 - np.nansum(k) / np.nansum(e))
+                                         for k, e in zip(kept, evaluated, strict=True)]}  # fmt: skip
+
     def _sample_poses(self, body: BodyMesh) -> np.ndarray:
-        spec = self.sample_spec
+        spec = self.settings.samples
         parts = []
         if spec.grid is not None:
             parts.append(spec.grid.poses(body))
@@ -144,15 +180,10 @@ class TbfTracker:
         observed = silhouettes[self.camera.name]
         start = time.perf_counter()
         try:
-            result = self.filter.step(observed)
+            found = self.filter.step(observed)
         except EmptySilhouette as error:  # nobody in view: keep the last estimate, say why
-            return TbfResult(frame.frame, self._estimate.copy(), None, {"filter": _ms(start)}, f"{error}")
-        self._estimate = result.pose
-        return TbfResult(frame.frame, result.pose, result, {**result.timings_ms, "filter": _ms(start)})
-
-    def close(self) -> None:
-        pass
-
-
-def _ms(start: float) -> float:
-    return 1e3 * (time.perf_counter() - start)
+            return TbfResult.of(self.part_names, None, frame=frame.frame, estimate=self._estimate.copy(),
+                                timings_ms={"filter": elapsed_ms(start)}, failure=f"{error}")  # fmt: skip
+        self._estimate = found.pose
+        return TbfResult.of(self.part_names, found, frame=frame.frame, estimate=found.pose,
+                            timings_ms={**found.timings_ms, "filter": elapsed_ms(start)})  # fmt: skip

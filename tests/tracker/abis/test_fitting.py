@@ -81,7 +81,7 @@ def test_parameters_stay_in_their_ranges_and_bad_settings_fail(arm, motion, rig)
     start[PARAM_INDEX["t1"]] = 0.99  # near its bound, pulled back towards -0.2 by the data
     result = fit_part(start, problem)
     assert -1.0 <= result.params[PARAM_INDEX["t1"]] <= 1.0
-    with pytest.raises(ValueError, match="optimizer='newton': allowed sd, lm"):
+    with pytest.raises(ValueError, match="optimizer='newton' is not allowed: allowed sd, lm"):
         FitSettings(optimizer="newton")
 
 

@@ -3,8 +3,8 @@ import math
 import numpy as np
 import pytest
 
+from tracker.registry import COSTS
 from tracker.tbf.distances import (
-    COSTS,
     EmptySilhouette,
     ObservationScorer,
     SilhouetteRuns,
@@ -23,7 +23,7 @@ def box(shape, rows, cols):
 def test_xor_of_identical_silhouettes_is_zero_and_of_disjoint_ones_the_pixel_count_over_the_window():
     p = box((10, 10), (1, 3), (1, 4))  # 6 pixels
     q = box((10, 10), (6, 7), (5, 9))  # 4 pixels
-    for cost in COSTS:
+    for cost in COSTS.names():
         assert silhouette_distance(cost, p, p) == 0.0
     assert silhouette_distance("xor", p, q) == pytest.approx((6 + 4) / 100)
     assert silhouette_distance("xor", p, q, window=(0, 0, 10, 5)) == pytest.approx(6 / 50)  # q lies outside
@@ -65,9 +65,10 @@ def test_the_batch_scorer_equals_the_pair_function(body_silhouettes):
     observed, models = body_silhouettes[0], body_silhouettes[1:]
     window = (2, 1, 70, 58)
     stack = SilhouetteStack.crop(models, window)
-    for cost in COSTS:
-        scores = ObservationScorer(cost, observed, window, w=0.7).scores(stack)
-        expected = [silhouette_distance(cost, observed, model, window, w=0.7) for model in models]
+    for cost in COSTS.names():
+        settings = {"w": 0.7} if cost == "wxor" else {}
+        scores = ObservationScorer(cost, observed, window, **settings).scores(stack)
+        expected = [silhouette_distance(cost, observed, model, window, **settings) for model in models]
         np.testing.assert_allclose(scores, expected, rtol=1e-9, atol=0)
 
 
@@ -90,8 +91,9 @@ def test_runs_hold_exactly_the_inside_pixels():
 
 
 def test_an_empty_observation_has_no_weighted_distance():
-    with pytest.raises(EmptySilhouette, match="no pixel in the window"):
-        weight_map("wxor", np.zeros((6, 8), bool))
+    for cost in ("wxor", "nwxor"):
+        with pytest.raises(EmptySilhouette, match="the silhouette is empty"):
+            weight_map(cost, np.zeros((6, 8), bool))
     assert silhouette_distance("xor", np.zeros((6, 8), bool), box((6, 8), (1, 2), (1, 3))) == pytest.approx(2 / 48)
 
 

@@ -3,7 +3,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from tests.conftest import MOCAP_DIR
-from tracker.models.body_mesh import JOINT_INDEX
+from tracker.models.body_skeleton import JOINT_INDEX
 from tracker.motion.mocap import MocapScene
 from tracker.tbf.pose_sets import arm_grid, clip_samples
 

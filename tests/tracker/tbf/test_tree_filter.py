@@ -1,19 +1,13 @@
 import numpy as np
 import pytest
 
+from tracker.evaluation.body import OUTCOMES, joint_error_mm, score_swing, score_swings, split_swings
 from tracker.geometry.rigs import mono
-from tracker.models.body_mesh import JOINT_INDEX, PART_NAMES
-from tracker.tbf.distances import COSTS, SilhouetteCost, silhouette_distance
-from tracker.tbf.evaluation import (
-    OUTCOMES,
-    joint_error_mm,
-    right_arm_swing_deg,
-    score_swing,
-    score_swings,
-    split_swings,
-)
+from tracker.models.body_skeleton import JOINT_INDEX, PART_NAMES
+from tracker.registry import COSTS
+from tracker.tbf.distances import ObservationScorer, silhouette_distance
 from tracker.tbf.filter import FilterSettings, TreeFilter
-from tracker.tbf.motion import MotionModel, PosePrior
+from tracker.tbf.motion import OccludedWiderWalk, PosePrior, RandomWalk
 from tracker.tbf.pose_sets import arm_grid
 from tracker.tbf.samples import load_or_build
 from tracker.tbf.tree import build_tree
@@ -69,8 +63,8 @@ def test_level_scoring_equals_scoring_each_node(samples, tree):
     u0, v0, u1, v1 = stack.window
     observed = np.zeros((120, 160), bool)
     observed[v0:v1, u0:u1] = stack.mask(17)
-    for cost in COSTS:
-        scorer = SilhouetteCost(cost).scorer(observed, stack.window)
+    for cost in COSTS.names():
+        scorer = ObservationScorer(cost, observed, stack.window)
         vectorised = scorer.scores(stack, level.representatives)
         one_by_one = []
         for rep in level.representatives:
@@ -84,7 +78,7 @@ def test_dm2_widens_exactly_the_occluded_parts():
     occluded = np.zeros(len(PART_NAMES), bool)
     occluded[PART_NAMES.index("right_upper_arm")] = True
     occluded[PART_NAMES.index("left_hand")] = True
-    dm1, dm2 = MotionModel("dm1", sigma=0.1, m=5.0), MotionModel("dm2", sigma=0.1, m=5.0)
+    dm1, dm2 = RandomWalk(sigma=0.1), OccludedWiderWalk(sigma=0.1, m=5.0)
     np.testing.assert_array_equal(dm1.sigmas(occluded), dm1.base_sigmas())
     widened = np.flatnonzero(dm2.sigmas(occluded) != dm1.base_sigmas())
     joints = ["RightArm", "LeftHand", "LeftFingerBase", "LeftHandIndex1", "LThumb"]
@@ -99,8 +93,8 @@ def test_the_sparse_prior_matches_the_dense_sum(samples):
     posterior[rng.choice(len(samples), 6, replace=False)] = rng.random(6)
     occluded = np.zeros(len(PART_NAMES), bool)
     occluded[PART_NAMES.index("right_upper_arm")] = True
-    for kind in ("dm1", "dm2"):
-        prior = PosePrior(samples.poses, MotionModel(kind, sigma=0.15, m=5.0), reach=5.0)
+    for motion in (RandomWalk(sigma=0.15), OccludedWiderWalk(sigma=0.15, m=5.0)):
+        prior = PosePrior(samples.poses, motion, reach=5.0)
         sparse, _ = prior.prior(posterior, occluded)
         dense = prior.dense_prior(posterior, occluded)
         np.testing.assert_allclose(sparse, dense, atol=4e-6 * dense.max())
@@ -114,15 +108,15 @@ def test_the_filter_recovers_a_held_samples_pose_from_its_own_silhouette(body, s
     observed[v0:v1, u0:u1] = stack.mask(held)
     # A flat prior and a sharp likelihood: the silhouette alone decides.
     settings = FilterSettings(initial_sigma=100.0, likelihood_sigma=0.25, prune_fraction=1e-6)
-    for cost in COSTS:
-        tracker = TreeFilter(samples, tree, SilhouetteCost(cost), MotionModel("dm2"), settings)
+    for cost in COSTS.names():
+        tracker = TreeFilter(samples, tree, COSTS.defaults(cost), OccludedWiderWalk(), settings)
         tracker.start(samples.poses[0])
         result = tracker.step(observed)
         # Eq 13: a leaf's members share its likelihood, so the estimate is a member of the held sample's leaf.
         leaf_of = tree.levels[-1].node_of_sample
         assert leaf_of[result.sample] == leaf_of[held], cost
-        assert right_arm_swing_deg(body, result.pose) == pytest.approx(right_arm_swing_deg(body, samples.poses[held]),
-                                                                       abs=6.5)  # fmt: skip
+        assert body.right_arm_swing_deg(result.pose) == pytest.approx(body.right_arm_swing_deg(samples.poses[held]),
+                                                                      abs=6.5)  # fmt: skip
 
 
 def test_swing_scoring_on_hand_made_traces():

@@ -1,7 +1,8 @@
-"""How paper 2's estimates are judged: swing by swing (Fig 4c, by a fixed rule instead of by eye) and by MPJPE.
+"""How an estimate of the body is judged (paper 2): swing by swing (Fig 4c, by a fixed rule instead of by eye) and
+by MPJPE.
 
 Right-arm angle: the upper arm's (shoulder -> elbow) elevation in the body's sagittal plane, degrees from hanging
-straight down, + in front of the body (`right_arm_swing_deg`).
+straight down, + in front of the body (`tracker.models.body_mesh.BodyMesh.right_arm_swing_deg`).
 
 Swings: the truth's angle trace is cut where it crosses 0 upwards (the arm passes the vertical moving forward);
 each complete cycle between two such crossings is one swing (`split_swings`). Per swing, with the estimate's
@@ -12,6 +13,9 @@ angle trace over the same frames (`score_swing`):
     Error    it followed, but the largest error over the swing exceeds ``max_error_deg``;
     Success  it followed, with every frame within ``max_error_deg``.
 
+Columns per frame (`BodyEvaluation.columns`): ``truth_pose`` and ``est_pose`` (pose vectors, lists),
+``swing_truth_deg``, ``swing_est_deg``, ``joint_error_mm`` and ``joint_error_aligned_mm``.
+
 MPJPE: the mean over frames of the mean distance (mm) between estimated and true positions of the 15
 HumanEva-style joints (`MPJPE_JOINTS`); the root-aligned MPJPE first moves the estimate's pelvis onto the
 truth's, so it measures the posture alone (the sample sets are postures in place).
@@ -19,12 +23,14 @@ truth's, so it measures the posture alone (the sample sets are postures in place
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
-from tracker.geometry.rotations import rotation_vectors_to_matrices
-from tracker.models.body_mesh import JOINT_INDEX, BodyMesh
+from tracker.models.body_mesh import BodyMesh
+from tracker.models.body_skeleton import JOINT_INDEX
 
 OUTCOMES = ("fail", "error", "success")
 _VERTICAL_TOLERANCE_DEG = 1e-6
@@ -38,16 +44,6 @@ class SwingRule:
     max_error_deg: float = 20.0
     follow_fraction: float = 0.5
     min_correlation: float = 0.5
-
-
-def right_arm_swing_deg(body: BodyMesh, pose: np.ndarray) -> float:
-    """The right upper arm's elevation in the body's sagittal plane (degrees; 0 hanging, + forward)."""
-    heads = body.joint_positions(pose)
-    upper = heads[JOINT_INDEX["RightForeArm"]] - heads[JOINT_INDEX["RightArm"]]
-    # The body's own axes: forward is its -y, up its z, as turned by the root joint's rotation.
-    root = rotation_vectors_to_matrices(pose[3:6])[0]
-    forward, up = root @ np.array([0.0, -1.0, 0.0]), root @ np.array([0.0, 0.0, 1.0])
-    return float(np.degrees(np.arctan2(upper @ forward, -(upper @ up))))
 
 
 def split_swings(truth_deg: np.ndarray) -> list[slice]:
@@ -89,3 +85,29 @@ def joint_error_mm(body: BodyMesh, truth: np.ndarray, estimate: np.ndarray, root
         pelvis = MPJPE_JOINTS.index("Hips")
         estimated = estimated - estimated[pelvis] + true[pelvis]
     return float(1e3 * np.linalg.norm(estimated - true, axis=1).mean())
+
+
+@dataclass(frozen=True)
+class BodyEvaluation:
+    rule: SwingRule = field(default_factory=SwingRule)
+
+    def columns(self, body: BodyMesh, truth: np.ndarray, estimate: np.ndarray | None) -> tuple[dict, dict]:
+        frame: dict[str, Any] = {"truth_pose": truth.tolist(), "swing_truth_deg": body.right_arm_swing_deg(truth)}
+        if estimate is not None:
+            frame.update(est_pose=estimate.tolist(), swing_est_deg=body.right_arm_swing_deg(estimate),
+                         joint_error_mm=joint_error_mm(body, truth, estimate),
+                         joint_error_aligned_mm=joint_error_mm(body, truth, estimate, root_aligned=True))  # fmt: skip
+        return {}, frame
+
+    def summarize(self, body: BodyMesh, table: Mapping[str, np.ndarray]) -> dict[str, Any]:
+        """MPJPE (mm, absolute and root-aligned), the swing outcomes and the mean right-arm angle error."""
+        if "joint_error_mm" not in table or not len(table["joint_error_mm"]):
+            return {}
+        frame = table["part"] == body.part_names[0]  # one row per frame
+        truth, estimate = table["swing_truth_deg"][frame], table["swing_est_deg"][frame]
+        return {
+            "mpjpe_mm": float(np.mean(table["joint_error_mm"][frame])),
+            "mpjpe_root_aligned_mm": float(np.mean(table["joint_error_aligned_mm"][frame])),
+            "swings": score_swings(truth, estimate, self.rule),
+            "swing_error_deg_mean": float(np.mean(np.abs(estimate - truth))),
+        }

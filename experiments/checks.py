@@ -1,0 +1,108 @@
+"""What composition cannot check, before a run: allowed values, which options go together, components' own checks.
+
+Every rule comes from the registries (`tracker.registry`): a setting's allowed values from its type, a component's
+models, the tracker's needs and camera views from its registration. Each failure is a `ConfigError` whose message
+is one line naming the key, the value and what is allowed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+from omegaconf import DictConfig, ListConfig, OmegaConf, open_dict
+
+from experiments.schemas import GROUPS, RUN_SETTINGS
+from tracker.registry import REGISTRIES, Entry
+from tracker.settings import check_values
+
+
+class ConfigError(ValueError):
+    """An invalid configuration; the message is one line naming the key, the value and what is allowed."""
+
+
+def check_config(cfg: DictConfig, choices: dict[str, str]) -> None:
+    """Raise `ConfigError` unless the composed ``cfg`` (Hydra's ``choices``: group -> option) can run."""
+    run_cfg = without_hydra(cfg)
+    check_known_keys(run_cfg)
+    plain = OmegaConf.to_container(run_cfg, resolve=True, throw_on_missing=True)
+    try:
+        check_values(RUN_SETTINGS, plain)  # first: a component's value may be one of these (${seed})
+        entries = chosen_entries(plain)
+        for group, entry in entries.items():
+            check_values(entry.fields, plain[group], f"{group}.")
+        check_combination(entries, choices)
+        for group, entry in entries.items():
+            if entry.check is not None:
+                entry.check(REGISTRIES[group].build(entry.name, plain[group]), frames=plain["frames"], key=group)
+    except ValueError as error:
+        raise ConfigError(str(error).splitlines()[0]) from None
+
+
+def without_hydra(cfg: DictConfig) -> DictConfig:
+    """The run's own config: a composed config without Hydra's node (a copy that keeps the schema types)."""
+    run_cfg = cfg.copy()
+    with open_dict(run_cfg):
+        run_cfg.pop("hydra", None)
+    return run_cfg
+
+
+def chosen_entries(plain: dict[str, Any]) -> dict[str, Entry]:
+    """Group -> the registered component each chosen option builds (named by its ``_target_``)."""
+    entries = {}
+    for group in GROUPS:
+        node = plain.get(group)
+        if node is None:
+            continue
+        entry = REGISTRIES[group].entry_for(node.get("_target_", ""))
+        if entry is None:
+            known = ", ".join(e.target for e in REGISTRIES[group])
+            raise ValueError(f"{group}._target_={node.get('_target_')}: no registered {group}, allowed {known}")
+        entries[group] = entry
+    return entries
+
+
+def check_combination(entries: dict[str, Entry], choices: dict[str, str]) -> None:
+    """The chosen options go together: each works with the model, the tracker has what it needs and nothing it
+    does not, and the rig has as many views as the tracker uses."""
+    model, tracker = entries["model"].name, entries["tracker"]
+    for group, entry in entries.items():
+        if entry.models is not None and model not in entry.models:
+            raise ValueError(f"{group}={choices[group]} needs model={'|'.join(entry.models)}, "
+                             f"not model={choices['model']}")  # fmt: skip
+    missing = [group for group in tracker.needs if group not in entries]
+    if missing:
+        allowed = ", ".join(f"{group}={'|'.join(REGISTRIES[group].names())}" for group in missing)
+        add = " ".join(f"{group}={tracker.needs[group]}" for group in missing)
+        raise ValueError(f"tracker={choices['tracker']} needs {' and '.join(missing)}: add {add} (allowed {allowed})")
+    for group in entries.keys() - {"model", "scene", "rig", "tracker"} - tracker.needs.keys():
+        users = [e.name for e in REGISTRIES["tracker"] if group in e.needs]
+        raise ValueError(f"{group}={choices[group]} serves {' and '.join(f'tracker={u}' for u in users)} only, "
+                         f"not tracker={choices['tracker']}: add tracker={users[0]}")  # fmt: skip
+    views, rig = tracker.views, entries["rig"].views
+    if views is not None and rig is not None and not views[0] <= rig[0] <= views[1]:
+        span = f"{views[0]}" if views[0] == views[1] else f"{views[0]} to {views[1]}"
+        raise ValueError(f"tracker={choices['tracker']} uses {span} camera view(s): rig={choices['rig']} has "
+                         f"{rig[0]}")  # fmt: skip
+
+
+def unknown_key(key: str, schema: type) -> str:
+    """The message for a key that the dataclass ``schema`` does not have."""
+    known = [spec.name for spec in dataclasses.fields(schema) if not spec.name.startswith("_")]
+    return f"{key}: unknown key, allowed keys here: {', '.join(known) or 'none'}"
+
+
+def check_known_keys(node: Any, path: str = "") -> None:
+    """Reject keys a schema does not have (Hydra lets ``+key=value`` append them to a schema-backed node)."""
+    if isinstance(node, DictConfig):
+        schema = OmegaConf.get_type(node)
+        if dataclasses.is_dataclass(schema):
+            known = [f.name for f in dataclasses.fields(schema)]
+            for key in node:
+                if key not in known:
+                    raise ConfigError(unknown_key(f"{path}{key}", schema))
+        for key in node:
+            check_known_keys(node._get_node(key), f"{path}{key}.")
+    elif isinstance(node, ListConfig):
+        for index in range(len(node)):
+            check_known_keys(node._get_node(index), f"{path[:-1]}[{index}].")

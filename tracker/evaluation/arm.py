@@ -1,0 +1,52 @@
+"""How an estimate of the DSQ arm is judged (paper 1): every parameter of every part against the truth, the
+surface, and Fig 8's figures for part 2.
+
+Columns per part: ``truth_<param>`` and ``est_<param>`` (eq 4's parameters, radians for angles) and
+``surface_error_mm``: the mean distance between the part's estimated and true model samples, matched by their
+surface coordinates (eta, omega). Figures: the RMS error of every parameter of every part (angles wrapped to
+(-180, 180] degrees), the mean surface error, and for paper 1's part 2 (`PAPER_PART`) b1's RMS and range and r2's
+RMS.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from tracker.models.dsq import ANGLE_NAMES, PARAM_NAMES
+
+PAPER_PART = 1  # paper 1's "part 2" (it counts from 1): the arm's second part, the forearm
+
+
+@dataclass(frozen=True)
+class ArmEvaluation:
+    def columns(self, arm: Any, truth: np.ndarray, estimate: np.ndarray | None) -> tuple[dict, dict]:
+        part = {f"truth_{name}": truth[:, i].astype(np.float64) for i, name in enumerate(PARAM_NAMES)}
+        if estimate is not None:
+            part.update({f"est_{name}": estimate[:, i].astype(np.float64) for i, name in enumerate(PARAM_NAMES)})
+            pairs = zip(arm.sample_points(estimate), arm.sample_points(truth), strict=True)
+            part["surface_error_mm"] = np.array([1e3 * float(np.linalg.norm(e - t, axis=1).mean()) for e, t in pairs])
+        return part, {}
+
+    def summarize(self, arm: Any, table: Mapping[str, np.ndarray]) -> dict[str, Any]:
+        if "est_a" not in table or not len(table["est_a"]):
+            return {}
+        rms: dict[str, dict[str, float]] = {}
+        for part in arm.part_names:
+            rows = table["part"] == part
+            rms[part] = {}
+            for name in PARAM_NAMES:
+                error = table[f"est_{name}"][rows] - table[f"truth_{name}"][rows]
+                if name in ANGLE_NAMES:
+                    error = np.degrees(np.angle(np.exp(1j * error)))  # wrapped to (-180, 180]
+                rms[part][f"{name}_deg" if name in ANGLE_NAMES else name] = float(np.sqrt(np.mean(error**2)))
+        figures: dict[str, Any] = {"rms": rms, "mean_surface_error_mm": float(np.mean(table["surface_error_mm"]))}
+        if len(arm.part_names) > PAPER_PART:
+            part = arm.part_names[PAPER_PART]
+            figures["part2_b1_rms"] = rms[part]["b1"]
+            figures["part2_b1_range"] = float(np.ptp(table["truth_b1"][table["part"] == part]))
+            figures["part2_r2_rms_deg"] = rms[part]["r2_deg"]
+        return figures

@@ -1,0 +1,72 @@
+"""The body's skeleton and conventions (paper 2's model): the CMU joints, the body parts, pose vectors, frames.
+
+Body frame: metres, z up, the body faces -y in its rest pose, +x is the body's left; the feet's lowest point at
+rest is z = 0.
+
+Pose vector (``POSE_SIZE`` = 3 + 3 * 31 float64): the root (``Hips``) joint's position in the world (m), then per
+joint of `JOINT_NAMES` a rotation vector (axis * angle, radians): the joint's rotation relative to its parent,
+measured from the reference T-pose and expressed in the body frame. The zero rotations are the T-pose: arms out
+sideways, legs straight down, facing -y, as frame 0 of the CMU clips (`T_POSE_DIRECTIONS`). Joint 0's rotation
+is the whole body's orientation.
+
+Parts (`PART_NAMES`): label k + 1 in label images is part k; each takes the faces of its bones (`PART_BONES`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import numpy as np
+
+# The CMU BVH joints in file order (parents first); the rig says LeftHandFinger1 where the BVH says LeftHandIndex1.
+JOINT_NAMES = (
+    "Hips", "LHipJoint", "LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase", "RHipJoint", "RightUpLeg", "RightLeg",
+    "RightFoot", "RightToeBase", "LowerBack", "Spine", "Spine1", "Neck", "Neck1", "Head", "LeftShoulder", "LeftArm",
+    "LeftForeArm", "LeftHand", "LeftFingerBase", "LeftHandIndex1", "LThumb", "RightShoulder", "RightArm",
+    "RightForeArm", "RightHand", "RightFingerBase", "RightHandIndex1", "RThumb",
+)  # fmt: skip
+JOINT_INDEX = {name: k for k, name in enumerate(JOINT_NAMES)}
+POSE_SIZE = 3 + 3 * len(JOINT_NAMES)
+
+# Body parts of the label image (value = index + 1) and the bones whose faces they take.
+PART_BONES = {
+    "head": ("Neck", "Neck1", "Head"),
+    "torso": ("LowerBack", "Spine", "Spine1", "LeftShoulder", "RightShoulder"),
+    "pelvis": ("Hips", "LHipJoint", "RHipJoint"),
+    "left_upper_arm": ("LeftArm",),
+    "right_upper_arm": ("RightArm",),
+    "left_forearm": ("LeftForeArm",),
+    "right_forearm": ("RightForeArm",),
+    "left_hand": ("LeftHand", "LeftFingerBase", "LeftHandIndex1", "LThumb"),
+    "right_hand": ("RightHand", "RightFingerBase", "RightHandIndex1", "RThumb"),
+    "left_thigh": ("LeftUpLeg",),
+    "right_thigh": ("RightUpLeg",),
+    "left_shin": ("LeftLeg",),
+    "right_shin": ("RightLeg",),
+    "left_foot": ("LeftFoot", "LeftToeBase"),
+    "right_foot": ("RightFoot", "RightToeBase"),
+}
+PART_NAMES = tuple(PART_BONES)
+# Label-image colours (recordings): left parts warm, right parts cool, trunk grey.
+PART_COLORS = ((230, 200, 170), (160, 160, 160), (120, 120, 120), (240, 130, 60), (60, 140, 240), (250, 170, 40),
+               (40, 190, 230), (250, 210, 0), (0, 220, 200), (200, 80, 80), (80, 80, 200), (230, 110, 110),
+               (110, 110, 230), (160, 60, 40), (40, 60, 160))  # fmt: skip
+
+# Bone directions (head to tail, body frame) in the reference T-pose: frame 0 of the CMU clips (subject 69's
+# skeleton; the four clips agree within 2 degrees). Bones not listed keep their rest direction.
+T_POSE_DIRECTIONS = {
+    "LeftUpLeg": (-0.017, 0.0, -1.0), "LeftLeg": (-0.017, 0.0, -1.0), "LeftFoot": (-0.003, -0.98, -0.197),
+    "RightUpLeg": (0.017, 0.0, -1.0), "RightLeg": (0.017, 0.0, -1.0), "RightFoot": (0.006, -0.945, -0.327),
+    "LeftShoulder": (0.951, 0.07, 0.301), "LeftArm": (0.99, 0.0, -0.139), "LeftForeArm": (0.99, 0.0, -0.139),
+    "LeftHand": (0.99, 0.0, -0.139), "RightShoulder": (-0.955, 0.103, 0.276), "RightArm": (-0.99, 0.0, -0.139),
+    "RightForeArm": (-0.99, 0.0, -0.139), "RightHand": (-0.99, 0.0, -0.139),
+}  # fmt: skip
+# The CMU BVH frame (y up, facing +z) in the body frame: x stays, y -> z, z -> -y.
+BVH_TO_BODY = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+
+
+
+def missing_joints(names: Iterable[str]) -> list[str]:
+    """The CMU joints of `JOINT_NAMES` that a skeleton with joint ``names`` lacks (none: a CMU-style skeleton)."""
+    present = set(names)
+    return [name for name in JOINT_NAMES if name not in present]

@@ -1,0 +1,139 @@
+"""Registries: every component a run is built from, by kind, each registered once under its name beside its code.
+
+Kinds (the config groups): ``model`` (the tracked object), ``scene`` (the truth motion), ``rig`` (the cameras),
+``tracker``, ``cost`` (a silhouette distance's weights) and ``motion`` (a tracker's motion model, e.g. DM1/DM2;
+not the truth motion, which is the scene). A component registers with ``@TRACKERS.register("abis", ...)`` or
+``COSTS.register("xor", xor)`` in its own module; `tracker.catalog` imports the built-in ones, and a user's module
+registers its own the same way (``plugins=[my.module]`` on the command line imports it).
+
+A registration states what the layer above derives everything from: the component's settings (`tracker.settings`:
+its config schema, defaults and allowed values), the other kinds it needs (a tracker's cost and motion model), the
+models it works with, the camera views it can use, what it observes (``silhouettes``), and a start-time check.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from tracker.settings import Setting, from_plain, settings_of
+
+
+@dataclass(frozen=True)
+class Entry:
+    """One registered component.
+
+    factory: builds it; with ``settings`` (a dataclass) as ``factory(settings, **needed)``, else from its own
+    keyword-only settings as ``factory(**settings, **needed)``. For a kind that configures functions (costs), the
+    build is the function with its settings bound (`Configured`).
+    """
+
+    kind: str
+    name: str
+    factory: Callable[..., Any]
+    settings: type | None = None
+    needs: Mapping[str, str] = field(default_factory=dict)  # kind -> the option suggested when it is missing
+    models: tuple[str, ...] | None = None  # the models it works with (None: any)
+    views: tuple[int, int] | None = None  # camera views: (fewest, most) a tracker uses; a rig's (n, n)
+    observes: tuple[str, ...] = ()  # what the run must capture for it, e.g. "silhouettes"
+    check: Callable[..., None] | None = None  # check(component, frames=..., key=...) before the run
+    evaluation: Any = None  # models: how an estimate is judged (`tracker.evaluation`)
+
+    @property
+    def target(self) -> str:
+        """The factory's import path: the option's ``_target_`` in the config, which names this entry."""
+        return f"{self.factory.__module__}.{self.factory.__qualname__}"
+
+    @property
+    def fields(self) -> tuple[Setting, ...]:
+        return settings_of(self.settings or self.factory)
+
+    @property
+    def summary(self) -> str:
+        """The first line of the settings' (or factory's) docstring."""
+        text = (self.settings or self.factory).__doc__ or ""
+        return text.strip().split("\n\n")[0].replace("\n", " ")
+
+    def build(self, values: Mapping[str, Any], configure: bool = False, **needed: Any) -> Any:
+        """The component from plain setting ``values`` (missing ones take their defaults; ``_target_``, which
+        names the component in a config, is passed over)."""
+        unknown = set(values) - {s.name for s in self.fields} - {"_target_"}
+        if unknown:
+            raise TypeError(f"{self.kind}={self.name} has no setting {', '.join(sorted(unknown))}")
+        if self.settings is not None:
+            return self.factory(from_plain(self.settings, values), **needed)
+        arguments = {s.name: from_plain(s.hint, values[s.name]) for s in self.fields if s.name in values}
+        if configure:
+            return Configured(self.name, self.factory, arguments)
+        return self.factory(**arguments, **needed)
+
+
+@dataclass(frozen=True)
+class Configured:
+    """A registered function with its settings bound: ``configured(*inputs)`` calls it."""
+
+    name: str
+    function: Callable[..., Any]
+    settings: Mapping[str, Any] = field(default_factory=dict)
+
+    def __call__(self, *inputs: Any) -> Any:
+        return self.function(*inputs, **self.settings)
+
+
+class Registry:
+    """The components of one kind, by name, in registration order."""
+
+    def __init__(self, kind: str, configure: bool = False) -> None:
+        self.kind = kind
+        self.configure = configure  # build functions with their settings bound, not called
+        self._entries: dict[str, Entry] = {}
+        REGISTRIES[kind] = self
+
+    def register(self, name: str, factory: Callable[..., Any] | None = None, **traits: Any):
+        """Register ``factory`` under ``name`` (or, without it, return a decorator that does)."""
+
+        def add(factory: Callable[..., Any]) -> Callable[..., Any]:
+            entry = Entry(self.kind, name, factory, **traits)
+            known = self._entries.get(name)
+            if known is not None and known.target != entry.target:
+                raise ValueError(f"{self.kind} {name!r} is registered already, by {known.target}")
+            self._entries[name] = entry
+            return factory
+
+        return add if factory is None else add(factory)
+
+    def __getitem__(self, name: str) -> Entry:
+        if name not in self._entries:
+            raise KeyError(f"{self.kind}={name}: no such {self.kind}, allowed {', '.join(self.names())}")
+        return self._entries[name]
+
+    def __contains__(self, name: str) -> bool:
+        return name in self._entries
+
+    def __iter__(self):
+        return iter(self._entries.values())
+
+    def names(self) -> list[str]:
+        return list(self._entries)
+
+    def entry_for(self, target: str) -> Entry | None:
+        """The entry whose factory is ``target`` (an option's ``_target_``), or None."""
+        return next((entry for entry in self._entries.values() if entry.target == target), None)
+
+    def build(self, name: str, values: Mapping[str, Any], **needed: Any) -> Any:
+        return self[name].build(values, self.configure, **needed)
+
+    def defaults(self, name: str) -> Any:
+        """The component built from its default settings."""
+        return self.build(name, {})
+
+
+REGISTRIES: dict[str, Registry] = {}
+MODELS = Registry("model")
+SCENES = Registry("scene")
+RIGS = Registry("rig")
+TRACKERS = Registry("tracker")
+COSTS = Registry("cost", configure=True)
+MOTION_MODELS = Registry("motion")
+
