@@ -37,6 +37,7 @@ from tracker.registry import COSTS
 from tracker.render.offscreen import SceneRenderer
 from tracker.sequence import simulate
 from tracker.tbf.distances import ObservationScorer
+from tracker.tol import TINY, ZERO_LENGTH
 
 log = logging.getLogger(__name__)
 
@@ -124,8 +125,8 @@ def bench_silhouettes(samples: int) -> dict[str, float]:
     from tracker.observe.silhouettes import SilhouetteCapture, resize_silhouette
     from tracker.sequence import background_frames
     from tracker.tbf.distances import silhouette_distance
-    from tracker.tbf.pose_sets import arm_grid
-    from tracker.tbf.samples import load_or_build, remove_near_duplicates
+    from tracker.tbf.pose_sets import arm_grid, remove_near_duplicates
+    from tracker.tbf.samples import load_or_build
 
     scene = build(compose(["model=body_mesh"]))  # the body, side-on, with its capture setting
     body, rig, render = scene.model, scene.cameras, scene.settings.render
@@ -161,7 +162,7 @@ def bench_silhouettes(samples: int) -> dict[str, float]:
             reference = [silhouette_distance(cost, observed, np.pad(mask, _padding(stack.window, (80, 60))),
                                              stack.window) for mask in stack.images[:100] != 0]  # fmt: skip
             results[f"{cost}_ms"] = statistics.median(times)
-            relative = np.abs(scores[:100] - reference) / np.maximum(np.abs(reference), 1e-300)
+            relative = np.abs(scores[:100] - reference) / np.maximum(np.abs(reference), TINY)
             results[f"{cost}_max_relative_difference"] = float(relative.max())
     return results
 
@@ -236,7 +237,7 @@ def _compare_scoring(filter_, level: int, silhouette: np.ndarray, nodes: np.ndar
     start = time.perf_counter()
     naive = np.array([(weights * (inside ^ model)).sum() / inside.size for model in models])
     naive_s = time.perf_counter() - start
-    difference = float(np.max(np.abs(naive - scores) / np.maximum(np.abs(scores), 1e-12))) if len(nodes) else 0.0
+    difference = float(np.max(np.abs(naive - scores) / np.maximum(np.abs(scores), ZERO_LENGTH))) if len(nodes) else 0.0
     return np.array([weights_s, vectorised_s, naive_s, read]), difference
 
 

@@ -51,9 +51,9 @@ class Entry:
 
     @property
     def summary(self) -> str:
-        """The first line of the settings' (or factory's) docstring."""
+        """The first paragraph of the settings' (or factory's) docstring, on one line."""
         text = (self.settings or self.factory).__doc__ or ""
-        return text.strip().split("\n\n")[0].replace("\n", " ")
+        return " ".join(text.strip().split("\n\n")[0].split())
 
     def build(self, values: Mapping[str, Any], configure: bool = False, **needed: Any) -> Any:
         """The component from plain setting ``values`` (missing ones take their defaults; ``_target_``, which

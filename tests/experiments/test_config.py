@@ -89,3 +89,10 @@ def test_bad_overrides_through_the_cli_exit_nonzero_and_leave_no_files(tmp_path,
     assert result.stderr.startswith("error: ") and key in result.stderr
     assert result.stderr.count("\n") == 1 and result.stdout == ""
     assert list(Path(tmp_path).iterdir()) == []  # no runs/ or multirun/ folder, no log
+
+
+def test_the_readme_option_table_is_the_one_the_registries_make():
+    from experiments.options import README, readme_with_table
+
+    text = README.read_text()
+    assert readme_with_table(text) == text, "run: python -m experiments.options --write"

@@ -19,6 +19,9 @@ from tracker.abis.visibility import VisibleSamples
 from tracker.geometry.cameras import Camera
 
 COUNT_NAMES = ("tracked", "new", "discarded_occlusion", "discarded_error", "lost")
+# Refining a pair's surface coordinates: the central-difference step, Gauss-Newton's damping, and how far eta
+# keeps off the poles (where omega is degenerate), all in radians of eta and omega.
+DIFFERENCE_STEP_RAD, GAUSS_NEWTON_DAMPING, POLE_MARGIN_RAD = 1e-5, 1e-6, 1e-3
 
 
 @dataclass(frozen=True, eq=False)
@@ -100,7 +103,7 @@ def refine_surface_coordinates(
     0.2 rad, eta kept off the poles (where omega is degenerate). Returns eta, omega and the final pixel distances.
     """
     eta, omega = eta.astype(np.float64).copy(), omega.astype(np.float64).copy()
-    step = 1e-5
+    step = DIFFERENCE_STEP_RAD
 
     def pixels(e, w):
         return camera.project(surface(e, w))[0]
@@ -110,10 +113,10 @@ def refine_surface_coordinates(
         d_eta = (pixels(eta + step, omega) - pixels(eta - step, omega)) / (2 * step)
         d_omega = (pixels(eta, omega + step) - pixels(eta, omega - step)) / (2 * step)
         jacobian = np.stack([d_eta, d_omega], axis=2)  # (k, 2, 2)
-        normal = np.einsum("kji,kjl->kil", jacobian, jacobian) + 1e-6 * np.eye(2)
+        normal = np.einsum("kji,kjl->kil", jacobian, jacobian) + GAUSS_NEWTON_DAMPING * np.eye(2)
         delta = -np.linalg.solve(normal, np.einsum("kji,kj->ki", jacobian, residual)[..., None])[..., 0]
         delta = np.clip(delta, -0.2, 0.2)
-        eta = np.clip(eta + delta[:, 0], -np.pi / 2 + 1e-3, np.pi / 2 - 1e-3)
+        eta = np.clip(eta + delta[:, 0], -np.pi / 2 + POLE_MARGIN_RAD, np.pi / 2 - POLE_MARGIN_RAD)
         omega = (omega + delta[:, 1] + np.pi) % (2 * np.pi) - np.pi
     return eta, omega, np.linalg.norm(pixels(eta, omega) - targets, axis=1)
 

@@ -38,9 +38,13 @@ from tracker.geometry.rotations import (
 from tracker.models.dsq import PARAM_INDEX, PARAM_NAMES, PARAM_RANGES
 from tracker.ranges import Count, Positive
 from tracker.settings import validate
+from tracker.tol import ZERO_LENGTH
 
 _ASPECTS = [PARAM_INDEX[name] for name in ("a1", "a2", "a3")]
 _ROTATION = np.array([PARAM_INDEX[name] for name in ("r1", "r2", "r3")])
+LM_INITIAL_DAMPING, LM_SMALLEST_DAMPING = 1e-3, 1e-9  # Marquardt's lambda, relative to the Hessian's diagonal
+ARMIJO = 1e-4  # steepest descent: a step must lower the cost by this fraction of its first-order prediction
+OPEN_BOUND_INSET = 1e-6  # a parameter with an open bound (a > 0, a1 in (0, 1]) stays this far inside it
 
 
 @dataclass(frozen=True)
@@ -167,7 +171,7 @@ def fit_part(q0: np.ndarray, problem: PartProblem, settings: FitSettings = FitSe
     cost_start = current.cost
     step = _lm_step if settings.optimizer == "lm" else _sd_step
     budget = settings.max_iterations * (1 if settings.optimizer == "lm" else settings.sd_iterations_factor)
-    state = {"damping": 1e-3}
+    state = {"damping": LM_INITIAL_DAMPING}
     accepted = 0
     while accepted < budget:
         candidate, evaluation = step(q, problem, current, settings, state)
@@ -176,7 +180,7 @@ def fit_part(q0: np.ndarray, problem: PartProblem, settings: FitSettings = FitSe
         accepted += 1
         improvement = current.cost - evaluation.cost
         q = candidate
-        if improvement <= settings.relative_tolerance * max(evaluation.cost, 1e-12):
+        if improvement <= settings.relative_tolerance * max(evaluation.cost, ZERO_LENGTH):
             current = evaluation
             break
         # LM's trial points come with their Jacobian (most are accepted); SD's do not (Armijo rejects many).
@@ -191,7 +195,7 @@ def _lm_step(q, problem, current, settings, state):
     hessian = js.T @ (current.weights[:, None] * js)
     gradient = js.T @ (current.weights * current.vector)
     for _ in range(12):
-        damped = hessian + state["damping"] * np.diag(np.diag(hessian) + 1e-12)
+        damped = hessian + state["damping"] * np.diag(np.diag(hessian) + ZERO_LENGTH)
         try:
             delta = -np.linalg.solve(damped, gradient) / scale
         except np.linalg.LinAlgError:
@@ -200,7 +204,7 @@ def _lm_step(q, problem, current, settings, state):
         candidate = _apply(q, problem.free, delta)
         evaluation = problem.evaluate(candidate, settings)
         if evaluation.cost < current.cost:
-            state["damping"] = max(state["damping"] / 3, 1e-9)
+            state["damping"] = max(state["damping"] / 3, LM_SMALLEST_DAMPING)
             return candidate, evaluation
         state["damping"] *= 4
     return None, current
@@ -225,7 +229,7 @@ def _sd_step(q, problem, current, settings, state):
     for _ in range(30):
         candidate = _apply(q, problem.free, -beta * gradient / scale)
         evaluation = problem.evaluate(candidate, settings, with_jacobian=False)
-        if evaluation.cost <= current.cost - 1e-4 * beta * 2 * slope:  # sufficient decrease
+        if evaluation.cost <= current.cost - ARMIJO * beta * 2 * slope:  # sufficient decrease
             return candidate, evaluation
         beta /= 2
     return None, current
@@ -246,7 +250,7 @@ def _robust(distances: np.ndarray, huber_px: float | None) -> tuple[float, np.nd
         return float(np.sum(distances**2)), np.ones_like(distances)
     k = huber_px
     cost = float(np.sum(np.where(distances <= k, distances**2, 2 * k * distances - k**2)))
-    return cost, np.minimum(1.0, k / np.maximum(distances, 1e-12))
+    return cost, np.minimum(1.0, k / np.maximum(distances, ZERO_LENGTH))
 
 
 def _pressed_against_bounds(q: np.ndarray, free: np.ndarray, gradient: np.ndarray) -> np.ndarray:
@@ -262,7 +266,8 @@ def _pressed_against_bounds(q: np.ndarray, free: np.ndarray, gradient: np.ndarra
 
 def _bounds(index: int) -> tuple[float, float]:
     allowed = PARAM_RANGES[PARAM_NAMES[index]]
-    return allowed.low + (1e-6 if allowed.low_open else 0.0), allowed.high - (1e-6 if allowed.high_open else 0.0)
+    inset = OPEN_BOUND_INSET
+    return allowed.low + (inset if allowed.low_open else 0.0), allowed.high - (inset if allowed.high_open else 0.0)
 
 
 def _apply(q: np.ndarray, free: np.ndarray, delta: np.ndarray) -> np.ndarray:
@@ -288,4 +293,4 @@ def _normalise_gauge(q: np.ndarray) -> np.ndarray:
 
 def _column_scale(jacobian: np.ndarray) -> np.ndarray:
     norms = np.linalg.norm(jacobian, axis=0)
-    return np.where(norms > 1e-12, norms, 1.0)
+    return np.where(norms > ZERO_LENGTH, norms, 1.0)

@@ -1,4 +1,4 @@
-"""Pinhole cameras: world -> camera (DESIGN eq 5), projection (eq 6), and the one conversion to OpenGL.
+"""Pinhole cameras: world -> camera (paper 1, eq 5), projection (eq 6), and the one conversion to OpenGL.
 
 Convention:
     Camera frame is OpenCV's: x right, y down, z forward (the viewing direction); metres.
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tracker.tol import MIN_DEPTH_M
+from tracker.tol import MIN_DEPTH_M, ZERO_LENGTH
 
 # OpenCV camera axes expressed in OpenGL camera axes (and back: the matrix is its own inverse).
 _CV_TO_GL_AXES = np.diag([1.0, -1.0, -1.0])
@@ -90,7 +90,7 @@ def look_at(
         raise ValueError(f"camera {name!r}: position and target coincide ({position.tolist()})")
     z_axis = forward / np.linalg.norm(forward)
     x_axis = np.cross(z_axis, np.asarray(up, dtype=np.float64))  # image y (down) ~ -up, so x = y cross z = z cross up
-    if np.linalg.norm(x_axis) < 1e-9:
+    if np.linalg.norm(x_axis) < ZERO_LENGTH:
         raise ValueError(f"camera {name!r}: 'up' {np.asarray(up).tolist()} is parallel to the viewing direction")
     x_axis /= np.linalg.norm(x_axis)
     y_axis = np.cross(z_axis, x_axis)  # right-handed: z cross x = y

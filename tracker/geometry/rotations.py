@@ -4,12 +4,14 @@ Convention:
     Euler angles ``r = (r1, r2, r3)`` (radians) rotate about the x, y and z axes of the *parent* frame, in that
     order: ``R = Rz(r3) @ Ry(r2) @ Rx(r1)`` (SciPy's extrinsic ``"xyz"``). ``R`` maps child-frame vectors to the
     parent frame. A rigid transform is a ``(4, 4)`` float64 matrix ``T = [[R, t], [0, 1]]`` mapping child-frame
-    points to the parent frame: ``p_parent = R @ p_child + t`` (DESIGN eq 3). Point sets are ``(n, 3)`` float64.
+    points to the parent frame: ``p_parent = R @ p_child + t`` (paper 1, eq 3). Point sets are ``(n, 3)`` float64.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from tracker.tol import LOG_MAP_ANGLE_RAD, SERIES_ANGLE_RAD, TINY, ZERO_LENGTH
 
 
 def rotation_x(angle: float) -> np.ndarray:
@@ -38,7 +40,7 @@ def rotation_vector_to_matrix(vector: np.ndarray) -> np.ndarray:
     vector = np.asarray(vector, dtype=np.float64)
     angle = np.linalg.norm(vector)
     cross = cross_matrix(vector)
-    if angle < 1e-12:
+    if angle < ZERO_LENGTH:
         return np.eye(3) + cross
     return np.eye(3) + np.sin(angle) / angle * cross + (1 - np.cos(angle)) / angle**2 * (cross @ cross)
 
@@ -50,7 +52,7 @@ def rotation_vectors_to_matrices(vectors: np.ndarray) -> np.ndarray:
     cross = np.zeros((len(vectors), 3, 3))
     cross[:, 0, 1], cross[:, 0, 2], cross[:, 1, 2] = -vectors[:, 2], vectors[:, 1], -vectors[:, 0]
     cross -= cross.transpose(0, 2, 1)
-    small = angle < 1e-8
+    small = angle < SERIES_ANGLE_RAD
     safe = np.where(small, 1.0, angle)
     first = np.where(small, 1.0 - angle**2 / 6, np.sin(safe) / safe)
     second = np.where(small, 0.5 - angle**2 / 24, (1 - np.cos(safe)) / safe**2)
@@ -67,11 +69,11 @@ def matrix_to_rotation_vector(rotation: np.ndarray) -> np.ndarray:
     cos_angle = np.clip((np.trace(rotation) - 1.0) / 2.0, -1.0, 1.0)
     angle = np.arccos(cos_angle)
     skew = np.array([rotation[2, 1] - rotation[1, 2], rotation[0, 2] - rotation[2, 0], rotation[1, 0] - rotation[0, 1]])
-    if angle < 1e-6:  # sin(angle) ~ angle: first order
+    if angle < LOG_MAP_ANGLE_RAD:  # sin(angle) ~ angle: first order
         return skew / 2.0
-    if np.pi - angle < 1e-6:  # sin(angle) ~ 0: the axis from the symmetric part
+    if np.pi - angle < LOG_MAP_ANGLE_RAD:  # sin(angle) ~ 0: the axis from the symmetric part
         axis = np.sqrt(np.maximum((np.diag(rotation) + 1.0) / 2.0, 0.0))
-        axis *= np.where(skew >= 0, 1.0, -1.0) if np.any(skew) else np.sign(rotation[0] + 1e-300)
+        axis *= np.where(skew >= 0, 1.0, -1.0) if np.any(skew) else np.sign(rotation[0] + TINY)
         return angle * axis / np.linalg.norm(axis)
     return angle / (2.0 * np.sin(angle)) * skew
 
@@ -107,7 +109,7 @@ def matrix_to_euler(rotation: np.ndarray) -> np.ndarray:
     """Inverse of `euler_to_matrix`, with ``r2`` in ``[-pi/2, pi/2]``; at ``|r2| = pi/2`` (gimbal lock) ``r1 = 0``."""
     m = np.asarray(rotation, dtype=np.float64)
     r2 = np.arcsin(np.clip(-m[2, 0], -1.0, 1.0))
-    if np.hypot(m[2, 1], m[2, 2]) < 1e-12:  # cos(r2) == 0: only r3 - r1 (or r3 + r1) is defined
+    if np.hypot(m[2, 1], m[2, 2]) < ZERO_LENGTH:  # cos(r2) == 0: only r3 - r1 (or r3 + r1) is defined
         return np.array([0.0, r2, np.arctan2(-m[0, 1], m[1, 1])])
     return np.array([np.arctan2(m[2, 1], m[2, 2]), r2, np.arctan2(m[1, 0], m[0, 0])])
 

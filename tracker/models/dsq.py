@@ -6,7 +6,7 @@ Convention:
     angles r radians (`tracker.geometry.rotations` convention); c and r place the part in its parent's frame.
     Surface coordinates: latitude ``eta`` in [-pi/2, pi/2] (the part's z axis runs from eta = -pi/2 to +pi/2) and
     longitude ``omega`` in [-pi, pi). Points are ``(n, 3)`` in the part's local frame.
-    The DESIGN text's ``e3/(a a3)`` and ``(e3 + b2)/(a a3)`` are used literally: ``b2`` is added to e3 unscaled.
+    Eq 2's ``e3/(a a3)`` and ``(e3 + b2)/(a a3)`` are used literally: ``b2`` is added to e3 unscaled.
 """
 
 from __future__ import annotations

@@ -24,6 +24,7 @@ from tracker.models.body_mesh import BodyMesh
 from tracker.models.body_skeleton import BVH_TO_BODY, JOINT_INDEX, JOINT_NAMES, PART_BONES, T_POSE_DIRECTIONS
 from tracker.ranges import Range
 from tracker.registry import MODELS
+from tracker.tol import ZERO_LENGTH
 
 # The rig says LeftHandFinger1 where the BVH says LeftHandIndex1.
 _RIG_NAMES = {"LeftHandIndex1": "LeftHandFinger1", "RightHandIndex1": "RightHandFinger1"}
@@ -191,7 +192,7 @@ def _alignment(rest_direction: np.ndarray, t_pose_direction) -> np.ndarray:
     b = b / np.linalg.norm(b)
     axis = np.cross(a, b)
     angle = np.arctan2(np.linalg.norm(axis), a @ b)
-    if np.linalg.norm(axis) < 1e-12:
+    if np.linalg.norm(axis) < ZERO_LENGTH:
         return np.eye(3)
     return rotation_vectors_to_matrices((axis / np.linalg.norm(axis) * angle)[None])[0]
 

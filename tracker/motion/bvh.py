@@ -118,6 +118,26 @@ def read_bvh(path: str | Path) -> BvhClip:
                    columns, frame_time, motion)  # fmt: skip
 
 
+class _Tokens:
+    """The HIERARCHY section's tokens, taken in order."""
+
+    def __init__(self, path: Path, tokens: list[str]) -> None:
+        self.path, self.tokens, self.position = path, tokens, 0
+
+    def __bool__(self) -> bool:
+        return self.position < len(self.tokens)
+
+    def take(self, count: int = 1) -> list[str]:
+        if self.position + count > len(self.tokens):
+            raise BvhError(f"{self.path}: the HIERARCHY section ends early")
+        values = self.tokens[self.position : self.position + count]
+        self.position += count
+        return values
+
+
+_CHANNEL_NAMES = {f"{axis}{kind}" for axis in "XYZ" for kind in ("position", "rotation")}
+
+
 def _parse_hierarchy(path: Path, tokens: list[str]):
     names: list[str] = []
     parents: list[int] = []
@@ -125,32 +145,21 @@ def _parse_hierarchy(path: Path, tokens: list[str]):
     channels: list[tuple[str, ...]] = []
     stack: list[int | None] = []  # the open blocks: joint index, or None for an end site
     pending: int | None = None
-    position = 0
-
-    def take(count: int) -> list[str]:
-        nonlocal position
-        if position + count > len(tokens):
-            raise BvhError(f"{path}: the HIERARCHY section ends early")
-        values = tokens[position : position + count]
-        position += count
-        return values
-
     if not tokens or tokens[0] != "HIERARCHY":
         raise BvhError(f"{path} is not a BVH file: it does not start with HIERARCHY")
-    take(1)
-    while position < len(tokens):
-        token = take(1)[0]
+    stream = _Tokens(path, tokens[1:])
+    while stream:
+        token = stream.take()[0]
         if token in ("ROOT", "JOINT"):
             if token == "ROOT" and names:
                 raise BvhError(f"{path}: more than one ROOT")
-            parent = next((joint for joint in reversed(stack) if joint is not None), -1)
-            names.append(take(1)[0])
-            parents.append(parent)
+            parents.append(next((joint for joint in reversed(stack) if joint is not None), -1))
+            names.append(stream.take()[0])
             offsets.append([0.0, 0.0, 0.0])
             channels.append(())
             pending = len(names) - 1
         elif token == "End":
-            take(1)  # "Site"
+            stream.take()  # "Site"
             pending = None
         elif token == "{":
             stack.append(pending)
@@ -159,14 +168,12 @@ def _parse_hierarchy(path: Path, tokens: list[str]):
                 raise BvhError(f"{path}: unbalanced braces in HIERARCHY")
             stack.pop()
         elif token == "OFFSET":
-            values = _floats(path, take(3), "OFFSET")
+            values = _floats(path, stream.take(3), "OFFSET")
             if stack and stack[-1] is not None:
                 offsets[stack[-1]] = values
         elif token == "CHANNELS":
-            count = _int(path, take(1)[0], "CHANNELS count")
-            names_ = tuple(take(count))
-            bad = [n for n in names_ if n not in {f"{a}{kind}" for a in "XYZ" for kind in ("position", "rotation")}]
-            if bad or not stack or stack[-1] is None:
+            names_ = tuple(stream.take(_int(path, stream.take()[0], "CHANNELS count")))
+            if set(names_) - _CHANNEL_NAMES or not stack or stack[-1] is None:
                 raise BvhError(f"{path}: bad CHANNELS {' '.join(names_)}")
             channels[stack[-1]] = names_
         else:

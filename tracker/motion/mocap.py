@@ -21,6 +21,7 @@ from tracker.models.body_skeleton import BVH_TO_BODY, JOINT_INDEX, JOINT_NAMES, 
 from tracker.motion.bvh import BvhClip, BvhError, read_bvh
 from tracker.ranges import Finite, NonNegative, Range
 from tracker.registry import SCENES
+from tracker.tol import COUNT_ROUNDING
 
 _LEG = ("LeftUpLeg", "LeftLeg", "LeftFoot")
 
@@ -76,7 +77,7 @@ def _sample_times(clip: BvhClip, selection: ClipSelection) -> np.ndarray:
     if first > last:
         raise BvhError(f"{clip.path}: start {selection.start_s} s is past the clip's end "
                        f"({(clip.frames - 2) * clip.frame_time:.2f} s of motion)")  # fmt: skip
-    available = int(np.floor((last - first) * selection.fps + 1e-9)) + 1
+    available = int(np.floor((last - first) * selection.fps + COUNT_ROUNDING)) + 1
     count = available if selection.frames is None else selection.frames
     if count > available:
         raise BvhError(f"{clip.path}: {count} frames at {selection.fps:g} fps from {selection.start_s} s need "
@@ -121,9 +122,10 @@ def check_clip(scene: MocapScene, frames: int, key: str) -> None:
 @SCENES.register("bvh", models=("body_mesh",), check=check_clip)
 @dataclass(frozen=True)
 class MocapScene:
-    """A CMU-style BVH clip drives the body: ``frames`` at ``fps`` from ``start_s``; the body is turned about the
-    vertical so that it faces ``yaw_deg`` (world xy angle from +x; -90 faces -y) at the first frame, and with
-    ``center`` its first-frame root stands over the world origin."""
+    """A CMU-style BVH clip drives the body, resampled at ``fps`` from ``start_s``.
+
+    The body is turned about the vertical so that it faces ``yaw_deg`` (world xy angle from +x; -90 faces -y) at
+    the first frame, and with ``center`` its first-frame root stands over the world origin."""
 
     path: str
     start_s: NonNegative = 0.0  # seconds after the clip's T-pose frame

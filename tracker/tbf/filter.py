@@ -36,6 +36,7 @@ from tracker.tbf.motion import PosePrior, RandomWalk
 from tracker.tbf.samples import PoseSampleSet
 from tracker.tbf.tree import PoseTree
 from tracker.timing import elapsed_ms
+from tracker.tol import NEGLIGIBLE_PRIOR, TINY
 
 CALIBRATION_SAMPLES = 200
 
@@ -109,7 +110,7 @@ class TreeFilter:
         z = (np.asarray(self.samples.poses) - initial_pose) / sigmas
         log_prior = -0.5 * np.einsum("nk,nk->n", z, z)
         posterior = np.exp(log_prior - log_prior.max())
-        posterior[posterior < 1e-12] = 0.0
+        posterior[posterior < NEGLIGIBLE_PRIOR] = 0.0
         self._posterior = posterior / posterior.sum()
         self._previous_flags = self._occluded[int(np.argmax(posterior))]
         self._first = True
@@ -124,12 +125,35 @@ class TreeFilter:
         else:
             prior, terms = self._prior.prior(self._posterior, self._previous_flags)
         timings["prior"] = elapsed_ms(start)
-        levels = self.tree.levels
-        survivors = np.array([0])
+        leaves, leaf_likelihood, evaluated, kept = self._descend(prior, observed, timings)
+        start = time.perf_counter()
+        members = self.tree.leaf_members(leaves)
+        leaf_of = self.tree.levels[-1].node_of_sample[members]
+        likelihood_of_leaf = dict(zip(leaves.tolist(), leaf_likelihood.tolist(), strict=True))
+        log_posterior = np.array([likelihood_of_leaf[leaf] for leaf in leaf_of.tolist()]) + np.log(
+            np.maximum(prior[members], TINY))  # fmt: skip
+        weights = np.exp(log_posterior - log_posterior.max())
+        weights[prior[members] <= 0] = 0.0
+        posterior = np.zeros(len(prior))
+        posterior[members] = weights / weights.sum()
+        best = int(members[np.argmax(weights)])
+        self._posterior = posterior
+        self._previous_flags = self._occluded[best]
+        nonzero = posterior[posterior > 0]
+        timings["leaves"] = elapsed_ms(start)
+        return FilterResult(sample=best, pose=np.asarray(self.samples.poses[best]).copy(),
+                            occluded=self._occluded[best].copy(), nodes_evaluated=evaluated, nodes_kept=kept,
+                            prior_terms=terms, entropy=float(-(nonzero * np.log(nonzero)).sum()),
+                            timings_ms=timings)  # fmt: skip
+
+    def _descend(self, prior: np.ndarray, observed: np.ndarray,
+                 timings: dict[str, float]) -> tuple[np.ndarray, np.ndarray, list[int], list[int]]:  # fmt: skip
+        """Level by level from the top, the nodes under the survivors scored and pruned: the surviving leaves, their
+        log-likelihoods, and per level the nodes evaluated and kept."""
+        survivors, node_likelihood = np.array([0]), np.zeros(0)
         evaluated, kept = [], []
         self.last_evaluated = []
-        node_likelihood = None
-        for k, level in enumerate(levels):
+        for k, level in enumerate(self.tree.levels):
             start = time.perf_counter()
             nodes = level.children_of(survivors) if k > 0 else np.arange(len(level))
             mass = np.bincount(level.node_of_sample, weights=prior, minlength=len(level))[nodes]
@@ -141,36 +165,12 @@ class TreeFilter:
             self.last_evaluated.append(nodes)
             log_likelihood = -0.5 * (distances / self.level_sigmas[k]) ** 2
             log_posterior = log_likelihood + np.log(mass)
-            keep = log_posterior >= log_posterior.max() + np.log(max(self.settings.prune_fraction, 1e-300))
+            keep = log_posterior >= log_posterior.max() + np.log(max(self.settings.prune_fraction, TINY))
             evaluated.append(len(nodes))
             kept.append(int(keep.sum()))
             survivors, node_likelihood = nodes[keep], log_likelihood[keep]
             timings[f"level{k + 1}"] = elapsed_ms(start)
-        start = time.perf_counter()
-        members = self.tree.leaf_members(survivors)
-        leaf_of = levels[-1].node_of_sample[members]
-        likelihood_of_leaf = dict(zip(survivors.tolist(), node_likelihood.tolist(), strict=True))
-        log_posterior = np.array([likelihood_of_leaf[leaf] for leaf in leaf_of.tolist()]) + np.log(
-            np.maximum(prior[members], 1e-300))  # fmt: skip
-        weights = np.exp(log_posterior - log_posterior.max())
-        weights[prior[members] <= 0] = 0.0
-        posterior = np.zeros(len(prior))
-        posterior[members] = weights / weights.sum()
-        best = int(members[np.argmax(weights)])
-        self._posterior = posterior
-        self._previous_flags = self._occluded[best]
-        nonzero = posterior[posterior > 0]
-        timings["leaves"] = elapsed_ms(start)
-        return FilterResult(
-            sample=best,
-            pose=np.asarray(self.samples.poses[best]).copy(),
-            occluded=self._occluded[best].copy(),
-            nodes_evaluated=evaluated,
-            nodes_kept=kept,
-            prior_terms=terms,
-            entropy=float(-(nonzero * np.log(nonzero)).sum()),
-            timings_ms=timings,
-        )
+        return survivors, node_likelihood, evaluated, kept
 
     def observation_at(self, level: int, observed: np.ndarray) -> np.ndarray:
         """The observed silhouette at ``level``'s resolution."""

@@ -2,8 +2,8 @@
 
 `arm_grid` walks both arms of the standing body over grids of angles (`tracker.motion.body_swing.arms_pose`);
 `clip_samples` takes every frame of CMU-style BVH clips at a chosen rate, each clip turned to face ``yaw_deg`` at
-its first frame and centred over the origin. Either gives pose vectors for
-`tracker.tbf.samples.remove_near_duplicates` and `tracker.tbf.samples.load_or_build`.
+its first frame and centred over the origin. Either gives pose vectors; `remove_near_duplicates` then
+keeps no two within ``min_joint_deg`` in every joint (the paper's rule), for `tracker.tbf.samples.load_or_build`.
 """
 
 from __future__ import annotations
@@ -13,11 +13,14 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 from tracker.models.body_mesh import BodyMesh
+from tracker.models.body_skeleton import JOINT_NAMES
 from tracker.motion.body_swing import arms_pose
 from tracker.motion.mocap import MocapScene
+from tracker.tol import ZERO_LENGTH
 
 
 def arm_grid(
@@ -58,3 +61,40 @@ def varied(poses: np.ndarray, turns_deg: Sequence[float], copies: int, jitter_de
             jittered[:, 6:] = (joints * noise).as_rotvec().reshape(len(turned), -1)
             out.append(jittered)
     return np.concatenate(out)
+
+
+def joint_angle_differences(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(..., J)`` degrees between the joint rotations of pose vectors ``a`` and ``b`` (broadcast)."""
+    qa, qb = _quaternions(a), _quaternions(b)
+    cosine = np.abs(np.einsum("...jk,...jk->...j", qa, qb))
+    return np.degrees(2 * np.arccos(np.clip(cosine, 0.0, 1.0)))
+
+
+def _quaternions(poses: np.ndarray) -> np.ndarray:
+    poses = np.asarray(poses, dtype=np.float64)
+    rotvecs = poses[..., 3:].reshape(*poses.shape[:-1], len(JOINT_NAMES), 3)
+    return Rotation.from_rotvec(rotvecs.reshape(-1, 3)).as_quat().reshape(*rotvecs.shape[:-1], 4)
+
+
+def remove_near_duplicates(poses: np.ndarray, min_joint_deg: float = 5.0) -> np.ndarray:
+    """Indices of the poses kept, in order: a pose is dropped when a kept one is within ``min_joint_deg`` in
+    every joint (the paper's rule). Root positions are not compared.
+
+    Candidates come from a KD-tree over the poses' joint quaternions (signs made consistent) with the L-inf
+    radius ``2 sin(angle / 4)``, which holds every pair within ``angle`` in every joint; each candidate pair is
+    then checked exactly, so the result is the greedy pass over all pairs in O(n log n) rather than O(n^2)."""
+    quaternions = _quaternions(poses)  # (n, J, 4)
+    quaternions *= np.where(quaternions[..., 3:4] < 0, -1.0, 1.0)  # same hemisphere: w >= 0
+    flat = quaternions.reshape(len(quaternions), -1)
+    radius = 2 * np.sin(np.radians(min_joint_deg) / 4) + ZERO_LENGTH
+    neighbours = cKDTree(flat).query_ball_point(flat, r=radius, p=np.inf)
+    threshold = np.cos(np.radians(min_joint_deg) / 2)
+    dropped = np.zeros(len(poses), bool)
+    for index, near in enumerate(neighbours):
+        if dropped[index]:
+            continue
+        later = np.array([j for j in near if j > index and not dropped[j]], dtype=np.int64)
+        if len(later):
+            close = np.abs(np.einsum("kjc,jc->kj", quaternions[later], quaternions[index])) >= threshold
+            dropped[later[close.all(axis=1)]] = True
+    return np.flatnonzero(~dropped)

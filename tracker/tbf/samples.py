@@ -1,9 +1,9 @@
 """Pose sample sets (paper 2, 3.1): body poses with their part-label images at several resolutions, cached.
 
-A sample set is built from pose vectors (`tracker.models.body_mesh`): near-duplicates are removed first (a pose
-with another kept pose within ``min_joint_deg`` in every joint, `remove_near_duplicates`), then every pose is
-rendered as a part-label image (0 background, part k+1) at the finest resolution of ``RESOLUTIONS`` and reduced
-to the others by blocks (`reduce_labels`: a coarse pixel is in the silhouette when at least half of it is, as
+A sample set is built from pose vectors (`tracker.models.body_skeleton`), near-duplicates already removed
+(`tracker.tbf.pose_sets.remove_near_duplicates`): every pose is rendered as a part-label image (0 background, part
+k+1) at the finest of the tree's resolutions (`LEVEL_RESOLUTIONS`) and reduced to the others by blocks
+(`reduce_labels`: a coarse pixel is in the silhouette when at least half of it is, as
 `tracker.observe.silhouettes.resize_silhouette` does for observed silhouettes, and takes the part covering most
 of it). Images are cropped to the window W: the rectangle holding every pose's projection (the bounding box of all
 posed vertices, 1 px margin, widened to whole coarsest pixels), which is also the window of the silhouette
@@ -29,57 +29,20 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial import cKDTree
-from scipy.spatial.transform import Rotation
 from tqdm import tqdm
 
 from tracker.atomic import exclusive
 from tracker.geometry.cameras import Camera, resized
-from tracker.models.body_mesh import JOINT_NAMES, PART_NAMES, BodyMesh
+from tracker.models.body_mesh import BodyMesh
+from tracker.models.body_skeleton import PART_NAMES
 from tracker.render.mesh import SurfaceMesh
 from tracker.tbf.distances import SilhouetteStack, Window
 
 log = logging.getLogger(__name__)
 
-RESOLUTIONS = ((320, 240), (160, 120), (80, 60))
+LEVEL_RESOLUTIONS = ((80, 60), (160, 120), (320, 240))  # (width, height) of the tree's levels, top to bottom
+RESOLUTIONS = LEVEL_RESOLUTIONS[::-1]  # as rendered: the finest first, the others reduced from it
 FORMAT_VERSION = 2
-
-
-def joint_angle_differences(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``(..., J)`` degrees between the joint rotations of pose vectors ``a`` and ``b`` (broadcast)."""
-    qa, qb = _quaternions(a), _quaternions(b)
-    cosine = np.abs(np.einsum("...jk,...jk->...j", qa, qb))
-    return np.degrees(2 * np.arccos(np.clip(cosine, 0.0, 1.0)))
-
-
-def _quaternions(poses: np.ndarray) -> np.ndarray:
-    poses = np.asarray(poses, dtype=np.float64)
-    rotvecs = poses[..., 3:].reshape(*poses.shape[:-1], len(JOINT_NAMES), 3)
-    return Rotation.from_rotvec(rotvecs.reshape(-1, 3)).as_quat().reshape(*rotvecs.shape[:-1], 4)
-
-
-def remove_near_duplicates(poses: np.ndarray, min_joint_deg: float = 5.0) -> np.ndarray:
-    """Indices of the poses kept, in order: a pose is dropped when a kept one is within ``min_joint_deg`` in
-    every joint (the paper's rule). Root positions are not compared.
-
-    Candidates come from a KD-tree over the poses' joint quaternions (signs made consistent) with the L-inf
-    radius ``2 sin(angle / 4)``, which holds every pair within ``angle`` in every joint; each candidate pair is
-    then checked exactly, so the result is the greedy pass over all pairs in O(n log n) rather than O(n^2)."""
-    quaternions = _quaternions(poses)  # (n, J, 4)
-    quaternions *= np.where(quaternions[..., 3:4] < 0, -1.0, 1.0)  # same hemisphere: w >= 0
-    flat = quaternions.reshape(len(quaternions), -1)
-    radius = 2 * np.sin(np.radians(min_joint_deg) / 4) + 1e-12
-    neighbours = cKDTree(flat).query_ball_point(flat, r=radius, p=np.inf)
-    threshold = np.cos(np.radians(min_joint_deg) / 2)
-    dropped = np.zeros(len(poses), bool)
-    for index, near in enumerate(neighbours):
-        if dropped[index]:
-            continue
-        later = np.array([j for j in near if j > index and not dropped[j]], dtype=np.int64)
-        if len(later):
-            close = np.abs(np.einsum("kjc,jc->kj", quaternions[later], quaternions[index])) >= threshold
-            dropped[later[close.all(axis=1)]] = True
-    return np.flatnonzero(~dropped)
 
 
 @dataclass(frozen=True, eq=False)

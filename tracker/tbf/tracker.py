@@ -29,8 +29,8 @@ from tracker.sequence import FrameInput
 from tracker.tbf.distances import Cost, EmptySilhouette
 from tracker.tbf.filter import FilterResult, FilterSettings, TreeFilter
 from tracker.tbf.motion import RandomWalk
-from tracker.tbf.pose_sets import arm_grid, clip_samples, varied
-from tracker.tbf.samples import PoseSampleSet, load_or_build, remove_near_duplicates
+from tracker.tbf.pose_sets import arm_grid, clip_samples, remove_near_duplicates, varied
+from tracker.tbf.samples import PoseSampleSet, load_or_build
 from tracker.tbf.tree import PoseTree, load_or_build_tree
 from tracker.timing import elapsed_ms
 
@@ -78,8 +78,8 @@ class SampleSpec:
 
 @dataclass(frozen=True)
 class TbfSettings:
-    """Paper 2's silhouette tree-based filter: pose samples -> tree by silhouette distance -> Bayesian filtering
-    down the tree with pruning."""
+    """Paper 2's silhouette tree-based filter: pose samples, a tree of them by silhouette distance, Bayesian
+    filtering down the tree with pruning."""
 
     samples: SampleSpec = field(default_factory=SampleSpec)
     # T_l: XOR distance (fraction of the window) at 80x60, 160x120, 320x240.

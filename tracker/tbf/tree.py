@@ -26,11 +26,10 @@ from pathlib import Path
 import numpy as np
 
 from tracker.atomic import atomic_path, exclusive
-from tracker.tbf.samples import PoseSampleSet
+from tracker.tbf.samples import LEVEL_RESOLUTIONS, PoseSampleSet
 
 log = logging.getLogger(__name__)
 
-LEVEL_RESOLUTIONS = ((80, 60), (160, 120), (320, 240))
 _ARRAYS = ("representatives", "seeds", "parents", "node_of_sample")  # TreeLevel's arrays, in order
 
 

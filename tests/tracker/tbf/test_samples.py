@@ -5,15 +5,8 @@ import pytest
 
 from tracker.geometry.rigs import mono
 from tracker.motion.body_swing import BodySwing
-from tracker.tbf.samples import (
-    RESOLUTIONS,
-    cache_key,
-    joint_angle_differences,
-    load_or_build,
-    occlusion_flags,
-    reduce_labels,
-    remove_near_duplicates,
-)
+from tracker.tbf.pose_sets import joint_angle_differences, remove_near_duplicates
+from tracker.tbf.samples import RESOLUTIONS, cache_key, load_or_build, occlusion_flags, reduce_labels
 
 CAMERA = mono(position=(4.0, 0.0, 0.9), target=(0.0, 0.0, 0.9), focal_px=480.0, width=320, height=240)[0]
 

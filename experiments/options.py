@@ -1,0 +1,68 @@
+"""The README's table of config options, made from the option files and the registries:
+``python -m experiments.options`` prints it; ``--write`` puts it into README.md between its markers.
+
+One row per option file ``conf/<group>/<option>.yaml``: the component it builds (`tracker.registry`), what that
+component is (the first line of its docstring), its settings, and what it goes with (models, needs, views).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from omegaconf import OmegaConf
+
+from experiments.schemas import CONFIG_DIR, GROUPS, SCHEMA_PREFIX
+from tracker.registry import REGISTRIES, Entry
+
+README = CONFIG_DIR.parent / "README.md"
+BEGIN, END = "<!-- options: made by python -m experiments.options --write -->", "<!-- options: end -->"
+
+
+def option_entries() -> list[tuple[str, str, Entry]]:
+    """(group, option, the component it builds) for every option file, in group order."""
+    rows = []
+    for group in GROUPS:
+        for path in sorted((CONFIG_DIR / group).glob("*.yaml")):
+            defaults = [str(item) for item in OmegaConf.load(path).get("defaults", [])]
+            schema = next(item for item in defaults if SCHEMA_PREFIX in item)  # e.g. schema_mono, /model/schema_x@model
+            rows.append((group, path.stem, REGISTRIES[group][schema.split(SCHEMA_PREFIX)[1].split("@")[0]]))
+    return rows
+
+
+def goes_with(entry: Entry) -> str:
+    parts = []
+    if entry.models:
+        parts.append("model=" + "\\|".join(entry.models))
+    parts += [f"{group}=…" for group in entry.needs]
+    if entry.views and entry.kind == "tracker":
+        low, high = entry.views
+        parts.append(f"{low} view" if low == high == 1 else f"{low}–{high} views")
+    return ", ".join(parts)
+
+
+def table() -> str:
+    lines = ["| group | option | builds | what it is | settings | goes with |", "|---|---|---|---|---|---|"]
+    for group, option, entry in option_entries():
+        settings = ", ".join(f"`{s.name}`" for s in entry.fields) or "none"
+        lines.append(f"| `{group}` | `{option}` | `{entry.name}` | {entry.summary} | {settings} | {goes_with(entry)} |")
+    return "\n".join(lines)
+
+
+def readme_with_table(text: str) -> str:
+    head, rest = text.split(BEGIN, 1)
+    return f"{head}{BEGIN}\n{table()}\n{END}{rest.split(END, 1)[1]}"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--write", action="store_true", help=f"write the table into {README.name}")
+    if parser.parse_args().write:
+        README.write_text(readme_with_table(README.read_text()))
+        print(f"wrote the option table into {README}")
+    else:
+        print(table())
+
+
+if __name__ == "__main__":
+    main()
+
