@@ -14,8 +14,8 @@ from experiments.components import Components
 from experiments.outputs import frame_rows
 from experiments.recording import RunRecording
 from tracker.observe.silhouettes import CapturedFrame, SilhouetteCapture
-from tracker.protocol import StepResult
-from tracker.sequence import FrameInput, background_frames, simulate
+from tracker.protocol import FrameInput, StepResult
+from tracker.sequence import background_frames, simulate
 from tracker.timing import elapsed_ms
 
 

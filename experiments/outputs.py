@@ -23,8 +23,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from experiments.components import Components
 from tracker.observe.silhouettes import CapturedFrame
-from tracker.protocol import StepResult
-from tracker.sequence import FrameInput
+from tracker.protocol import FrameInput, StepResult
 
 
 def frame_rows(frame: FrameInput, components: Components, result: StepResult | None,

@@ -27,9 +27,8 @@ from experiments.schemas import RecordSettings
 from tracker.atomic import AtomicFile
 from tracker.geometry.cameras import Camera
 from tracker.observe.silhouettes import CapturedFrame
-from tracker.protocol import Points, StepResult
+from tracker.protocol import FrameInput, Points, StepResult
 from tracker.registry import COSTS
-from tracker.sequence import FrameInput
 from tracker.tbf.distances import weight_map
 
 APPLICATION_ID = "articulated-tracking"

@@ -17,7 +17,26 @@ import numpy as np
 from tracker.geometry.cameras import Camera
 from tracker.registry import TRACKERS
 from tracker.render.mesh import SurfaceMesh
-from tracker.sequence import FrameInput
+from tracker.render.offscreen import RenderedView
+
+
+@dataclass(frozen=True, eq=False)
+class FrameInput:
+    """One frame of a synthetic sequence: what a tracker's `step` sees (the truth aside, which it must not use).
+
+    truth: ``(n_parts, n_params)`` truth parameters; meshes: the truth surfaces that were rendered;
+    views: rendered images keyed by camera name; visible_px: per view, ``(n_parts,)`` label pixel counts
+    (part k's count at index k); timings_ms: stage name -> milliseconds; silhouettes: per view, the silhouette
+    background subtraction extracted from the RGB (body scenes; what `tracker=tbf` observes).
+    """
+
+    frame: int
+    truth: np.ndarray
+    meshes: list[SurfaceMesh]
+    views: dict[str, RenderedView]
+    visible_px: dict[str, np.ndarray]
+    timings_ms: dict[str, float] = field(default_factory=dict)
+    silhouettes: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 class Model(Protocol):

@@ -8,37 +8,13 @@ from __future__ import annotations
 
 import time
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from tracker.geometry.cameras import Camera
-from tracker.render.mesh import SurfaceMesh
+from tracker.protocol import FrameInput, Model, Scene
 from tracker.render.nuisance import SensorNuisance
 from tracker.render.offscreen import RenderedView, SceneRenderer
-
-if TYPE_CHECKING:
-    from tracker.protocol import Model, Scene
-
-
-@dataclass(frozen=True, eq=False)
-class FrameInput:
-    """One frame of a synthetic sequence.
-
-    truth: ``(n_parts, n_params)`` truth parameters; meshes: the truth surfaces that were rendered;
-    views: rendered images keyed by camera name; visible_px: per view, ``(n_parts,)`` label pixel counts
-    (part k's count at index k); timings_ms: stage name -> milliseconds; silhouettes: per view, the silhouette
-    background subtraction extracted from the RGB (body scenes; what `tracker=tbf` observes).
-    """
-
-    frame: int
-    truth: np.ndarray
-    meshes: list[SurfaceMesh]
-    views: dict[str, RenderedView]
-    visible_px: dict[str, np.ndarray]
-    timings_ms: dict[str, float] = field(default_factory=dict)
-    silhouettes: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def simulate(

@@ -28,11 +28,10 @@ from tracker.geometry.cameras import Camera
 from tracker.models.dsq import PARAM_INDEX, pole_point
 from tracker.models.dsq_arm import DSQArm
 from tracker.observe.features import FeatureFrame, FeatureSettings, FeatureTracker
-from tracker.protocol import Points, StepResult, Tracker
+from tracker.protocol import FrameInput, Points, StepResult, Tracker
 from tracker.ranges import NonNegative, Positive, Range
 from tracker.registry import TRACKERS
 from tracker.render.offscreen import DepthLabels, SceneRenderer
-from tracker.sequence import FrameInput
 from tracker.timing import elapsed_ms
 
 TRACKED, NEW, DISCARDED_OCCLUSION, DISCARDED_ERROR, LOST = range(len(COUNT_NAMES))

@@ -22,10 +22,9 @@ from tracker.geometry.cameras import Camera
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.makehuman import Triangles, build_body
 from tracker.motion.body_swing import arms_pose
-from tracker.protocol import StepResult, Tracker
+from tracker.protocol import FrameInput, StepResult, Tracker
 from tracker.ranges import Finite, NonNegative, Positive, Range, Seed
 from tracker.registry import TRACKERS
-from tracker.sequence import FrameInput
 from tracker.tbf.distances import Cost, EmptySilhouette
 from tracker.tbf.filter import FilterResult, FilterSettings, TreeFilter
 from tracker.tbf.motion import RandomWalk
