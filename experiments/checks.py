@@ -34,7 +34,7 @@ def check_config(cfg: DictConfig, choices: dict[str, str]) -> None:
         check_combination(entries, choices)
         for group, entry in entries.items():
             if entry.check is not None:
-                entry.check(REGISTRIES[group].build(entry.name, plain[group]), frames=plain["frames"], key=group)
+                entry.check(entry.settings_of(plain[group]), frames=plain["frames"], key=group)
     except ValueError as error:
         raise ConfigError(str(error).splitlines()[0]) from None
 

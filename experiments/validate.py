@@ -7,12 +7,20 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.util
+import os
+import tempfile
 from pathlib import Path
 
 from hydra import compose, initialize_config_dir
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.errors import HydraException, MissingConfigException, OverrideParseException
-from omegaconf.errors import ConfigAttributeError, ConfigKeyError, MissingMandatoryValue, OmegaConfBaseException
+from omegaconf.errors import (
+    ConfigAttributeError,
+    ConfigKeyError,
+    MissingMandatoryValue,
+    OmegaConfBaseException,
+    ValidationError,
+)
 
 from experiments.checks import ConfigError, check_config, unknown_key
 from experiments.schemas import SCHEMA_PREFIX
@@ -29,8 +37,11 @@ def validate_command_line(argv: list[str], config_dir: Path, config_name: str) -
     if flags & _INFORMATIONAL_FLAGS or flags - _MULTIRUN_FLAGS:
         return  # Hydra handles these itself (and unknown flags with its own usage message)
     overrides = [arg for arg in argv if not arg.startswith("-")]
+    multirun = bool(flags & _MULTIRUN_FLAGS)
     for combination in sweep_combinations(overrides):
         cfg = _compose(config_dir, config_name, combination)
+        check_output_dir("hydra.sweep.dir" if multirun else "hydra.run.dir",
+                         cfg.hydra.sweep.dir if multirun else cfg.hydra.run.dir)  # fmt: skip
         choices = {k: v for k, v in cfg.hydra.runtime.choices.items() if not k.startswith("hydra") and v is not None}
         for group, option in choices.items():
             if option.startswith(SCHEMA_PREFIX):
@@ -40,6 +51,18 @@ def validate_command_line(argv: list[str], config_dir: Path, config_name: str) -
             check_config(cfg, choices)
         except OmegaConfBaseException as error:
             raise ConfigError(_describe(error)) from None
+
+
+def check_output_dir(key: str, value: str) -> None:
+    """The run's output folder can be made: its nearest existing ancestor is a writable folder."""
+    path = Path(value).absolute()
+    existing = next(parent for parent in (path, *path.parents) if parent.exists())
+    if not existing.is_dir():
+        raise ConfigError(f"{key}={value}: {existing} is a file, not a folder")
+    try:  # a trial folder, removed at once (permissions alone do not tell: root may not write in /proc either)
+        os.rmdir(tempfile.mkdtemp(prefix=".write-check-", dir=existing))
+    except OSError as error:
+        raise ConfigError(f"{key}={value}: cannot make it, {existing} is not writable ({error.strerror})") from None
 
 
 def plugins_named(argv: list[str]) -> list[str]:
@@ -99,6 +122,12 @@ def _describe(error: OmegaConfBaseException) -> str:
         return unknown_key(key, schema)
     if isinstance(error, MissingMandatoryValue):
         return f"{key}: missing value, it is required (add {key}=...)"
+    if isinstance(error, ValidationError) and dataclasses.is_dataclass(schema):  # a value where settings belong
+        expected = next((f.type for f in dataclasses.fields(schema) if f.name == getattr(error, "key", None)), None)
+        if dataclasses.is_dataclass(expected):
+            names = [f.name for f in dataclasses.fields(expected) if not f.name.startswith("_")]
+            return f"{key}={getattr(error, 'value', '?')}: expects its settings ({', '.join(names)}), not a " \
+                   f"value; set one, e.g. {key}.{names[0]}=..."  # fmt: skip
     message = getattr(error, "msg", None) or str(error)
     return f"{key}: {message.strip().splitlines()[0] if message.strip() else type(error).__name__}"
 

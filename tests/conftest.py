@@ -2,15 +2,15 @@
 
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
 from experiments.components import Components, build, compose
+from tracker.data import data_dir
 from tracker.models.dsq_arm import DSQArm
 from tracker.motion.arm_swing import ArmSwing
 
-MOCAP_DIR = Path(__file__).resolve().parent.parent / "data" / "mocap"
+MOCAP_DIR = data_dir() / "mocap"  # the CMU clips, read in place
 
 
 @pytest.fixture(scope="session")

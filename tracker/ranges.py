@@ -1,15 +1,17 @@
 """Allowed values of numeric settings, declared in their types and checked at the boundary.
 
 A setting's type says what it allows: ``Annotated[float, Range(...)]`` (the aliases below name the common ones),
-``Literal["sd", "lm"]`` for a choice, ``tuple[float, float, float]`` for a fixed length. `tracker.settings`
+``Literal["sd", "lm"]`` for a choice, ``tuple[float, float, float]`` for a fixed length, ``Annotated[..., Rule(...)]``
+for a condition on the whole value. `tracker.settings`
 reads these types; `check_in_range` words the message: the key, the value and the range.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Annotated
+from typing import Annotated, Any
 
 
 @dataclass(frozen=True)
@@ -37,6 +39,14 @@ class Range:
         if self.low == -math.inf:
             return f"{'<' if self.high_open else '<='} {high}"
         return f"in {'(' if self.low_open else '['}{low}, {high}{')' if self.high_open else ']'}"
+
+
+@dataclass(frozen=True)
+class Rule:
+    """A condition on a whole value (``Annotated[tuple[...], Rule(...)]``): ``holds(value)``, worded ``says``."""
+
+    holds: Callable[[Any], bool]
+    says: str
 
 
 def _number(value: float) -> str:

@@ -37,7 +37,9 @@ class Entry:
     models: tuple[str, ...] | None = None  # the models it works with (None: any)
     views: tuple[int, int] | None = None  # camera views: (fewest, most) a tracker uses; a rig's (n, n)
     observes: tuple[str, ...] = ()  # what the run must capture for it, e.g. "silhouettes"
-    check: Callable[..., None] | None = None  # check(component, frames=..., key=...) before the run
+    # Before the run: check(settings, frames=..., key=...) raises ValueError naming the key (settings: the settings
+    # dataclass, or the component itself where it is its own settings; key: its config group).
+    check: Callable[..., None] | None = None
     evaluation: Any = None  # models: how an estimate is judged (`tracker.evaluation`)
 
     @property
@@ -54,6 +56,10 @@ class Entry:
         """The first paragraph of the settings' (or factory's) docstring, on one line."""
         text = (self.settings or self.factory).__doc__ or ""
         return " ".join(text.strip().split("\n\n")[0].split())
+
+    def settings_of(self, values: Mapping[str, Any]) -> Any:
+        """What `check` is given: the settings dataclass built from plain ``values``."""
+        return from_plain(self.settings or self.factory, {k: v for k, v in values.items() if k != "_target_"})
 
     def build(self, values: Mapping[str, Any], configure: bool = False, **needed: Any) -> Any:
         """The component from plain setting ``values`` (missing ones take their defaults; ``_target_``, which

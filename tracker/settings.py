@@ -24,7 +24,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Annotated, Any, Literal, Union
 
-from tracker.ranges import Range, check_in_range
+from tracker.ranges import Range, Rule, check_in_range
 
 REQUIRED = dataclasses.MISSING  # the default of a setting without one
 
@@ -93,7 +93,11 @@ def check(hint: Any, value: Any, key: str) -> None:
     elif origin in (tuple, list, collections.abc.Sequence):
         _check_items(hint, list(value), key)
     for allowed in ranges:
-        check_in_range(key, value, allowed)
+        if isinstance(allowed, Rule):
+            if not allowed.holds(value):
+                raise ValueError(f"{key}={_plain_repr(value)} is not allowed: {allowed.says}")
+        else:
+            check_in_range(key, value, allowed)
 
 
 def _check_items(hint: Any, items: list, key: str) -> None:
@@ -137,13 +141,17 @@ def to_plain(value: Any) -> Any:
 
 def allowed_ranges(hint: Any) -> list[Range]:
     """The ranges an ``Annotated`` type declares (none for other types)."""
-    return _unannotated(hint)[1]
+    return [allowed for allowed in _unannotated(hint)[1] if isinstance(allowed, Range)]
 
 
-def _unannotated(hint: Any) -> tuple[Any, list[Range]]:
+def _unannotated(hint: Any) -> tuple[Any, list[Range | Rule]]:
     if typing.get_origin(hint) is Annotated:
-        return hint.__origin__, [m for m in hint.__metadata__ if isinstance(m, Range)]
+        return hint.__origin__, [m for m in hint.__metadata__ if isinstance(m, Range | Rule)]
     return hint, []
+
+
+def _plain_repr(value: Any) -> str:
+    return repr(list(value)) if isinstance(value, tuple) else repr(value)
 
 
 def _optional(hint: Any) -> bool:

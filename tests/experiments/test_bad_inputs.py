@@ -64,7 +64,7 @@ AT_START = [
     (["model=body_mesh", "scene=bvh"], r"^scene\.path: missing value"),
     (["scene=bvh", f"scene.path={CLIP}"], r"^scene=bvh needs model=body_mesh, not model=dsq_arm$"),
     (["model=body_mesh", "scene=bvh", "scene.path=nope.bvh"],
-     r"^scene\.path=nope\.bvh: cannot read BVH file nope\.bvh"),
+     r"^scene\.path=nope\.bvh: cannot read BVH file .*/nope\.bvh: No such file"),
     (["model=body_mesh", "scene=bvh", f"scene.path={SHORT_CLIP}", "frames=1000"],
      rf"^frames=1000: scene\.path={re.escape(str(SHORT_CLIP))} has 90 frames at 30 fps from scene\.start_s=0\.0; "
      r"allowed at most 90$"),  # 360 steps of .0083333 s = 2.99999 s: 89 steps of 1/30 s
@@ -97,6 +97,18 @@ AT_START = [
     ([*BODY_TBF, "tracker.thresholds=[0.01,0.002]"], r"^tracker\.thresholds=.* has 2 values: allowed exactly 3$"),
     (["scene.arm.bend_amplitude=nan"], r"^scene\.arm\.bend_amplitude=nan is out of range: allowed a finite number$"),
     (["-m", "frames=2,0"], r"^frames=0 is out of range: allowed >= 1$"),
+    (["experiment=tbf_table4c", "tracker.samples.grid.swing_deg=[60,-60,6]"],
+     r"^tracker\.samples\.grid\.swing_deg=\[60\.0, -60\.0, 6\.0\] is not allowed: allowed \[start, stop, step\] "
+     r"with start <= stop$"),
+    (["experiment=tbf_table4c", "tracker.samples.grid.elbow_deg=[0,60,0]"],
+     r"^tracker\.samples\.grid\.elbow_deg\[2\]=0\.0 is out of range: allowed > 0$"),
+    (["experiment=tbf_table4c", "tracker.samples.clips=[mocap/nope.bvh]"],
+     r"^tracker\.samples\.clips\[0\]=mocap/nope\.bvh: cannot read BVH file .*mocap/nope\.bvh: No such file"),
+    (["hydra.run.dir=/proc/nope/run"], r"^hydra\.run\.dir=/proc/nope/run: cannot make it, /proc is not writable"),
+    (["-m", "hydra.sweep.dir=/proc/nope", "seed=0,1"], r"^hydra\.sweep\.dir=/proc/nope: cannot make it"),
+    (["tracker=abis", "tracker.initial_noise=-1"],
+     r"^tracker\.initial_noise=-1: expects its settings \(translation_m, rotation_rad, scale_fraction\), not a "
+     r"value; set one, e\.g\. tracker\.initial_noise\.translation_m=\.\.\.$"),
 ]
 
 

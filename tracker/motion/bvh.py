@@ -1,4 +1,4 @@
-"""BVH motion files (Biovision hierarchy), as the CMU clips of ``data/mocap`` use them.
+"""BVH motion files (Biovision hierarchy), as the CMU clips of the data directory's ``mocap/`` use them.
 
 `read_bvh` parses the hierarchy (joint names, parents, offsets, channel order) and the motion block into one
 ``(frames, channels)`` float64 array; `BvhClip.global_rotations` and `BvhClip.root_positions` turn a frame range
@@ -15,6 +15,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from tracker.data import data_path
 
 
 class BvhError(ValueError):
@@ -97,8 +99,9 @@ def axis_rotations(axis: int, degrees: np.ndarray) -> np.ndarray:
 
 
 def read_bvh(path: str | Path) -> BvhClip:
-    """Parse a BVH file; any problem raises `BvhError` naming the file and what is wrong."""
-    path = Path(path)
+    """Parse a BVH file (a data path: `tracker.data.data_path`); any problem raises `BvhError` naming the file and
+    what is wrong."""
+    path = data_path(path)
     try:
         text = path.read_text()
     except OSError as error:

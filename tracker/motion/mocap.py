@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Annotated
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from tracker.data import data_path
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.body_skeleton import BVH_TO_BODY, JOINT_INDEX, JOINT_NAMES, POSE_SIZE, missing_joints
 from tracker.motion.bvh import BvhClip, BvhError, read_bvh
@@ -100,20 +100,26 @@ def _scale(clip: BvhClip, body: BodyMesh) -> float:
     return float(np.linalg.norm(np.diff(heads, axis=0), axis=1).sum() / clip_length)
 
 
-def check_clip(scene: MocapScene, frames: int, key: str) -> None:
-    """Before a run: the scene's file is a readable CMU-style clip holding ``frames`` frames from its start.
-    Raises ``ValueError`` naming the config keys (``key``: the scene's, e.g. ``scene``)."""
+def read_cmu_clip(path: str, key: str) -> BvhClip:
+    """The CMU-style clip at ``path``, or ``ValueError`` naming the config key ``key`` (its value is ``path``)."""
     try:
-        clip = read_bvh(scene.path)
+        clip = read_bvh(path)
         missing = missing_joints(clip.names)
         if missing:
             raise BvhError(f"not a CMU-style skeleton, missing joints {', '.join(missing)}")
-        available = available_frames(clip, scene.start_s, scene.fps)
+        return clip
     except BvhError as error:  # its message may name the file, as the key already does
-        message = str(error)
-        for named, pronoun in ((f"{Path(scene.path)}: ", ""), (f"{Path(scene.path)} is ", "it is ")):
+        message, located = str(error), data_path(path)
+        for named, pronoun in ((f"{located}: ", ""), (f"{located} is ", "it is ")):
             message = pronoun + message.removeprefix(named) if message.startswith(named) else message
-        raise ValueError(f"{key}.path={scene.path}: {message}") from None
+        raise ValueError(f"{key}={path}: {message}") from None
+
+
+def check_clip(scene: MocapScene, frames: int, key: str) -> None:
+    """Before a run: the scene's file is a readable CMU-style clip holding ``frames`` frames from its start.
+    Raises ``ValueError`` naming the config keys (``key``: the scene's, e.g. ``scene``)."""
+    clip = read_cmu_clip(scene.path, f"{key}.path")
+    available = available_frames(clip, scene.start_s, scene.fps)
     if frames > available:
         raise ValueError(f"frames={frames}: {key}.path={scene.path} has {available} frames at {scene.fps:g} fps "
                          f"from {key}.start_s={scene.start_s}; allowed at most {available}")  # fmt: skip

@@ -22,8 +22,9 @@ from tracker.geometry.cameras import Camera
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.makehuman import Triangles, build_body
 from tracker.motion.body_swing import arms_pose
+from tracker.motion.mocap import read_cmu_clip
 from tracker.protocol import FrameInput, StepResult, Tracker
-from tracker.ranges import Finite, NonNegative, Positive, Range, Seed
+from tracker.ranges import Finite, NonNegative, Positive, Range, Rule, Seed
 from tracker.registry import TRACKERS
 from tracker.tbf.distances import Cost, EmptySilhouette
 from tracker.tbf.filter import FilterResult, FilterSettings, TreeFilter
@@ -35,7 +36,8 @@ from tracker.timing import elapsed_ms
 
 log = logging.getLogger(__name__)
 
-DegreeSpan = tuple[Finite, Finite, Finite]  # start, stop (included), step
+_ORDERED = Rule(lambda span: span[0] <= span[1], "allowed [start, stop, step] with start <= stop")
+DegreeSpan = Annotated[tuple[Finite, Finite, Positive], _ORDERED]  # start, stop (included), step
 
 
 @dataclass(frozen=True)
@@ -110,8 +112,14 @@ class TbfResult(StepResult):
                    series=series, **fields)  # fmt: skip
 
 
+def check_clips(settings: TbfSettings, frames: int, key: str) -> None:
+    """Before a run: every clip the samples come from is a readable CMU-style clip."""
+    for index, path in enumerate(settings.samples.clips):
+        read_cmu_clip(path, f"{key}.samples.clips[{index}]")
+
+
 @TRACKERS.register("tbf", settings=TbfSettings, needs={"cost": "nwxor", "motion": "dm2"}, models=("body_mesh",),
-                   views=(1, 1), observes=("silhouettes",))  # fmt: skip
+                   views=(1, 1), observes=("silhouettes",), check=check_clips)  # fmt: skip
 class TbfTracker(Tracker):
     name: ClassVar[str] = "tbf"
 
