@@ -126,7 +126,7 @@ def bench_silhouettes(samples: int) -> dict[str, float]:
     from tracker.sequence import background_frames
     from tracker.tbf.distances import silhouette_distance
     from tracker.tbf.pose_sets import arm_grid, remove_near_duplicates
-    from tracker.tbf.samples import load_or_build
+    from tracker.tbf.sample_build import load_or_build
 
     scene = build(compose(["model=body_mesh"]))  # the body, side-on, with its capture setting
     body, rig, render = scene.model, scene.cameras, scene.settings.render

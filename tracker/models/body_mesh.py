@@ -80,32 +80,50 @@ class BodyMesh:
         pose[3:] = matrices_to_rotation_vectors(local).ravel()
         return pose
 
-    def bone_transforms(self, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Per bone the rotation from rest to ``pose`` ``(J, 3, 3)`` and its posed head ``(J, 3)``."""
-        pose = np.asarray(pose, dtype=np.float64)
-        local = rotation_vectors_to_matrices(pose[3:].reshape(-1, 3))
+    def bone_transforms(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Per bone the rotation from rest to the pose ``(J, 3, 3)`` and its posed head ``(J, 3)``; for ``(n,
+        POSE_SIZE)`` poses, ``(n, J, 3, 3)`` and ``(n, J, 3)``."""
+        poses = np.asarray(poses, dtype=np.float64)
+        batch = poses.reshape(-1, POSE_SIZE)
+        local = rotation_vectors_to_matrices(batch[:, 3:].reshape(-1, 3)).reshape(len(batch), -1, 3, 3)
         from_t_pose = np.empty_like(local)  # world rotation relative to the T-pose
         rotations = np.empty_like(local)
-        heads = np.empty((len(local), 3))
+        heads = np.empty(local.shape[:2] + (3,))
         for joint, parent in enumerate(self.parents):  # parents first
             if parent < 0:
-                from_t_pose[joint], heads[joint] = local[joint], pose[:3]
+                from_t_pose[:, joint], heads[:, joint] = local[:, joint], batch[:, :3]
             else:
-                from_t_pose[joint] = from_t_pose[parent] @ local[joint]
-                heads[joint] = heads[parent] + rotations[parent] @ (self.rest_heads[joint] - self.rest_heads[parent])
-            rotations[joint] = from_t_pose[joint] @ self.t_pose_alignment[joint]
-        return rotations, heads
+                from_t_pose[:, joint] = from_t_pose[:, parent] @ local[:, joint]
+                heads[:, joint] = heads[:, parent] + rotations[:, parent] @ (self.rest_heads[joint]
+                                                                             - self.rest_heads[parent])  # fmt: skip
+            rotations[:, joint] = from_t_pose[:, joint] @ self.t_pose_alignment[joint]
+        return (rotations[0], heads[0]) if poses.ndim == 1 else (rotations, heads)
 
     def joint_positions(self, pose: np.ndarray) -> np.ndarray:
-        """``(J, 3)`` posed joint positions."""
+        """``(J, 3)`` posed joint positions (``(n, J, 3)`` for ``n`` poses)."""
         return self.bone_transforms(pose)[1]
 
-    def posed_vertices(self, pose: np.ndarray) -> np.ndarray:
-        """``(V, 3)`` vertices by linear-blend skinning: ``v' = sum_j w_j (R_j (v - h_j) + h'_j)``."""
-        rotations, heads = self.bone_transforms(pose)
-        offsets = heads - np.einsum("jab,jb->ja", rotations, self.rest_heads)  # (J, 3)
-        blended = np.einsum("vj,jab->vab", self.weights, rotations)  # (V, 3, 3)
-        return np.einsum("vab,vb->va", blended, self.rest_vertices) + self.weights @ offsets
+    def posed_vertices(self, poses: np.ndarray) -> np.ndarray:
+        """``(V, 3)`` vertices by linear-blend skinning, ``v' = sum_j w_j (R_j (v - h_j) + h'_j)``; ``(n, V, 3)``
+        for ``(n, POSE_SIZE)`` poses."""
+        poses = np.asarray(poses, dtype=np.float64)
+        rotations, heads = self.bone_transforms(poses.reshape(-1, POSE_SIZE))  # (n, J, 3, 3), (n, J, 3)
+        count, joints = rotations.shape[:2]
+        offsets = heads - np.einsum("njab,jb->nja", rotations, self.rest_heads)
+        bones = np.concatenate([rotations, offsets[..., None]], axis=3)  # (n, J, 3, 4): x' = R x + o per bone
+        # Each vertex's blend of its few bones, for every pose in one sparse product: (V, J) @ (J, n * 12).
+        blended = (self._sparse_weights @ bones.transpose(1, 0, 2, 3).reshape(joints, -1)).reshape(-1, count, 3, 4)
+        rest = self.rest_vertices[:, None, None, :]
+        vertices = blended[..., 3] + blended[..., 0] * rest[..., 0] + blended[..., 1] * rest[..., 1] \
+            + blended[..., 2] * rest[..., 2]  # fmt: skip
+        vertices = vertices.transpose(1, 0, 2)  # (n, V, 3)
+        return vertices[0] if poses.ndim == 1 else vertices
+
+    @cached_property
+    def _sparse_weights(self):
+        from scipy.sparse import csr_matrix
+
+        return csr_matrix(self.weights)
 
     def surface_meshes(self, pose: np.ndarray, color: tuple[int, int, int] = (214, 168, 140)) -> list[SurfaceMesh]:
         """One lit mesh per body part (label = part index + 1), each with only its own vertices."""

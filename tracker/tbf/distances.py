@@ -29,7 +29,6 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import cached_property
 from typing import Any
 
 import cv2
@@ -178,15 +177,20 @@ class SilhouetteRuns:
 @dataclass(frozen=True, eq=False)
 class SilhouetteStack:
     """Many model silhouettes of one resolution, cropped to a window: ``images`` ``(n, v1 - v0, u1 - u0)``, a
-    pixel inside where nonzero (bool masks, or part-label images)."""
+    pixel inside where nonzero (bool masks, or part-label images), and their ``runs`` of inside pixels."""
 
     images: np.ndarray
     window: Window
+    runs: SilhouetteRuns
+
+    @classmethod
+    def of(cls, images: np.ndarray, window: Window) -> SilhouetteStack:
+        return cls(images, window, SilhouetteRuns.from_masks(images))
 
     @classmethod
     def crop(cls, silhouettes: np.ndarray, window: Window) -> SilhouetteStack:
         u0, v0, u1, v1 = window
-        return cls(np.ascontiguousarray(np.asarray(silhouettes, bool)[:, v0:v1, u0:u1]), window)
+        return cls.of(np.ascontiguousarray(np.asarray(silhouettes, bool)[:, v0:v1, u0:u1]), window)
 
     def __len__(self) -> int:
         return len(self.images)
@@ -194,10 +198,6 @@ class SilhouetteStack:
     def mask(self, index: int) -> np.ndarray:
         """Silhouette ``index`` as ``(v1 - v0, u1 - u0)`` bool."""
         return np.asarray(self.images[index]) != 0
-
-    @cached_property
-    def runs(self) -> SilhouetteRuns:
-        return SilhouetteRuns.from_masks(self.images)
 
 
 class ObservationScorer:

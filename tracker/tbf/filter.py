@@ -88,6 +88,13 @@ class FilterResult:
     timings_ms: dict[str, float]
 
 
+def _identity(cost: Cost) -> str:
+    """A cost's name and settings (a configured registered cost), or its function's qualified name."""
+    settings = getattr(cost, "settings", {})
+    return getattr(cost, "name", getattr(cost, "__qualname__", repr(cost))) + "".join(
+        f" {k}={v!r}" for k, v in sorted(settings.items()))  # fmt: skip
+
+
 class TreeFilter:
     def __init__(self, samples: PoseSampleSet, tree: PoseTree, cost: Cost, motion: RandomWalk,
                  settings: FilterSettings = FilterSettings()) -> None:  # fmt: skip
@@ -98,8 +105,9 @@ class TreeFilter:
         self.level_runs = [stack.runs.subset(level.representatives)
                             for stack, level in zip(self._stacks, tree.levels, strict=True)]  # fmt: skip
         self._occluded = samples.occluded(motion.occlusion_area_px)
-        self.level_sigmas = [settings.likelihood_sigma * neighbour_scale(samples, cost, level.resolution)
-                             for level in tree.levels]  # fmt: skip
+        self.level_sigmas = [settings.likelihood_sigma * samples.derived(
+            f"neighbour_scale {_identity(cost)} {level.resolution[0]}x{level.resolution[1]} {CALIBRATION_SAMPLES}",
+            lambda resolution=level.resolution: neighbour_scale(samples, cost, resolution)) for level in tree.levels]
         self._posterior: np.ndarray | None = None
         self._previous_flags: np.ndarray | None = None
         self.last_evaluated: list[np.ndarray] = []  # per level, the nodes the last step scored

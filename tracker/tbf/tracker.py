@@ -14,7 +14,7 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any, ClassVar
+from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
 
@@ -30,7 +30,8 @@ from tracker.tbf.distances import Cost, EmptySilhouette
 from tracker.tbf.filter import FilterResult, FilterSettings, TreeFilter
 from tracker.tbf.motion import RandomWalk
 from tracker.tbf.pose_sets import arm_grid, clip_samples, remove_near_duplicates, varied
-from tracker.tbf.samples import PoseSampleSet, load_or_build
+from tracker.tbf.sample_build import BuildSettings, load_or_build
+from tracker.tbf.samples import PoseSampleSet
 from tracker.tbf.tree import PoseTree, load_or_build_tree
 from tracker.timing import elapsed_ms
 
@@ -88,6 +89,9 @@ class TbfSettings:
     filter: FilterSettings = field(default_factory=FilterSettings)
     initial_yaw_deg: Finite = -90.0  # the initial pose: upright, arms down, facing this way (the body faces -y)
     cache_dir: str = ".cache/tbf"  # sample sets and trees, keyed by everything that affects them
+    # How much of a cached sample set is read to trust it: a sampled digest of each array, or every byte.
+    cache_check: Literal["sampled", "full"] = "sampled"
+    build: BuildSettings = field(default_factory=BuildSettings)  # shards, processes, joblib backend
     body_triangles: Triangles = 4500  # the tracker's model: the standard body (the subject may differ)
 
 
@@ -137,7 +141,8 @@ class TbfTracker(Tracker):
         # The tracker's own model is the standard body, whatever the subject's height and girth.
         self.body = build_body(triangles=settings.body_triangles)
         poses = self._sample_poses(self.body)
-        self.samples = load_or_build(self.body, self.camera, poses, cache_dir / "samples")
+        self.samples = load_or_build(self.body, self.camera, poses, cache_dir / "samples", build=settings.build,
+                                     check=settings.cache_check)  # fmt: skip
         self.tree = load_or_build_tree(self.samples, settings.thresholds, cache_dir / "trees")
         self.filter = TreeFilter(self.samples, self.tree, self.cost, self.motion, settings.filter)
         self.filter.start(arms_pose(self.body, (0.0, 8.0, 0.0), (0.0, 8.0, 0.0), yaw_deg=settings.initial_yaw_deg))

@@ -6,7 +6,8 @@ import pytest
 from tracker.geometry.rigs import mono
 from tracker.motion.body_swing import BodySwing
 from tracker.tbf.pose_sets import joint_angle_differences, remove_near_duplicates
-from tracker.tbf.samples import RESOLUTIONS, cache_key, load_or_build, occlusion_flags, reduce_labels
+from tracker.tbf.sample_build import BuildSettings, load_or_build
+from tracker.tbf.samples import RESOLUTIONS, cache_key, occlusion_flags, reduce_labels
 
 CAMERA = mono(position=(4.0, 0.0, 0.9), target=(0.0, 0.0, 0.9), focal_px=480.0, width=320, height=240)[0]
 
@@ -110,3 +111,103 @@ def test_duplicate_removal_equals_the_naive_greedy_pass(swing_poses):
         if not any((joint_angle_differences(poses[index], poses[k]) <= 5.0).all() for k in kept):
             kept.append(index)
     np.testing.assert_array_equal(remove_near_duplicates(poses, 5.0), kept)
+
+
+@pytest.fixture(scope="module")
+def varied_poses(body):
+    """300 poses: both arms over a grid, turned a little, so parts hide and show at every resolution."""
+    from tracker.tbf.pose_sets import arm_grid
+
+    rng = np.random.default_rng(1)
+    poses = arm_grid(body, np.arange(-60.0, 121.0, 10.0), [0.0, 20.0, 40.0], [0.0, 45.0, 90.0], [0.0, 40.0])
+    poses[:, 5] += rng.normal(0.0, 0.3, len(poses))  # the body's yaw
+    return poses[rng.choice(len(poses), 300, replace=False)]
+
+
+def test_batched_label_images_equal_the_per_part_render_at_every_level(body, varied_poses, renderer, tmp_path):
+    built = load_or_build(body, CAMERA, varied_poses, tmp_path, progress=False)
+    u0, v0, u1, v1 = built.windows[RESOLUTIONS[0]]
+    reference = np.array([renderer.render_depth_labels([CAMERA], body.surface_meshes(pose))["main"].labels
+                          for pose in varied_poses])[:, v0:v1, u0:u1]  # fmt: skip
+    for factor, resolution in zip((1, 2, 4), RESOLUTIONS, strict=True):
+        expected = reduce_labels(reference, factor, 15)
+        for part in range(1, 16):
+            ours, theirs = built.labels[resolution] == part, expected == part
+            union = (ours | theirs).sum()
+            if union:
+                assert (ours & theirs).sum() / union >= 0.99, (resolution, part)
+
+
+def test_a_sharded_parallel_build_equals_a_serial_one(body, varied_poses, tmp_path):
+    poses = varied_poses[:120]
+    serial = load_or_build(body, CAMERA, poses, tmp_path / "serial", progress=False, build=BuildSettings(jobs=1))
+    sharded = load_or_build(body, CAMERA, poses, tmp_path / "sharded", progress=False,
+                            build=BuildSettings(jobs=2, shard_size=25))  # fmt: skip
+    for resolution in RESOLUTIONS:
+        np.testing.assert_array_equal(sharded.labels[resolution], serial.labels[resolution])
+        for part in ("starts", "ends", "ptr"):
+            np.testing.assert_array_equal(getattr(sharded.runs[resolution], part),
+                                          getattr(serial.runs[resolution], part))
+    np.testing.assert_array_equal(sharded.areas, serial.areas)
+
+
+def test_the_stored_runs_are_those_of_the_stored_images(body, varied_poses, tmp_path):
+    from tracker.tbf.distances import SilhouetteRuns
+
+    built = load_or_build(body, CAMERA, varied_poses[:40], tmp_path, progress=False)
+    for resolution in RESOLUTIONS:
+        found = SilhouetteRuns.from_masks(built.labels[resolution])
+        np.testing.assert_array_equal(built.runs[resolution].ptr, found.ptr)
+        np.testing.assert_array_equal(built.runs[resolution].starts, found.starts)
+        np.testing.assert_array_equal(built.runs[resolution].owner, found.owner)
+
+
+def test_a_killed_build_resumes_with_the_shards_it_finished(body, varied_poses, tmp_path, caplog):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    poses = varied_poses[:200]
+    np.save(tmp_path / "poses.npy", poses)
+    script = ("import numpy as np, time\n"
+              "from tracker.models.makehuman import build_body\n"
+              "from tracker.geometry.rigs import mono\n"
+              "from tracker.tbf import sample_build\n"
+              "camera = mono(position=(4.0, 0.0, 0.9), target=(0.0, 0.0, 0.9), focal_px=480.0, width=320,\n"
+              "              height=240)[0]\n"
+              "render = sample_build.render_shard\n"
+              "def slow(*a, **k):\n    time.sleep(0.5)\n    return render(*a, **k)\n"
+              "sample_build.render_shard = slow\n"
+              f"sample_build.load_or_build(build_body(), camera, np.load('{tmp_path / 'poses.npy'}'),\n"
+              f"    '{tmp_path / 'c'}', progress=False, build=sample_build.BuildSettings(jobs=1, shard_size=20))\n")
+    process = subprocess.Popen([sys.executable, "-c", script])
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and len(list((tmp_path / "c").glob(".*.building/shard*.done"))) < 3:
+        time.sleep(0.05)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    done = len(list((tmp_path / "c").glob(".*.building/shard*.done")))
+    assert 3 <= done < 10
+    with caplog.at_level(logging.INFO):
+        resumed = load_or_build(body, CAMERA, poses, tmp_path / "c", progress=False,
+                                build=BuildSettings(jobs=1, shard_size=20))
+    assert f"{done} of 10 shards done" in caplog.text
+    clean = load_or_build(body, CAMERA, poses, tmp_path / "clean", progress=False)
+    for resolution in RESOLUTIONS:
+        np.testing.assert_array_equal(resumed.labels[resolution], clean.labels[resolution])
+    assert not list((tmp_path / "c").glob(".*.building"))
+
+
+def test_a_full_check_reads_every_byte_a_sampled_one_the_sizes_and_ends(body, swing_poses, tmp_path, caplog):
+    poses = swing_poses[:60]
+    built = load_or_build(body, CAMERA, poses, tmp_path, progress=False)
+    array = tmp_path / built.key / "labels_320x240.npy"
+    data = bytearray(array.read_bytes())
+    middle = len(data) // 2 + 12345
+    data[middle] ^= 0xFF  # inside no sampled block: only a full check sees it
+    array.write_bytes(bytes(data))
+    assert load_or_build(body, CAMERA, poses, tmp_path, progress=False).key == built.key  # sampled: trusted
+    with caplog.at_level(logging.WARNING):
+        load_or_build(body, CAMERA, poses, tmp_path, progress=False, check="full")
+    assert "labels_320x240.npy does not match its checksum" in caplog.text

@@ -9,7 +9,7 @@ from tracker.tbf.distances import ObservationScorer, silhouette_distance
 from tracker.tbf.filter import FilterSettings, TreeFilter
 from tracker.tbf.motion import OccludedWiderWalk, PosePrior, RandomWalk
 from tracker.tbf.pose_sets import arm_grid
-from tracker.tbf.samples import load_or_build
+from tracker.tbf.sample_build import load_or_build
 from tracker.tbf.tree import build_tree
 
 CAMERA = mono(position=(4.0, 0.0, 0.9), target=(0.0, 0.0, 0.9), focal_px=480.0, width=320, height=240)[0]

@@ -1,0 +1,104 @@
+"""A sample set on disk: ``<cache_dir>/<key>/`` with ``meta.json`` and one ``.npy`` per array.
+
+Arrays: ``poses``, ``areas``, ``labels_<w>x<h>`` per resolution (memory-mapped when loaded: a run reads the pixels it
+needs, not the set), and per resolution the runs of inside pixels (``runs_<w>x<h>_{starts,ends,ptr}``, what the
+filter scores from). ``meta.json`` holds the key, the format, the windows and, per array, its shape, its size in
+bytes, a SHA-256 of all of it and a sampled digest (`sampled_digest`: its first and last 64 KiB and 62 blocks
+spread evenly between). Loading checks the key, the format, every size and shape and every sampled digest
+(``check="sampled"``: a truncated, swapped or damaged-at-the-ends file is caught in milliseconds), or every byte
+(``check="full"``: the SHA-256 of each array). Anything that fails is reported with a `ValueError` and rebuilt by
+`tracker.tbf.samples.load_or_build`, never used.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from tracker.tbf.distances import SilhouetteRuns
+from tracker.tbf.samples import FORMAT_VERSION, PoseSampleSet, labels_name
+
+BLOCK = 1 << 16
+SAMPLED_BLOCKS = 64
+RUN_PARTS = ("starts", "ends", "ptr")
+
+
+def runs_name(resolution: tuple[int, int], part: str) -> str:
+    return f"runs_{resolution[0]}x{resolution[1]}_{part}"
+
+
+def array_names(resolutions) -> list[str]:
+    names = ["poses", "areas"]
+    for resolution in resolutions:
+        names += [labels_name(resolution), *(runs_name(resolution, part) for part in RUN_PARTS)]
+    return names
+
+
+def sampled_digest(path: Path) -> str:
+    """SHA-256 of the file's size and of `SAMPLED_BLOCKS` blocks of `BLOCK` bytes: the first, the last, and the
+    others spread evenly between (the whole file when it is smaller)."""
+    size = path.stat().st_size
+    digest = hashlib.sha256(str(size).encode())
+    with path.open("rb") as file:
+        if size <= SAMPLED_BLOCKS * BLOCK:
+            digest.update(file.read())
+        else:
+            for offset in np.linspace(0, size - BLOCK, SAMPLED_BLOCKS).astype(np.int64):
+                file.seek(int(offset))
+                digest.update(file.read(BLOCK))
+    return digest.hexdigest()
+
+
+def full_digest(path: Path) -> str:
+    digest = hashlib.sha256()
+    with path.open("rb") as file:
+        for block in iter(lambda: file.read(1 << 22), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def write_meta(folder: Path, key: str, resolutions, windows: dict[tuple[int, int], tuple[int, ...]]) -> None:
+    """``meta.json`` for the arrays already in ``folder`` (written last: a folder without it is incomplete)."""
+    arrays = {}
+    for name in array_names(resolutions):
+        path = folder / f"{name}.npy"
+        arrays[name] = {"shape": list(np.load(path, mmap_mode="r").shape), "bytes": path.stat().st_size,
+                        "sampled": sampled_digest(path), "sha256": full_digest(path)}  # fmt: skip
+    meta = {"key": key, "format": FORMAT_VERSION, "samples": arrays["poses"]["shape"][0],
+            "windows": {labels_name(r): list(map(int, windows[r])) for r in resolutions}, "arrays": arrays}
+    (folder / "meta.json").write_text(json.dumps(meta, indent=2))
+
+
+def load(folder: Path, key: str, resolutions, check: Literal["sampled", "full"] = "sampled") -> PoseSampleSet:
+    meta = json.loads((folder / "meta.json").read_text())
+    if meta.get("key") != key or meta.get("format") != FORMAT_VERSION:
+        raise ValueError("its key or format does not match")
+    arrays = {}
+    for name in array_names(resolutions):
+        expected, path = meta["arrays"][name], folder / f"{name}.npy"
+        if path.stat().st_size != expected["bytes"]:
+            raise ValueError(f"{path.name} has {path.stat().st_size} bytes, expected {expected['bytes']}")
+        found = full_digest(path) if check == "full" else sampled_digest(path)
+        if found != expected["sha256" if check == "full" else "sampled"]:
+            raise ValueError(f"{path.name} does not match its checksum")
+        arrays[name] = np.load(path, mmap_mode="r")
+        if list(arrays[name].shape) != expected["shape"]:
+            raise ValueError(f"{path.name} has shape {arrays[name].shape}, expected {expected['shape']}")
+    runs = {}
+    for resolution in resolutions:
+        starts, ends, ptr = (np.asarray(arrays[runs_name(resolution, part)]) for part in RUN_PARTS)
+        owner = np.repeat(np.arange(len(ptr) - 1, dtype=np.int32), np.diff(ptr))
+        runs[tuple(resolution)] = SilhouetteRuns(starts, ends, ptr, owner)
+    return PoseSampleSet(
+        poses=np.asarray(arrays["poses"]),
+        labels={tuple(r): arrays[labels_name(r)] for r in resolutions},
+        windows={tuple(r): tuple(meta["windows"][labels_name(r)]) for r in resolutions},
+        runs=runs,
+        areas=np.asarray(arrays["areas"]),
+        key=key,
+        folder=folder,
+    )
