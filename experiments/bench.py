@@ -13,6 +13,9 @@ rendered frame under the nuisance model (ms and IoU); scores it against every sa
 ``abis``: AbIS estimation per frame with ``lm`` and with ``sd`` on the same rendered frames (the rendering of the
 synthetic input excluded, the tracker's visibility z-buffer included), with their ratio measured in the same run.
 
+``samples [--poses N] [--build] [overrides]``: label rendering before and after, the paper-scale set built cold
+(`experiments.bench_samples`).
+
 ``tbf [--experiment tbf_table4c|tbf_paper_scale] [overrides]``: the tree-based filter per frame on the preset's
 scene (observed silhouettes extracted first, outside the timing); for the nodes each frame evaluated, the same
 scoring vectorised and naively node by node, their agreement, and the bytes the vectorised scoring read against
@@ -277,7 +280,9 @@ def _report_machine() -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("target", choices=["render", "abis", "silhouettes", "tbf"])
+    parser.add_argument("target", choices=["render", "abis", "silhouettes", "tbf", "samples"])
+    parser.add_argument("--poses", type=int, default=300, help="samples: poses rendered both ways")
+    parser.add_argument("--build", action="store_true", help="samples: also build the whole set and tree cold")
     parser.add_argument("--frames", type=int, default=60)
     parser.add_argument("--samples", type=int, default=10_000, help="pose samples (silhouettes)")
     parser.add_argument("--experiment", default="tbf_table4c", help="tbf: the experiment preset (tbf_table4c, "
@@ -287,6 +292,12 @@ def main() -> None:
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     width, height = (int(v) for v in args.size.lower().split("x"))
+    if args.target == "samples":
+        from experiments.bench_samples import run
+
+        run(args.poses, args.build, args.overrides)
+        _report_machine()
+        return
     if args.target == "tbf":
         figures = bench_tbf(args.frames, args.experiment, args.overrides)
         _report_machine()

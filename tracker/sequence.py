@@ -61,5 +61,10 @@ def background_frames(
 
 
 def label_areas(labels: np.ndarray, n_parts: int) -> np.ndarray:
-    """``(n_parts,)`` pixel counts of labels 1..n_parts in a label image (paper 2's A_j, eq 3)."""
-    return np.bincount(labels.ravel(), minlength=n_parts + 1)[1 : n_parts + 1]
+    """``(n_parts,)`` pixel counts of labels 1..n_parts in a label image (paper 2's A_j, eq 3); ``(n, n_parts)`` for
+    ``(n, h, w)`` images."""
+    labels = np.asarray(labels)
+    images = labels.reshape(-1, labels.shape[-2] * labels.shape[-1])
+    index = np.arange(len(images))[:, None] * (n_parts + 1) + images
+    counts = np.bincount(index.ravel(), minlength=len(images) * (n_parts + 1)).reshape(-1, n_parts + 1)[:, 1:]
+    return counts[0] if labels.ndim == 2 else counts

@@ -71,3 +71,11 @@ def _rotation(vector):
     from tracker.geometry.rotations import rotation_vector_to_matrix
 
     return rotation_vector_to_matrix(vector)
+
+
+def test_the_body_is_a_closed_surface_and_says_so(body):
+    import trimesh
+
+    surface = trimesh.Trimesh(body.rest_vertices, body.faces, process=False)
+    assert surface.is_watertight and surface.is_winding_consistent and body.closed  # label rendering relies on it
+    assert len(body.rest_vertices) - len(surface.edges_unique) + len(body.faces) == 2  # a sphere, topologically

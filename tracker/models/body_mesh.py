@@ -135,6 +135,12 @@ class BodyMesh:
                 if len(faces)]  # fmt: skip
 
     @cached_property
+    def closed(self) -> bool:
+        """Every edge borders exactly two faces: a closed surface (the decimated MakeHuman body is one)."""
+        edges = np.sort(self.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+        return bool((np.unique(edges, axis=0, return_counts=True)[1] == 2).all())
+
+    @cached_property
     def part_faces(self) -> list[np.ndarray]:
         """Per part, its faces indexing the whole mesh's vertices."""
         return [self.faces[self.face_parts == k] for k in range(len(PART_NAMES))]

@@ -50,11 +50,12 @@ SUBPIXEL = 1.0 / 256
 
 
 class LabelRenderer:
-    """Draws batches of up to ``capacity`` meshes of one topology into ``height`` x ``width`` label tiles.
-    Close it (or use ``with``) to free its OpenGL context."""
+    """Draws batches of up to ``capacity`` meshes of one topology into ``height`` x ``width`` label tiles (a larger
+    canvas draws no faster: measured). ``closed``: the meshes are closed, their faces counter-clockwise seen from
+    outside, so their back faces are never seen and are skipped. Close it (or use ``with``) to free its context."""
 
     def __init__(self, faces: np.ndarray, face_labels: np.ndarray, vertices: int, width: int, height: int,
-                 capacity: int = 256) -> None:  # fmt: skip
+                 capacity: int = 32, closed: bool = False) -> None:  # fmt: skip
         if face_labels.max(initial=0) > 255:
             raise ValueError("labels must fit a byte (1..255)")
         self.vertices, self.width, self.height = int(vertices), int(width), int(height)
@@ -67,7 +68,7 @@ class LabelRenderer:
         self.canvas = tuple(1 << (side - 1).bit_length() for side in self.used)  # powers of two
         self._platform = _context(*self.canvas)
         self._faces = int(faces.size)
-        self._setup(np.ascontiguousarray(faces, np.uint32), np.ascontiguousarray(face_labels, np.uint8))
+        self._setup(np.ascontiguousarray(faces, np.uint32), np.ascontiguousarray(face_labels, np.uint8), closed)
 
     def __enter__(self) -> LabelRenderer:
         return self
@@ -109,7 +110,7 @@ class LabelRenderer:
             images.append(tiles.reshape(-1, self.height, self.width)[:count])
         return np.concatenate(images) if images else np.zeros((0, self.height, self.width), np.uint8)
 
-    def _setup(self, faces: np.ndarray, face_labels: np.ndarray) -> None:
+    def _setup(self, faces: np.ndarray, face_labels: np.ndarray, closed: bool) -> None:
         gl = self._gl
         self._platform.make_current()
         self._program = _program(gl)
@@ -132,7 +133,12 @@ class LabelRenderer:
         gl.glDepthFunc(gl.GL_LESS)
         gl.glDisable(gl.GL_MULTISAMPLE)
         gl.glDisable(gl.GL_BLEND)
-        gl.glDisable(gl.GL_CULL_FACE)
+        if closed:  # back faces hidden behind front ones: skipped (half the faces, a third of the time)
+            gl.glEnable(gl.GL_CULL_FACE)
+            gl.glFrontFace(gl.GL_CW)  # the canvas' rows grow with v (down the image): windings are mirrored
+            gl.glCullFace(gl.GL_BACK)
+        else:
+            gl.glDisable(gl.GL_CULL_FACE)
         gl.glEnable(gl.GL_SCISSOR_TEST)  # clear only the part of the canvas in use
         gl.glScissor(0, 0, *self.used)
         gl.glPixelStorei(gl.GL_PACK_ALIGNMENT, 1)

@@ -132,13 +132,17 @@ class SilhouetteRuns:
     def from_masks(cls, masks: np.ndarray, block: int = 1024) -> SilhouetteRuns:
         """From ``(n, h, w)`` silhouettes (bool, or labels: inside where nonzero), ``block`` at a time."""
         starts, ends, counts = [], [], []
+        pixels = int(np.prod(masks.shape[1:]))
         for first in range(0, len(masks), block):
-            flat = np.asarray(masks[first : first + block]).reshape(-1, int(np.prod(masks.shape[1:]))) != 0
-            edges = np.diff(np.pad(flat, ((0, 0), (1, 1))).view(np.int8), axis=1)
-            rows, begin = np.nonzero(edges == 1)
-            ends.append(np.nonzero(edges == -1)[1].astype(np.int32))
-            starts.append(begin.astype(np.int32))
-            counts.append(np.bincount(rows, minlength=len(flat)))
+            chunk = np.asarray(masks[first : first + block]).reshape(-1, pixels)
+            padded = np.zeros((len(chunk), pixels + 2), np.int8)
+            np.not_equal(chunk, 0, out=padded[:, 1:-1].view(bool))
+            edges = np.diff(padded, axis=1)  # +1 where a run starts, -1 one past where it ends
+            rows, columns = np.nonzero(edges)  # row-major: each row's starts and ends alternate
+            rising = edges[rows, columns] == 1
+            starts.append(columns[rising].astype(np.int32))
+            ends.append(columns[~rising].astype(np.int32))
+            counts.append(np.bincount(rows[rising], minlength=len(chunk)))
         counts = np.concatenate(counts) if counts else np.zeros(0, np.int64)
         ptr = np.r_[0, np.cumsum(counts)].astype(np.int64)
         owner = np.repeat(np.arange(len(counts), dtype=np.int32), counts)

@@ -76,25 +76,35 @@ def _quaternions(poses: np.ndarray) -> np.ndarray:
     return Rotation.from_rotvec(rotvecs.reshape(-1, 3)).as_quat().reshape(*rotvecs.shape[:-1], 4)
 
 
+CANDIDATE_COMPONENTS = 8  # measured at 58,843 poses: 0.9 s for 8 (50k candidates), 15 s for all 124
+
+
 def remove_near_duplicates(poses: np.ndarray, min_joint_deg: float = 5.0) -> np.ndarray:
     """Indices of the poses kept, in order: a pose is dropped when a kept one is within ``min_joint_deg`` in
     every joint (the paper's rule). Root positions are not compared.
 
-    Candidates come from a KD-tree over the poses' joint quaternions (signs made consistent) with the L-inf
-    radius ``2 sin(angle / 4)``, which holds every pair within ``angle`` in every joint; each candidate pair is
-    then checked exactly, so the result is the greedy pass over all pairs in O(n log n) rather than O(n^2)."""
+    Two poses within ``angle`` in every joint have joint quaternions (signs made consistent) within
+    ``2 sin(angle / 4)`` in every component, so also in any few of them: candidates come from a KD-tree over the
+    `CANDIDATE_COMPONENTS` components that vary most (a KD-tree over all of them is slow in so many dimensions),
+    each candidate pair is then checked exactly (all at once), and the greedy pass walks the close pairs in order:
+    O(n log n) rather than O(n^2)."""
     quaternions = _quaternions(poses)  # (n, J, 4)
     quaternions *= np.where(quaternions[..., 3:4] < 0, -1.0, 1.0)  # same hemisphere: w >= 0
     flat = quaternions.reshape(len(quaternions), -1)
     radius = 2 * np.sin(np.radians(min_joint_deg) / 4) + ZERO_LENGTH
-    neighbours = cKDTree(flat).query_ball_point(flat, r=radius, p=np.inf)
+    varied = np.argsort(flat.std(axis=0))[-CANDIDATE_COMPONENTS:]
+    pairs = cKDTree(flat[:, varied]).query_pairs(r=radius, p=np.inf, output_type="ndarray")  # (m, 2): i < j
     threshold = np.cos(np.radians(min_joint_deg) / 2)
+    close = np.ones(len(pairs), bool)
+    for first in range(0, len(pairs), 1 << 16):  # in blocks: m x J x 4 at once would be large
+        block = pairs[first : first + (1 << 16)]
+        dots = np.abs(np.einsum("kjc,kjc->kj", quaternions[block[:, 0]], quaternions[block[:, 1]]))
+        close[first : first + len(block)] = (dots >= threshold).all(axis=1)
+    pairs = pairs[close]
+    pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+    bounds = np.searchsorted(pairs[:, 0], np.arange(len(poses) + 1))
     dropped = np.zeros(len(poses), bool)
-    for index, near in enumerate(neighbours):
-        if dropped[index]:
-            continue
-        later = np.array([j for j in near if j > index and not dropped[j]], dtype=np.int64)
-        if len(later):
-            close = np.abs(np.einsum("kjc,jc->kj", quaternions[later], quaternions[index])) >= threshold
-            dropped[later[close.all(axis=1)]] = True
+    for index in np.unique(pairs[:, 0]):  # in order: a pose still kept drops every later pose close to it
+        if not dropped[index]:
+            dropped[pairs[bounds[index] : bounds[index + 1], 1]] = True
     return np.flatnonzero(~dropped)

@@ -33,6 +33,7 @@ from tracker.geometry.cameras import Camera, resized
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.body_skeleton import PART_NAMES
 from tracker.ranges import Range
+from tracker.sequence import label_areas
 from tracker.settings import validate
 from tracker.tbf import sample_store
 from tracker.tbf.distances import SilhouetteRuns, Window
@@ -51,7 +52,7 @@ class BuildSettings:
 
     jobs: Annotated[int, Range(-1, 256)] = -1
     backend: Literal["loky", "ray"] = "loky"
-    shard_size: Annotated[int, Range(1, 1_000_000)] = 2048
+    shard_size: Annotated[int, Range(1, 1_000_000)] = 512  # poses: a shard's images stay well under 100 MB
 
     def __post_init__(self) -> None:
         validate(self)
@@ -139,7 +140,7 @@ def render_shard(body: BodyMesh, camera: Camera, poses: np.ndarray, layout: Layo
         pixels, depth = project(camera, body.posed_vertices(poses[first : first + SKIN_BATCH]))
         images = renderer.render(pixels - [t0, s0], depth, layout.near)[:, v0 - s0 : v1 - s0, u0 - t0 : u1 - t0]
         crops.append(images)
-        areas.append(np.array([np.bincount(image.ravel(), minlength=len(PART_NAMES) + 1)[1:] for image in images]))
+        areas.append(label_areas(images, len(PART_NAMES)))
     finest = np.concatenate(crops)
     labels, runs = {}, {}
     for factor in factors:
@@ -246,5 +247,6 @@ def _renderer(body: BodyMesh, width: int, height: int):
 
     key = (body.source_key, width, height)
     if key not in _RENDERERS:
-        _RENDERERS[key] = LabelRenderer(body.faces, body.face_parts + 1, len(body.rest_vertices), width, height)
+        _RENDERERS[key] = LabelRenderer(body.faces, body.face_parts + 1, len(body.rest_vertices), width, height,
+                                        closed=body.closed)  # fmt: skip
     return _RENDERERS[key]

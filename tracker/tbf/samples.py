@@ -88,20 +88,38 @@ def cache_key(body: BodyMesh, camera: Camera, poses: np.ndarray, resolutions=RES
 
 def reduce_labels(labels: np.ndarray, factor: int, n_parts: int) -> np.ndarray:
     """Label images ``(..., h, w)`` ``factor`` times smaller: each block is background unless at least half of it is
-    covered, else the part covering most of it (ties: the lower label). Sides must be multiples of ``factor``."""
+    covered, else the part covering most of it (ties: the lower label). Sides must be multiples of ``factor``.
+
+    Each block's labels are sorted; a block of one label keeps it, and only the mixed ones (along edges) have their
+    runs of equal labels measured for the longest. ``n_parts`` bounds the labels (they must fit a byte)."""
     labels = np.asarray(labels)
     if factor == 1:
         return labels.copy()
+    if n_parts > 255:
+        raise ValueError(f"{n_parts} parts do not fit a byte")
     *lead, height, width = labels.shape
-    flat = labels.reshape(-1, height, width)
-    rows, cols = height // factor, width // factor
-    block = (np.arange(height)[:, None] // factor) * cols + np.arange(width)[None, :] // factor
-    index = (np.arange(len(flat))[:, None, None] * (rows * cols) + block) * (n_parts + 1) + flat
-    counts = np.bincount(index.ravel(), minlength=len(flat) * rows * cols * (n_parts + 1))
-    counts = counts.reshape(len(flat), rows, cols, n_parts + 1)
-    covered = (factor * factor - counts[..., 0]) * 2 >= factor * factor
-    reduced = np.where(covered, np.argmax(counts[..., 1:], axis=3) + 1, 0).astype(np.uint8)
+    rows, cols, size = height // factor, width // factor, factor * factor
+    blocks = labels.reshape(-1, rows, factor, cols, factor).transpose(0, 1, 3, 2, 4).reshape(-1, rows, cols, size)
+    ordered = np.sort(blocks, axis=-1)
+    reduced = ordered[..., 0].astype(np.uint8)  # a block of one label: that label (0 stays background)
+    mixed = ordered[..., 0] != ordered[..., -1]
+    reduced[mixed] = _block_majority(ordered[mixed])
     return reduced.reshape(*lead, rows, cols)
+
+
+def _block_majority(ordered: np.ndarray) -> np.ndarray:
+    """``(k, size)`` blocks, each sorted: the part with the longest run (the first of equals: the lower label)
+    where at least half the block is covered, else 0."""
+    size = ordered.shape[-1]
+    starts = np.ones(ordered.shape, bool)
+    starts[:, 1:] = ordered[:, 1:] != ordered[:, :-1]
+    position = np.arange(size)
+    next_start = np.full(ordered.shape, size)
+    next_start[:, :-1] = np.minimum.accumulate(np.where(starts, position, size)[:, :0:-1], axis=1)[:, ::-1]
+    run = np.where(starts & (ordered != 0), next_start - position, 0)  # each run's length, at its start
+    majority = np.take_along_axis(ordered, np.argmax(run, axis=1)[:, None], axis=1)[:, 0]
+    covered = (size - (ordered == 0).sum(axis=1)) * 2 >= size
+    return np.where(covered, majority, 0).astype(np.uint8)
 
 
 def resolution_factor(finest: tuple[int, int], resolution: tuple[int, int]) -> int:

@@ -140,7 +140,7 @@ class TbfTracker(Tracker):
         cache_dir = Path(settings.cache_dir)
         # The tracker's own model is the standard body, whatever the subject's height and girth.
         self.body = build_body(triangles=settings.body_triangles)
-        poses = self._sample_poses(self.body)
+        poses = self.sample_poses(self.body)
         self.samples = load_or_build(self.body, self.camera, poses, cache_dir / "samples", build=settings.build,
                                      check=settings.cache_check)  # fmt: skip
         self.tree = load_or_build_tree(self.samples, settings.thresholds, cache_dir / "trees")
@@ -169,7 +169,8 @@ class TbfTracker(Tracker):
                 "pruned_fraction_mean": [float(1 - np.nansum(k) / np.nansum(e))
                                          for k, e in zip(kept, evaluated, strict=True)]}  # fmt: skip
 
-    def _sample_poses(self, body: BodyMesh) -> np.ndarray:
+    def sample_poses(self, body: BodyMesh) -> np.ndarray:
+        """The pose samples the settings name, near-duplicates removed (before rendering)."""
         spec = self.settings.samples
         parts = []
         if spec.grid is not None:

@@ -211,3 +211,27 @@ def test_a_full_check_reads_every_byte_a_sampled_one_the_sizes_and_ends(body, sw
     with caplog.at_level(logging.WARNING):
         load_or_build(body, CAMERA, poses, tmp_path, progress=False, check="full")
     assert "labels_320x240.npy does not match its checksum" in caplog.text
+
+
+def _naive_reduction(labels, factor, n_parts):
+    """Block by block: count every label, keep the most frequent part where half the block is covered."""
+    rows, cols = labels.shape[0] // factor, labels.shape[1] // factor
+    out = np.zeros((rows, cols), np.uint8)
+    for r in range(rows):
+        for c in range(cols):
+            counts = np.bincount(labels[r * factor : (r + 1) * factor, c * factor : (c + 1) * factor].ravel(),
+                                 minlength=n_parts + 1)  # fmt: skip
+            if (factor * factor - counts[0]) * 2 >= factor * factor:
+                out[r, c] = np.argmax(counts[1:]) + 1
+    return out
+
+
+@pytest.mark.parametrize("factor", [2, 4])
+def test_label_reduction_equals_counting_block_by_block(factor):
+    rng = np.random.default_rng(factor)
+    labels = rng.integers(0, 16, (3, 24, 32)).astype(np.uint8)
+    labels[1] = np.where(rng.random((24, 32)) < 0.6, 0, labels[1])  # mostly background
+    labels[2, :, :16] = 7  # whole blocks of one part
+    reduced = reduce_labels(labels, factor, 15)
+    for image, ours in zip(labels, reduced, strict=True):
+        np.testing.assert_array_equal(ours, _naive_reduction(image, factor, 15))

@@ -1,0 +1,158 @@
+"""Benchmark of pose sample sets: ``python -m experiments.bench samples [--poses N] [--build] [overrides]``.
+
+On the poses of ``experiment=tbf_paper_scale`` (or the overrides' set), in one run:
+
+- the label pass of ``--poses`` poses spread through the set: the per-part pass of `tracker.render.offscreen`
+  (one pyrender node per body part, the full image: how sample sets were rendered before) against the batched
+  `tracker.render.labels.LabelRenderer` (the poses of a batch in one draw call, the window only), ms per pose
+  each after a warm-up, their ratio, and how many pixels differ;
+- a sample set's label images of the same poses, all three resolutions and the part areas: before (one process:
+  the per-part pass, and each image reduced by counting its blocks' labels with one ``bincount``) against now
+  (`tracker.tbf.sample_build.build_set`: the batched pass, sorted-block reduction, in shards over every core),
+  wall-clock ms per pose each and their ratio;
+- with ``--build``: the whole set built cold into a fresh cache (sharded over the machine's cores), the tree built,
+  and then the tracker started again on the cached set, each timed.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from experiments.components import build, compose
+from tracker.render.labels import LabelRenderer
+from tracker.render.mesh import SurfaceMesh
+from tracker.render.offscreen import SceneRenderer
+from tracker.tbf import sample_build
+
+log = logging.getLogger(__name__)
+
+
+def per_part_meshes(body, pose: np.ndarray) -> list[SurfaceMesh]:
+    """The label pass's meshes as sample sets were rendered before: one unlit mesh per body part."""
+    vertices = body.posed_vertices(pose)
+    return [SurfaceMesh(key=f"body_{name}", label=k + 1, vertices=vertices[used], faces=faces, normals=None,
+                        color=(255, 255, 255))
+            for k, (name, (used, faces)) in enumerate(zip(body.part_names, body.part_topology, strict=True))
+            if len(faces)]  # fmt: skip
+
+
+def bench_rendering(poses: np.ndarray, body, camera, window, near: float, repeats: int = 3) -> dict[str, float]:
+    u0, v0, u1, v1 = window
+    old, new = [], []
+    with SceneRenderer(camera.width, camera.height) as renderer:
+        renderer.render_depth_labels([camera], per_part_meshes(body, poses[0]))  # warm-up
+        for _ in range(repeats):
+            start = time.perf_counter()
+            before = [renderer.render_depth_labels([camera], per_part_meshes(body, pose))[camera.name].labels
+                      for pose in poses]  # fmt: skip
+            old.append(1e3 * (time.perf_counter() - start) / len(poses))
+    with LabelRenderer(body.faces, body.face_parts + 1, len(body.rest_vertices), u1 - u0, v1 - v0,
+                       closed=body.closed) as renderer:  # fmt: skip
+        for _ in range(repeats + 1):  # the first: warm-up
+            start = time.perf_counter()
+            after = []
+            for batch in np.array_split(poses, -(-len(poses) // sample_build.SKIN_BATCH)):
+                pixels, depth = sample_build.project(camera, body.posed_vertices(batch))
+                after.append(renderer.render(pixels - [u0, v0], depth, near))
+            after = np.concatenate(after)
+            new.append(1e3 * (time.perf_counter() - start) / len(poses))
+    differing = (after != np.array(before)[:, v0:v1, u0:u1]).sum(axis=(1, 2))
+    return {"per_part_ms": statistics.median(old), "batched_ms": statistics.median(new[1:]),
+            "differing_px_mean": float(differing.mean()), "differing_px_max": int(differing.max())}  # fmt: skip
+
+
+def reduce_by_counting(labels: np.ndarray, factor: int, n_parts: int) -> np.ndarray:
+    """How sample sets reduced a label image before: every block's labels counted with one ``bincount``."""
+    height, width = labels.shape
+    rows, cols = height // factor, width // factor
+    block = (np.arange(height)[:, None] // factor) * cols + np.arange(width)[None, :] // factor
+    counts = np.bincount((block * (n_parts + 1) + labels).ravel(), minlength=rows * cols * (n_parts + 1))
+    counts = counts.reshape(rows, cols, n_parts + 1)
+    covered = (factor * factor - counts[..., 0]) * 2 >= factor * factor
+    return np.where(covered, np.argmax(counts[..., 1:], axis=2) + 1, 0).astype(np.uint8)
+
+
+def bench_set_images(poses: np.ndarray, body, camera) -> dict[str, float]:
+    """The set's images of ``poses`` now (sharded over every core) and before (one process), ms per pose."""
+    with tempfile.TemporaryDirectory() as cache:
+        start = time.perf_counter()
+        folder = Path(cache) / "set"
+        sample_build.build_set(body, camera, poses, folder, sample_build.RESOLUTIONS, sample_build.BuildSettings())
+        now_ms = 1e3 * (time.perf_counter() - start) / len(poses)
+        coarse = np.load(folder / "labels_80x60.npy")
+        u0, v0, u1, v1 = json.loads((folder / "meta.json").read_text())["windows"]["labels_320x240"]
+    start = time.perf_counter()
+    before = {factor: [] for factor in (1, 2, 4)}
+    with SceneRenderer(camera.width, camera.height) as renderer:
+        for pose in poses:
+            image = renderer.render_depth_labels([camera], per_part_meshes(body, pose))[camera.name].labels
+            np.bincount(image.ravel(), minlength=len(body.part_names) + 1)  # the areas
+            for factor in before:
+                before[factor].append(reduce_by_counting(image[v0:v1, u0:u1], factor, len(body.part_names)))
+    before_ms = 1e3 * (time.perf_counter() - start) / len(poses)
+    return {"before_ms": before_ms, "now_ms": now_ms,
+            "differing_px_80x60": int((coarse != np.array(before[4])).sum())}  # fmt: skip
+
+
+def bench_build(overrides: list[str]) -> dict[str, float]:
+    """The whole set, then its tree, built cold; then the tracker's start (the likelihood calibration, cached with
+    the set), and a second start on everything cached."""
+    from tracker.tbf.tree import load_or_build_tree
+
+    with tempfile.TemporaryDirectory() as cache:
+        run = build(compose([*overrides, f"tracker.cache_dir={cache}"]))
+        settings, started = run.tracker.settings, time.perf_counter()
+        poses = run.tracker.sample_poses(run.model)
+        times = {"poses_s": time.perf_counter() - started}
+        started = time.perf_counter()
+        samples = sample_build.load_or_build(run.model, run.cameras[0], poses, f"{cache}/samples", build=settings.build)
+        times["samples_s"], started = time.perf_counter() - started, time.perf_counter()
+        load_or_build_tree(samples, settings.thresholds, f"{cache}/trees")
+        times["tree_s"] = time.perf_counter() - started
+        for name in ("first", "second"):
+            again = build(compose([*overrides, f"tracker.cache_dir={cache}"]))
+            started = time.perf_counter()
+            again.tracker.start(again.model, again.cameras, again.scene.params(again.model, 0),
+                                np.random.default_rng(0))  # fmt: skip
+            times[f"{name}_start_s"] = time.perf_counter() - started
+        times["samples"] = len(samples)
+    return times
+
+
+def run(poses_count: int, build_too: bool, overrides: list[str]) -> None:
+    overrides = overrides or ["experiment=tbf_paper_scale"]
+    composed = build(compose(overrides))
+    tracker = composed.tracker
+    poses = tracker.sample_poses(composed.model)
+    chosen = poses[np.linspace(0, len(poses) - 1, poses_count).astype(int)]
+    camera = composed.cameras[0]
+    layout = sample_build._layout(Path(tempfile.mkdtemp()), composed.model, camera, poses, [slice(0, len(poses))], 4,
+                                  sample_build.BuildSettings(jobs=1))  # fmt: skip
+    figures = bench_rendering(chosen, composed.model, camera, layout.tile, layout.near)
+    log.info("label rendering, %d poses of %s (window %s of %dx%d):", poses_count, " ".join(overrides),
+             layout.window, camera.width, camera.height)
+    log.info("  per-part pass (before) %.2f ms/pose, batched %.2f ms/pose: %.1fx; pixels differing per pose: "
+             "mean %.2f, max %d", figures["per_part_ms"], figures["batched_ms"],
+             figures["per_part_ms"] / figures["batched_ms"], figures["differing_px_mean"], figures["differing_px_max"])
+    chosen = poses[np.linspace(0, len(poses) - 1, 4 * poses_count).astype(int)]
+    images = bench_set_images(chosen, composed.model, camera)
+    log.info("a set's images (3 resolutions, areas) of %d poses: before %.2f ms/pose (one process), now %.2f "
+             "ms/pose (%s): %.1fx; pixels differing at 80x60 in all: %d", len(chosen), images["before_ms"],
+             images["now_ms"], f"shards over {os.cpu_count()} cores", images["before_ms"] / images["now_ms"],
+             images["differing_px_80x60"])
+    if build_too:
+        log.info("building the set cold (%d poses), then starting on the cached set ...", len(poses))
+        times = bench_build(overrides)
+        log.info("  poses %.1f s, sample set (%d, cold) %.1f s, tree %.1f s: %.1f s in all", times["poses_s"],
+                 times["samples"], times["samples_s"], times["tree_s"],
+                 times["poses_s"] + times["samples_s"] + times["tree_s"])
+        log.info("  tracker start on them: %.1f s the first time (the likelihood calibration, then cached), %.1f s "
+                 "the second", times["first_start_s"], times["second_start_s"])
