@@ -8,37 +8,57 @@ import cv2
 import numpy as np
 from rerun.chunk import RrdReader
 
+from experiments.video import decode
+
 
 def read_rgb_frames(rrd_path: str | Path, view: str) -> dict[int, np.ndarray]:
-    """Frame -> ``(h, w, 3)`` uint8 RGB of ``world/cameras/<view>/image/rgb``, JPEG-encoded or raw."""
-    return read_images(rrd_path, f"/world/cameras/{view}/image/rgb")
+    """Frame -> ``(h, w, 3)`` uint8 RGB of ``world/cameras/<view>/image/rgb``: the view's video decoded, each
+    frame the one its frame reference names (or, in recordings of images, the image itself)."""
+    entity = f"/world/cameras/{view}/image/rgb"
+    video, references = None, {}
+    for chunk in RrdReader(rrd_path).stream().to_chunks():
+        if chunk.entity_path != entity:
+            continue
+        batch = chunk.to_record_batch()
+        if "AssetVideo:blob" in batch.schema.names:
+            video = batch.column("AssetVideo:blob")[0].values[0].values.to_numpy(zero_copy_only=False).tobytes()
+        elif "VideoFrameReference:timestamp" in batch.schema.names:
+            references.update(zip(batch.column("frame").to_pylist(),
+                                  (v[0] for v in batch.column("VideoFrameReference:timestamp").to_pylist())))
+    if video is None:
+        return read_images(rrd_path, entity)
+    frames = decode(video)
+    order = {stamp: k for k, stamp in enumerate(sorted(set(references.values())))}
+    return {frame: frames[order[stamp]] for frame, stamp in references.items()}
 
 
 # Rerun's channel datatypes (rerun.datatypes.ChannelDatatype) and colour models (rerun.datatypes.ColorModel).
 _DTYPES = {6: np.uint8, 7: np.int8, 8: np.uint16, 9: np.int16, 10: np.uint32, 11: np.int32, 12: np.uint64,
            13: np.int64, 33: np.float16, 34: np.float32, 35: np.float64}  # fmt: skip
 _CHANNELS = {1: 1, 2: 3, 3: 4, 4: 3, 5: 4}  # L, RGB, RGBA, BGR, BGRA
+_RAW = ("Image", "SegmentationImage", "DepthImage")
 
 
 def read_images(rrd_path: str | Path, entity: str) -> dict[int, np.ndarray]:
     """Frame -> image logged at ``entity`` (an ``/``-rooted entity path): encoded ones (JPEG, PNG) decoded
-    (colour to RGB), raw ones in their own type; ``(h, w)`` for one channel."""
+    (colour to RGB), raw ones (images, segmentation and depth images) in their own type; ``(h, w)`` for one
+    channel."""
     images: dict[int, np.ndarray] = {}
     for chunk in RrdReader(rrd_path).stream().to_chunks():
         if chunk.entity_path != entity or chunk.is_static:
             continue
         batch = chunk.to_record_batch()
-        frames = batch.column("frame").to_pylist()
         names = batch.schema.names
-        for row, frame in enumerate(frames):
+        kind = next((kind for kind in _RAW if f"{kind}:buffer" in names), None)
+        for row, frame in enumerate(batch.column("frame").to_pylist()):
             if "EncodedImage:blob" in names:
                 blob = batch.column("EncodedImage:blob")[row].values[0].values.to_numpy(zero_copy_only=False)
                 decoded = cv2.imdecode(blob, cv2.IMREAD_UNCHANGED)
                 images[frame] = cv2.cvtColor(decoded, cv2.COLOR_BGR2RGB) if decoded.ndim == 3 else decoded
-            else:
-                raw = batch.column("Image:buffer")[row].values[0].values.to_numpy(zero_copy_only=False)
-                image_format = batch.column("Image:format")[row].values[0].as_py()
-                channels = _CHANNELS[image_format["color_model"]]
+            elif kind is not None:
+                raw = batch.column(f"{kind}:buffer")[row].values[0].values.to_numpy(zero_copy_only=False)
+                image_format = batch.column(f"{kind}:format")[row].values[0].as_py()
+                channels = _CHANNELS.get(image_format.get("color_model") or 1, 1)
                 pixels = np.frombuffer(raw.tobytes(), dtype=_DTYPES[image_format["channel_datatype"]])
                 shape = (image_format["height"], image_format["width"]) + ((channels,) if channels > 1 else ())
                 images[frame] = pixels.reshape(shape).copy()

@@ -38,8 +38,9 @@ def run_frames(components: Components, recording: RunRecording, stop: Any, rows:
         for frame in tqdm(frames, total=settings.frames, desc="frames", disable=not sys.stderr.isatty()):
             frame, captured = capture_frame(capture, frame)
             result = estimate(tracker, frame)
-            record_frame(recording, frame, captured, result)
-            rows.extend(frame_rows(frame, components, result, captured))
+            evaluated = evaluate(components, frame, result)
+            record_frame(recording, frame, captured, result, evaluated)
+            rows.extend(frame_rows(frame, components, result, captured, evaluated))
             timings.append(frame.timings_ms)
             if stop.requested:
                 break
@@ -65,14 +66,21 @@ def estimate(tracker: Any, frame: FrameInput) -> StepResult | None:
     return result
 
 
+def evaluate(components: Components, frame: FrameInput, result: StepResult | None) -> tuple[dict, dict]:
+    """The model's evaluation columns of the frame (`tracker.evaluation`): per part, per frame."""
+    if components.evaluation is None:
+        return {}, {}
+    return components.evaluation.columns(components.model, frame.truth, None if result is None else result.estimate)
+
+
 def record_frame(recording: RunRecording, frame: FrameInput, captured: CapturedFrame | None,
-                 result: StepResult | None) -> None:  # fmt: skip
+                 result: StepResult | None, evaluated: tuple[dict, dict]) -> None:  # fmt: skip
     """Everything of the frame into the recording, timed as ``record``."""
     start = time.perf_counter()
     recording.log_frame(frame)
     if captured is not None:
         recording.log_capture(captured)
     if result is not None:
-        recording.log_result(result)
+        recording.log_result(result, evaluated)
     frame.timings_ms["record"] = elapsed_ms(start)
     recording.log_timings(frame.frame, frame.timings_ms)

@@ -27,22 +27,19 @@ from tracker.protocol import FrameInput, StepResult
 
 
 def frame_rows(frame: FrameInput, components: Components, result: StepResult | None,
-               captured: CapturedFrame | None = None) -> list[dict[str, Any]]:  # fmt: skip
-    """One row per part for ``frame`` and the tracker's ``result`` for it (None: nothing estimated)."""
-    model, evaluation = components.model, components.evaluation
-    part_columns: dict[str, Any] = {}
+               captured: CapturedFrame | None = None, evaluated: tuple[dict, dict] = ({}, {})) -> list[dict[str, Any]]:
+    """One row per part for ``frame``, the tracker's ``result`` for it (None: nothing estimated) and the model's
+    evaluation of it (``evaluated``: per-part and per-frame columns)."""
+    part_columns: dict[str, Any] = dict(evaluated[0])
     frame_columns: dict[str, Any] = {f"{stage}_ms": ms for stage, ms in frame.timings_ms.items()}
     if captured is not None:
         frame_columns.update({f"silhouette_iou_{view}": value for view, value in captured.iou.items()})
-    if evaluation is not None:
-        per_part, per_frame = evaluation.columns(model, frame.truth, None if result is None else result.estimate)
-        part_columns.update(per_part)
-        frame_columns.update(per_frame)
+    frame_columns.update(evaluated[1])
     if result is not None:
         part_columns.update(result.part_columns)
         frame_columns.update(result.frame_columns, failure=result.failure or "")
     rows = []
-    for k, part in enumerate(model.part_names):
+    for k, part in enumerate(components.model.part_names):
         row: dict[str, Any] = {"frame": frame.frame, "part": part}
         row.update({name: values[k] for name, values in part_columns.items()})
         row.update({f"visible_px_{view}": int(pixels[k]) for view, pixels in frame.visible_px.items()})

@@ -41,20 +41,37 @@ def presentation(name: str) -> Presentation:
     return _PRESENTATIONS.get(name, Presentation())
 
 
+def _series(name: str, origin: str, *leaves: str) -> rrb.TimeSeriesView:
+    """A plot of the series under ``origin`` (only those at ``leaves``, glob patterns, when given)."""
+    contents = [f"$origin/{leaf}" for leaf in leaves] if leaves else ["$origin/**"]
+    return rrb.TimeSeriesView(name=name, origin=origin, contents=contents)
+
+
+def _paper_part_first(parts: Sequence[str]) -> list[str]:
+    """The parts with paper 1's part 2 (the second) first: its pairs and errors are the ones Fig 8-9 show."""
+    return [parts[1], parts[0], *parts[2:]] if len(parts) > 1 else list(parts)
+
+
 register_presentation("abis", Presentation(
-    panels=lambda parts: [rrb.TimeSeriesView(name="pairs", origin="metrics/correspondences"),
-                          rrb.TimeSeriesView(name="cost (eq 8)", origin="metrics/cost")],
+    panels=lambda parts: [*(_series(f"{part} pairs", f"metrics/correspondences/{part}")
+                            for part in _paper_part_first(parts)),
+                          _series("cost (eq 8, px^2)", "metrics/cost")],
     state_colors={"tracked": (0, 220, 0), "new": (0, 160, 255), "discarded": (255, 40, 40),
                   "unpaired": (150, 150, 150)},
     point_colors={"estimate": (255, 255, 0)}))  # fmt: skip
 register_presentation("tbf", Presentation(
-    panels=lambda parts: [rrb.TimeSeriesView(name="tree search", origin="metrics/tree")]))  # fmt: skip
+    panels=lambda parts: [_series("tree: nodes evaluated and kept per level", "metrics/tree", "level*/**"),
+                          _series("posterior entropy (nats)", "metrics/tree", "entropy")]))  # fmt: skip
 register_presentation("dsq_arm", Presentation(
-    panels=lambda parts: [rrb.TimeSeriesView(name=f"{part} parameters", origin=f"metrics/params/{part}")
-                          for part in parts]))  # fmt: skip
+    panels=lambda parts: [_series(f"{_paper_part_first(parts)[0]}: b1 (m) and r2 (rad), Fig 8",
+                                  f"metrics/params/{_paper_part_first(parts)[0]}", "b1/*", "r2/*"),
+                          _series("rotation error (geodesic, deg)", "metrics/error", "*/rotation_error_deg"),
+                          _series("surface error (mm)", "metrics/error", "*/surface_error_mm")]))  # fmt: skip
 register_presentation("body_mesh", Presentation(
-    panels=lambda parts: [rrb.TimeSeriesView(name="right arm swing (deg)", origin="metrics/params/swing"),
-                          rrb.TimeSeriesView(name="joint angles", origin="metrics/params/joints")]))  # fmt: skip
+    panels=lambda parts: [_series("right arm swing (deg)", "metrics/params/swing"),
+                          _series("joint error (mm; root-aligned: posture)", "metrics/error"),
+                          _series("right arm joints (deg from the T-pose)", "metrics/params/joints",
+                                  "RightArm_deg/*", "RightForeArm_deg/*")]))  # fmt: skip
 
 
 def default_blueprint(views: Sequence[str], part_names: Sequence[str], shown: Sequence[str],
@@ -66,7 +83,8 @@ def default_blueprint(views: Sequence[str], part_names: Sequence[str], shown: Se
     for view in views:
         panes.append(rrb.Spatial2DView(name=view, origin=f"world/cameras/{view}/image"))
         if silhouettes:
-            panes.append(rrb.Spatial2DView(name=f"{view} silhouette", origin=f"capture/{view}/silhouette"))
+            panes.append(rrb.Spatial2DView(name=f"{view} silhouette", origin=f"world/cameras/{view}/image",
+                                           contents=["$origin/silhouette"]))
             panes += [rrb.Spatial2DView(name=f"{view} {cost} weights", origin=f"capture/{view}/weights/{cost}")
                       for cost in weight_maps]  # fmt: skip
     series = [panel for name in shown for panel in presentation(name).panels(part_names)]
@@ -76,7 +94,8 @@ def default_blueprint(views: Sequence[str], part_names: Sequence[str], shown: Se
         rrb.Vertical(
             rrb.Horizontal(*panes),
             rrb.Horizontal(
-                rrb.Spatial3DView(name="3-D scene", origin="world"),
+                rrb.Spatial3DView(name="3-D: truth (model colours), estimate (yellow)", origin="world",
+                                  contents=["$origin/truth/**", "$origin/estimate/**"]),  # framed on the subject
                 rrb.Tabs(*series, rrb.TimeSeriesView(name="visible pixels", origin="metrics/visible_px"),
                          rrb.TimeSeriesView(name="timing (ms)", origin="metrics/timing")),
             ),

@@ -1,29 +1,36 @@
 """The one module that writes Rerun recordings: a run's frames, captures and tracker results -> ``run.rrd``.
 
 Entity paths (timeline ``frame``): ``world/cameras/<view>`` (Transform3D + Pinhole, static) with
-``.../image/{rgb,labels}`` and the tracker's overlays ``.../image/<name>`` (its `StepResult.points`);
-``world/truth/<part>`` and ``world/estimate/<part>`` (Mesh3D); ``metrics/params/<name>/{truth,estimate}`` (the
-model's `parameter_series`), ``metrics/visible_px/<view>/<part>``, ``metrics/timing/<stage>_ms`` and the tracker's
-own series ``metrics/<name>`` (`StepResult.series`). Runs that capture silhouettes add ``capture/<view>/silhouette``
-(the extracted silhouette), ``capture/<view>/weights/<cost>`` (each registered cost's weight map d_P, float
-images) and ``metrics/silhouette_iou/<view>``. Nothing here knows a tracker: colours and panels come from
-`experiments.presentation`. Each recording has its own ``recording_id`` and a default blueprint; the file is
-written under a temporary name and renamed by `RunRecording.close`, so a crashed run leaves no partial file.
+``.../image/rgb`` (the view's frames as one AV1 video, `experiments.video`, and a frame reference per frame),
+``.../image/labels`` (the render's part labels), ``.../image/silhouette`` (the extracted silhouette, runs that
+capture silhouettes) and the tracker's overlays ``.../image/<name>`` (its `StepResult.points`);
+``world/truth/<part>`` and ``world/estimate/<part>`` (Mesh3D, logged when they change); series
+``metrics/params/<name>/{truth,estimate}`` (the model's `parameter_series`), ``metrics/error/...`` (the columns
+the model's evaluation names), ``metrics/visible_px/<view>/<part>``, ``metrics/timing/<stage>_ms`` and the
+tracker's own ``metrics/<name>`` (`StepResult.series`); ``capture/<view>/weights/<cost>`` (each registered cost's
+weight map d_P, float images, when asked for), ``metrics/silhouette_iou/<view>``; ``log`` (failed frames).
+
+Sized for keeping: rows are batched into large chunks (a few hundred per run instead of one per entity and frame,
+so the file compresses across frames and the viewer loads it whole), images go as video, and a mesh is written
+again only when its vertices moved. Nothing here knows a tracker: colours and panels come from
+`experiments.presentation`. Each recording has its own ``recording_id`` and a default blueprint; the file is written
+under a temporary name and renamed by `RunRecording.close`, so a crashed run leaves no partial file.
 """
 
 from __future__ import annotations
 
+import datetime
 import uuid
 from collections.abc import Sequence
 from pathlib import Path
 
-import cv2
 import numpy as np
 import rerun as rr
 
 from experiments.components import Components
 from experiments.presentation import PALETTE, POINTS, default_blueprint, presentation
 from experiments.schemas import RecordSettings
+from experiments.video import VideoEncoder
 from tracker.atomic import AtomicFile
 from tracker.geometry.cameras import Camera
 from tracker.observe.silhouettes import CapturedFrame
@@ -33,6 +40,11 @@ from tracker.tbf.distances import weight_map
 
 APPLICATION_ID = "articulated-tracking"
 TIMELINE = "frame"
+# Rows wait in memory (up to 64 MiB) and go out in large chunks: a whole run of a series in one.
+BATCHES = rr.ChunkBatcherConfig(flush_tick=datetime.timedelta(hours=1), flush_num_bytes=64 << 20,
+                                flush_num_rows=1 << 22)  # fmt: skip
+SILHOUETTE = [rr.AnnotationInfo(id=0, label="outside", color=(0, 0, 0, 0)),
+              rr.AnnotationInfo(id=1, label="silhouette", color=(255, 230, 0, 255))]  # fmt: skip
 
 
 class RunRecording:
@@ -41,22 +53,24 @@ class RunRecording:
     def __init__(self, path: str | Path, components: Components, record: RecordSettings) -> None:
         self.path = Path(path)
         self.recording_id = str(uuid.uuid4())
-        self.model = components.model
-        self.record = record
+        self.model, self.record, self.evaluation = components.model, record, components.evaluation
         self.silhouettes = "silhouettes" in components.observes
         self.weight_maps = COSTS.names() if self.silhouettes and record.weight_maps and record.images else []
         shown = [components.entries["tracker"].name, components.entries["model"].name]
         looks = [presentation(name) for name in reversed(shown)]  # the tracker's colours over the model's
         self._state_colors = {state: colour for look in looks for state, colour in look.state_colors.items()}
         self._point_colors = {name: colour for look in looks for name, colour in look.point_colors.items()}
+        self._videos = {camera.name: VideoEncoder(camera.width, camera.height, record.video_quality)
+                        for camera in components.cameras} if record.images else {}  # fmt: skip
         self._file: AtomicFile | None = AtomicFile(self.path)
-        self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=self.recording_id)
+        self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=self.recording_id, batcher_config=BATCHES)
         blueprint = default_blueprint(components.views, self.model.part_names, shown, self.silhouettes,
                                       self.weight_maps)  # fmt: skip
         self.stream.save(self._file.temporary, default_blueprint=blueprint)
         self._log_static(components.cameras)
         self._static: set[str] = set()  # entities whose static part (faces, colours, classes) is logged
-        self._last_estimate: np.ndarray | None = None
+        self._vertices: dict[str, np.ndarray] = {}  # each mesh's vertices as last logged
+        self._frames: list[int] = []
 
     def __enter__(self) -> RunRecording:
         return self
@@ -77,46 +91,51 @@ class RunRecording:
             log(f"world/cameras/{camera.name}/image",
                 rr.Pinhole(image_from_camera=camera.intrinsic_matrix, resolution=[camera.width, camera.height],
                            camera_xyz=rr.ViewCoordinates.RDF), static=True)  # fmt: skip
+            log(f"world/cameras/{camera.name}/image/silhouette", rr.AnnotationContext(SILHOUETTE), static=True)
 
     def log_frame(self, frame: FrameInput) -> None:
         """Images, truth meshes, truth parameters and label areas of one frame (timings: `log_timings`)."""
         self.stream.set_time(TIMELINE, sequence=frame.frame)
+        self._frames.append(frame.frame)
         log = self.stream.log
         for view, rendered in frame.views.items():
-            image_path = f"world/cameras/{view}/image"
             if self.record.images:
-                rgb = rr.Image(rendered.rgb)
-                quality = self.record.jpeg_quality
-                log(f"{image_path}/rgb", rgb.compress(jpeg_quality=quality) if quality else rgb)
-                log(f"{image_path}/labels", rr.SegmentationImage(rendered.labels, opacity=0.35))
+                self._videos[view].add(rendered.rgb)
+                log(f"world/cameras/{view}/image/labels", rr.SegmentationImage(rendered.labels, opacity=0.35))
             for part, pixels in zip(self.model.part_names, frame.visible_px[view], strict=True):
                 log(f"metrics/visible_px/{view}/{part}", rr.Scalars(float(pixels)))
         self._log_meshes("truth", frame.meshes)
         self._log_params("truth", frame.truth)
 
     def log_capture(self, captured: CapturedFrame) -> None:
-        """Each view's extracted silhouette, the costs' weight maps of it and its IoU against the render mask."""
+        """Each view's extracted silhouette (over its image), the costs' weight maps of it, its IoU."""
         log = self.stream.log
         for view, silhouette in captured.silhouettes.items():
             if self.record.images:
-                png = cv2.imencode(".png", silhouette.astype(np.uint8) * 255)[1].tobytes()  # ~2 KB, lossless
-                log(f"capture/{view}/silhouette", rr.EncodedImage(contents=png, media_type="image/png"))
+                log(f"world/cameras/{view}/image/silhouette", rr.SegmentationImage(silhouette.astype(np.uint8),
+                                                                                   opacity=0.4))  # fmt: skip
             if silhouette.any():
                 for cost in self.weight_maps:
                     log(f"capture/{view}/weights/{cost}", rr.Image(weight_map(cost, silhouette).astype(np.float32)))
             if view in captured.iou:
                 log(f"metrics/silhouette_iou/{view}", rr.Scalars(captured.iou[view]))
 
-    def log_result(self, result: StepResult) -> None:
-        """A tracker's result for the frame (call after `log_frame`): the estimate (its meshes when it changed, its
-        parameters), the tracker's series, points and images."""
+    def log_result(self, result: StepResult, evaluated: tuple[dict, dict] = ({}, {})) -> None:
+        """A tracker's result for the frame (call after `log_frame`): the estimate (its meshes when they moved, its
+        parameters), the tracker's series, points and images, the evaluation's error series (``evaluated``: its
+        per-part and per-frame columns), and why the frame failed if it did."""
         log = self.stream.log
         if result.estimate is not None:
-            if self._last_estimate is None or not np.array_equal(result.estimate, self._last_estimate):
-                self._log_meshes("estimate", self.model.surface_meshes(result.estimate), rgba=(255, 255, 0, 120))
-                self._last_estimate = np.array(result.estimate)
+            self._log_meshes("estimate", self.model.surface_meshes(result.estimate), rgba=(255, 255, 0, 120))
             self._log_params("estimate", result.estimate)
-        for name, value in result.series.items():
+        series = dict(result.series)
+        for column in getattr(self.evaluation, "series", ()):
+            if column in evaluated[0]:
+                series.update({f"error/{part}/{column}": value for part, value in
+                               zip(self.model.part_names, evaluated[0][column], strict=True)})  # fmt: skip
+            elif column in evaluated[1]:
+                series[f"error/{column}"] = evaluated[1][column]
+        for name, value in series.items():
             log(f"metrics/{name}", rr.Scalars(float(value)))
         for view, overlays in result.points.items():
             for name, points in overlays.items():
@@ -124,6 +143,8 @@ class RunRecording:
         for view, images in result.images.items():
             for name, image in images.items():
                 log(f"world/cameras/{view}/image/{name}", rr.Image(np.asarray(image)))
+        if result.failure:
+            log("log", rr.TextLog(f"frame {result.frame} failed: {result.failure}", level=rr.TextLogLevel.WARN))
 
     def _log_points(self, path: str, name: str, points: Points) -> None:
         if not points.states:
@@ -138,7 +159,7 @@ class RunRecording:
         self.stream.log(path, rr.Points2D(points.uv, class_ids=points.state, radii=1.5))
 
     def _log_meshes(self, kind: str, meshes, rgba: tuple[int, int, int, int] | None = None) -> None:
-        """``world/<kind>/<part>``: faces and colour once (static), vertices every frame."""
+        """``world/<kind>/<part>``: faces and colour once (static), vertices whenever they moved."""
         for mesh in meshes:
             path = f"world/{kind}/{mesh.key}"
             if path not in self._static:
@@ -146,8 +167,10 @@ class RunRecording:
                 self.stream.log(path, rr.Mesh3D.from_fields(triangle_indices=mesh.faces, albedo_factor=colour),
                                 static=True)  # fmt: skip
                 self._static.add(path)
-            # Positions only: the viewer shades without normals.
-            self.stream.log(path, rr.Mesh3D.from_fields(vertex_positions=mesh.vertices.astype(np.float32)))
+            vertices = mesh.vertices.astype(np.float32)  # positions only: the viewer shades without normals
+            if path not in self._vertices or not np.array_equal(vertices, self._vertices[path]):
+                self.stream.log(path, rr.Mesh3D.from_fields(vertex_positions=vertices))
+                self._vertices[path] = vertices
 
     def _log_params(self, kind: str, params: np.ndarray) -> None:
         """``metrics/params/<name>/<kind>`` for every named parameter of the model."""
@@ -159,11 +182,24 @@ class RunRecording:
         for stage, milliseconds in timings_ms.items():
             self.stream.log(f"metrics/timing/{stage}_ms", rr.Scalars(milliseconds))
 
+    def _log_videos(self) -> None:
+        """Each view's video, and which of its frames each run frame shows."""
+        for view, encoder in self._videos.items():
+            if not encoder.frames:
+                continue
+            video = rr.AssetVideo(contents=encoder.finish(), media_type="video/mp4")
+            entity = f"world/cameras/{view}/image/rgb"
+            self.stream.log(entity, video, static=True)
+            self.stream.send_columns(entity, indexes=[rr.TimeColumn(TIMELINE, sequence=self._frames)],
+                                     columns=rr.VideoFrameReference.columns_nanos(
+                                         video.read_frame_timestamps_nanos()))  # fmt: skip
+
     def close(self) -> None:
-        """Flush, close the file and move it to ``path`` (idempotent)."""
+        """Write the videos, flush, close the file and move it to ``path`` (idempotent)."""
         if self._file is None:
             return
         file, self._file = self._file, None
+        self._log_videos()
         self.stream.flush()
         self.stream.disconnect()
         file.commit()

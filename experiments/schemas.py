@@ -40,9 +40,9 @@ SCHEMA_PREFIX = "schema_"
 class RecordSettings:
     """What ``run.rrd`` holds besides the series: the images, and the weight maps of the silhouette costs."""
 
-    images: bool = True
-    weight_maps: bool = True  # silhouette scenes: each cost's weight map d_P as a float image (600 KB a frame)
-    jpeg_quality: Annotated[int, Range(0, 100)] = 90  # RGB stored as JPEG; 0 stores it losslessly
+    images: bool = True  # each view's RGB (as video), part labels and extracted silhouette
+    weight_maps: bool = False  # silhouette scenes: each cost's weight map d_P as a float image (300 KB a frame)
+    video_quality: Annotated[int, Range(0, 63)] = 30  # the RGB video's constant quality (AV1's crf: lower is finer)
 
 
 @dataclass(frozen=True)

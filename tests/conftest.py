@@ -78,7 +78,8 @@ def abis_run(tmp_path_factory):
 @pytest.fixture(scope="session")
 def body_swing_run(tmp_path_factory):
     """A 4-frame render-only run of the body's arm swing through the real CLI (blue backdrop, nuisance)."""
-    return _cli_run(tmp_path_factory, "body", "model=body_mesh", "scene=arm_swing", "frames=4")
+    return _cli_run(tmp_path_factory, "body", "model=body_mesh", "scene=arm_swing", "frames=4",
+                    "record.weight_maps=true")
 
 
 @pytest.fixture(scope="session")

@@ -9,7 +9,7 @@ def test_recorded_images_round_trip_through_the_recording(five_frame_run, arm, m
     assert sorted(images) == [0, 1, 2, 3, 4]
     rendered = renderer.render(rig, arm.surface_meshes(motion.params(arm, 3)))["left"].rgb
     assert images[3].shape == rendered.shape == (240, 320, 3)
-    assert np.abs(images[3].astype(int) - rendered).mean() < 2.0  # JPEG at quality 90
+    assert np.abs(images[3].astype(int) - rendered).mean() < 2.0  # AV1 video, YUV 4:2:0 (about 1.3 measured)
 
 
 def test_views_sheet_shows_every_view_of_the_chosen_frames(five_frame_run, tmp_path):

@@ -16,10 +16,11 @@ def test_a_body_run_records_silhouettes_weight_maps_and_their_quality(body_swing
     assert metrics["status"] == "ok" and metrics["choices"]["rig"] == "body_side"  # the model picked its camera
     assert metrics["silhouette_iou"]["main"]["min"] >= 0.97
     frames = frames_by_entity(body_swing_run / "run.rrd")
-    for entity in ("/world/cameras/main/image/rgb", "/capture/main/silhouette", "/capture/main/weights/wxor",
-                   "/capture/main/weights/nwxor", "/metrics/silhouette_iou/main", "/world/truth/body_torso",
-                   "/metrics/params/joints/RightArm_deg/truth"):  # fmt: skip
+    for entity in ("/world/cameras/main/image/rgb", "/world/cameras/main/image/silhouette",
+                   "/capture/main/weights/wxor", "/capture/main/weights/nwxor", "/metrics/silhouette_iou/main",
+                   "/world/truth/body_right_upper_arm", "/metrics/params/joints/RightArm_deg/truth"):  # fmt: skip
         assert frames[entity] == [0, 1, 2, 3], entity
+    assert frames["/world/truth/body_left_foot"] == [0]  # only the right arm moves: a foot is written once
 
 
 def test_a_body_runs_table_holds_the_truth_pose_per_frame(body_swing_run, body):
@@ -31,7 +32,7 @@ def test_a_body_runs_table_holds_the_truth_pose_per_frame(body_swing_run, body):
 
 def test_recorded_weight_maps_are_those_of_the_recorded_silhouettes(body_swing_run):
     path = body_swing_run / "run.rrd"
-    silhouettes = read_images(path, "/capture/main/silhouette")
+    silhouettes = read_images(path, "/world/cameras/main/image/silhouette")
     for cost in ("wxor", "nwxor"):
         maps = read_images(path, f"/capture/main/weights/{cost}")
         assert maps[2].dtype == np.float32 and maps[2].shape == (240, 320)

@@ -57,7 +57,7 @@ def test_a_users_tracker_runs_is_recorded_tabled_and_drawn(tmp_path):
 def test_a_users_cost_serves_the_tree_filter(tmp_path):
     assert "uniform" not in COSTS
     out = run(tmp_path, "tbf", "model=body_mesh", "tracker=tbf", "cost=uniform", "cost.weight=3", "motion=dm1",
-              "frames=3", f"tracker.cache_dir={tmp_path / 'cache'}", *SMALL_GRID)
+              "frames=3", f"tracker.cache_dir={tmp_path / 'cache'}", "record.weight_maps=true", *SMALL_GRID)
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["status"] == "ok" and metrics["choices"]["cost"] == "uniform"
     assert metrics["mpjpe_mm"] < 60

@@ -87,9 +87,10 @@ def test_default_blueprint_shows_the_views_the_scene_and_the_series(five_frame_r
     origins = blueprint_origins(five_frame_run / "run.rrd")
     assert {f"world/cameras/{view}/image" for view in VIEWS} <= origins  # RGB with the label overlay
     assert {"world", "metrics/visible_px", "metrics/timing"} <= origins
-    assert {f"metrics/params/{part}" for part in PARTS} <= origins  # the model's own panels
-    assert "metrics/correspondences" not in origins  # no tracker, no pairs
-    assert "metrics/correspondences" in blueprint_origins(abis_run / "run.rrd")  # the tracker's own panels
+    assert {"metrics/params/forearm", "metrics/error"} <= origins  # the model's own: Fig 8's b1 and r2, errors
+    assert not any(origin.startswith("metrics/correspondences") for origin in origins)  # no tracker, no pairs
+    pairs = [origin for origin in blueprint_origins(abis_run / "run.rrd") if "correspondences" in origin]
+    assert sorted(pairs) == [f"metrics/correspondences/{part}" for part in sorted(PARTS)]  # a plot per part
 
 
 def test_recorded_truth_series_equals_the_frames_table(five_frame_run):

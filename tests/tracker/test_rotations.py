@@ -83,3 +83,13 @@ def test_rotation_vector_round_trip(vector):
     np.testing.assert_allclose(rotation_vector_to_matrix(matrix_to_rotation_vector(rotation)), rotation, atol=1e-7)
     np.testing.assert_allclose(matrix_to_rotation_vector(rotation), Rotation.from_matrix(rotation).as_rotvec(),
                                atol=1e-6)
+
+
+def test_the_geodesic_angle_is_the_angle_between_two_orientations():
+    from tracker.geometry.rotations import rotation_angle_deg, rotation_vector_to_matrix
+
+    a = rotation_vector_to_matrix(np.array([0.3, -0.2, 0.5]))
+    turn = rotation_vector_to_matrix(np.radians(25.0) * np.array([0.0, 0.6, 0.8]))
+    assert rotation_angle_deg(a, a @ turn) == pytest.approx(25.0)
+    # Gimbal lock of eq 4's angles: at r2 = 90 degrees, (r1, r3) = (t, t) is one orientation for any t.
+    assert rotation_angle_deg(euler_to_matrix([0.7, np.pi / 2, 0.7]), euler_to_matrix([-0.4, np.pi / 2, -0.4])) < 1e-6

@@ -90,6 +90,7 @@ def joint_error_mm(body: BodyMesh, truth: np.ndarray, estimate: np.ndarray, root
 @dataclass(frozen=True)
 class BodyEvaluation:
     rule: SwingRule = field(default_factory=SwingRule)
+    series: tuple[str, ...] = ("joint_error_mm", "joint_error_aligned_mm")  # columns the recording plots
 
     def columns(self, body: BodyMesh, truth: np.ndarray, estimate: np.ndarray | None) -> tuple[dict, dict]:
         frame: dict[str, Any] = {"truth_pose": truth.tolist(), "swing_truth_deg": body.right_arm_swing_deg(truth)}

@@ -78,6 +78,11 @@ def matrix_to_rotation_vector(rotation: np.ndarray) -> np.ndarray:
     return angle / (2.0 * np.sin(angle)) * skew
 
 
+def rotation_angle_deg(a: np.ndarray, b: np.ndarray) -> float:
+    """The geodesic angle between two rotations (degrees in [0, 180]): the angle of ``a^T b``."""
+    return float(np.degrees(np.arccos(np.clip((np.trace(a.T @ b) - 1.0) / 2.0, -1.0, 1.0))))
+
+
 def cross_matrix(vector: np.ndarray) -> np.ndarray:
     """``[v]_x``, with ``[v]_x w = v x w``."""
     x, y, z = vector

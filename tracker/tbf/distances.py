@@ -49,19 +49,29 @@ def full_window(shape: tuple[int, int]) -> Window:
     return (0, 0, shape[1], shape[0])
 
 
+def euclidean_distance(away: np.ndarray) -> np.ndarray:
+    """Per pixel where ``away`` is true, the exact Euclidean distance (pixels) to the nearest pixel where it is
+    false; 0 where it is false.
+
+    OpenCV's precise transform finds the nearest pixel exactly but returns float32, whose last bit varies with the
+    process' floating-point state (it changes once an OpenGL context has rendered); the distance is the square root
+    of a whole number of squared pixels, so it is snapped to that and taken again in float64: the same bits every
+    time."""
+    rough = cv2.distanceTransform(away.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE).astype(np.float64)
+    return np.sqrt(np.rint(rough * rough))
+
+
 def inside_distance(silhouette: np.ndarray) -> np.ndarray:
     """D_P: per pixel of the silhouette, the Euclidean distance to the nearest pixel outside it (0 outside).
     The image border counts as outside."""
-    padded = np.pad(silhouette.astype(np.uint8), 1)
-    return cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)[1:-1, 1:-1].astype(np.float64)
+    return euclidean_distance(np.pad(silhouette, 1))[1:-1, 1:-1]
 
 
 def outside_distance(silhouette: np.ndarray) -> np.ndarray:
     """D_Pbar: per pixel outside the silhouette, the Euclidean distance to the nearest silhouette pixel."""
     if not silhouette.any():
         raise EmptySilhouette("the silhouette is empty: no distance to it")
-    inverted = (~silhouette).astype(np.uint8)
-    return cv2.distanceTransform(inverted, cv2.DIST_L2, cv2.DIST_MASK_PRECISE).astype(np.float64)
+    return euclidean_distance(~silhouette)
 
 
 def medial_axis_distance(silhouette: np.ndarray) -> np.ndarray:
@@ -69,7 +79,7 @@ def medial_axis_distance(silhouette: np.ndarray) -> np.ndarray:
     axis = skeletonize(silhouette)
     if not axis.any():
         raise EmptySilhouette("the silhouette is empty: it has no medial axis")
-    return cv2.distanceTransform((~axis).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE).astype(np.float64)
+    return euclidean_distance(~axis)
 
 
 @COSTS.register("xor")

@@ -69,7 +69,8 @@ def test_the_batch_scorer_equals_the_pair_function(body_silhouettes):
         settings = {"w": 0.7} if cost == "wxor" else {}
         scores = ObservationScorer(cost, observed, window, **settings).scores(stack)
         expected = [silhouette_distance(cost, observed, model, window, **settings) for model in models]
-        np.testing.assert_allclose(scores, expected, rtol=1e-9, atol=0)
+        # (the scores come from prefix sums: their rounding is absolute, of the order of eps times the largest)
+        np.testing.assert_allclose(scores, expected, rtol=1e-9, atol=1e-12 * max(expected))
 
 
 def test_runs_hold_exactly_the_inside_pixels():
@@ -109,3 +110,16 @@ def body_silhouettes(body):
     with SceneRenderer(80, 60) as renderer:
         return np.array([renderer.render_depth_labels(camera, body.surface_meshes(swing.params(body, 3 * k)))["main"]
                          .labels > 0 for k in range(12)])  # fmt: skip
+
+
+def test_distances_are_exact_euclidean_and_the_same_bits_after_rendering(body_silhouettes, renderer, body):
+    from scipy import ndimage
+
+    from tracker.tbf.distances import euclidean_distance
+
+    silhouette = body_silhouettes[4]
+    before = euclidean_distance(~silhouette)
+    exact = np.sqrt(np.rint(ndimage.distance_transform_edt(~silhouette) ** 2))  # SciPy's exact transform
+    np.testing.assert_array_equal(before, exact)
+    renderer.render_depth_labels([], [])  # an OpenGL context at work in this process
+    assert euclidean_distance(~silhouette).tobytes() == before.tobytes()

@@ -71,7 +71,7 @@ def test_level_scoring_equals_scoring_each_node(samples, tree):
             model = np.zeros_like(observed)
             model[v0:v1, u0:u1] = stack.mask(rep)
             one_by_one.append(silhouette_distance(cost, observed, model, stack.window))
-        np.testing.assert_allclose(vectorised, one_by_one, rtol=1e-9, atol=1e-12 * max(one_by_one))
+        np.testing.assert_allclose(vectorised, one_by_one, rtol=1e-9, atol=1e-12 * max(one_by_one), err_msg=cost)
 
 
 def test_dm2_widens_exactly_the_occluded_parts():
