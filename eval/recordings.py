@@ -23,8 +23,8 @@ def read_rgb_frames(rrd_path: str | Path, view: str) -> dict[int, np.ndarray]:
         if "AssetVideo:blob" in batch.schema.names:
             video = batch.column("AssetVideo:blob")[0].values[0].values.to_numpy(zero_copy_only=False).tobytes()
         elif "VideoFrameReference:timestamp" in batch.schema.names:
-            references.update(zip(batch.column("frame").to_pylist(),
-                                  (v[0] for v in batch.column("VideoFrameReference:timestamp").to_pylist())))
+            stamps = [value[0] for value in batch.column("VideoFrameReference:timestamp").to_pylist()]
+            references.update(zip(batch.column("frame").to_pylist(), stamps, strict=True))
     if video is None:
         return read_images(rrd_path, entity)
     frames = decode(video)
