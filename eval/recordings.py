@@ -65,3 +65,32 @@ def read_images(rrd_path: str | Path, entity: str) -> dict[int, np.ndarray]:
     if not images:
         raise ValueError(f"{rrd_path} has no images at {entity}")
     return images
+
+
+def read_mesh_vertices(rrd_path: str | Path, entity: str) -> dict[int, np.ndarray]:
+    """Frame -> ``(n, 3)`` world vertices of the Mesh3D at ``entity`` as the viewer shows them at that frame: its
+    latest vertex positions moved by its latest Transform3D (identity before one is logged), for every frame at
+    which either was logged."""
+    logged: dict[int, dict[str, np.ndarray]] = {}
+    for chunk in RrdReader(rrd_path).stream().to_chunks():
+        if chunk.entity_path != entity or chunk.is_static:
+            continue
+        batch = chunk.to_record_batch()
+        names = batch.schema.names
+        for row, frame in enumerate(batch.column("frame").to_pylist()):
+            for component in ("Mesh3D:vertex_positions", "Transform3D:translation", "Transform3D:mat3x3"):
+                value = batch.column(component)[row].as_py() if component in names else None
+                if value:  # a list of one or more instances
+                    logged.setdefault(frame, {})[component] = np.asarray(value, dtype=np.float64)
+    meshes, vertices, transform = {}, None, np.eye(4)
+    for frame in sorted(logged):
+        values = logged[frame]
+        vertices = values.get("Mesh3D:vertex_positions", vertices)
+        if "Transform3D:translation" in values:
+            transform = np.eye(4)
+            transform[:3, 3] = values["Transform3D:translation"][0]
+            transform[:3, :3] = values["Transform3D:mat3x3"][0].reshape(3, 3).T  # Rerun stores it column-major
+        if vertices is None:
+            raise ValueError(f"{rrd_path}: {entity} moves at frame {frame} before it has vertices")
+        meshes[frame] = vertices @ transform[:3, :3].T + transform[:3, 3]
+    return meshes

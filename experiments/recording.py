@@ -4,17 +4,18 @@ Entity paths (timeline ``frame``): ``world/cameras/<view>`` (Transform3D + Pinho
 ``.../image/rgb`` (the view's frames as one AV1 video, `experiments.video`, and a frame reference per frame),
 ``.../image/labels`` (the render's part labels), ``.../image/silhouette`` (the extracted silhouette, runs that
 capture silhouettes) and the tracker's overlays ``.../image/<name>`` (its `StepResult.points`);
-``world/truth/<part>`` and ``world/estimate/<part>`` (Mesh3D, logged when they change); series
+``world/truth/<part>`` and ``world/estimate/<part>`` (Mesh3D, and Transform3D, when they change); series
 ``metrics/params/<name>/{truth,estimate}`` (the model's `parameter_series`), ``metrics/error/...`` (the columns
 the model's evaluation names), ``metrics/visible_px/<view>/<part>``, ``metrics/timing/<stage>_ms`` and the
 tracker's own ``metrics/<name>`` (`StepResult.series`); ``capture/<view>/weights/<cost>`` (each registered cost's
 weight map d_P, float images, when asked for), ``metrics/silhouette_iou/<view>``; ``log`` (failed frames).
 
 Sized for keeping: rows are batched into large chunks (a few hundred per run instead of one per entity and frame,
-so the file compresses across frames and the viewer loads it whole), images go as video, and a mesh is written
-again only when its vertices moved. Nothing here knows a tracker: colours and panels come from
-`experiments.presentation`. Each recording has its own ``recording_id`` and a default blueprint; the file is written
-under a temporary name and renamed by `RunRecording.close`, so a crashed run leaves no partial file.
+so the file compresses across frames and the viewer loads it whole), images go as video, and a mesh's vertices are
+written again only when its shape changed (a part that moved rigidly gets a Transform3D of its last vertices).
+Nothing here knows a tracker: colours and panels come from `experiments.presentation`. Each recording has its own
+``recording_id`` and a default blueprint; the file is written under a temporary name and renamed by
+`RunRecording.close`, so a crashed run leaves no partial file.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from __future__ import annotations
 import datetime
 import uuid
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -33,10 +35,12 @@ from experiments.schemas import RecordSettings
 from experiments.video import VideoEncoder
 from tracker.atomic import AtomicFile
 from tracker.geometry.cameras import Camera
+from tracker.geometry.rotations import fit_rigid
 from tracker.observe.silhouettes import CapturedFrame
 from tracker.protocol import FrameInput, Points, StepResult
 from tracker.registry import COSTS
 from tracker.tbf.distances import weight_map
+from tracker.tol import RIGID_MESH_M
 
 APPLICATION_ID = "articulated-tracking"
 TIMELINE = "frame"
@@ -45,6 +49,16 @@ BATCHES = rr.ChunkBatcherConfig(flush_tick=datetime.timedelta(hours=1), flush_nu
                                 flush_num_rows=1 << 22)  # fmt: skip
 SILHOUETTE = [rr.AnnotationInfo(id=0, label="outside", color=(0, 0, 0, 0)),
               rr.AnnotationInfo(id=1, label="silhouette", color=(255, 230, 0, 255))]  # fmt: skip
+
+
+@dataclass(frozen=True)
+class LoggedMesh:
+    """A mesh entity as the viewer shows it: ``vertices`` as logged, moved by a logged transform (``moved``) to
+    ``shown`` (world, float64)."""
+
+    vertices: np.ndarray
+    shown: np.ndarray
+    moved: bool
 
 
 class RunRecording:
@@ -69,8 +83,9 @@ class RunRecording:
         self.stream.save(self._file.temporary, default_blueprint=blueprint)
         self._log_static(components.cameras)
         self._static: set[str] = set()  # entities whose static part (faces, colours, classes) is logged
-        self._vertices: dict[str, np.ndarray] = {}  # each mesh's vertices as last logged
-        self._frames: list[int] = []
+        self._meshes: dict[str, LoggedMesh] = {}
+        self._frames: list[int] = []  # the run's frames, as logged
+        self._series: dict[str, tuple[list[int], list[float]]] = {}  # entity -> its frames and values, sent on close
 
     def __enter__(self) -> RunRecording:
         return self
@@ -103,7 +118,7 @@ class RunRecording:
                 self._videos[view].add(rendered.rgb)
                 log(f"world/cameras/{view}/image/labels", rr.SegmentationImage(rendered.labels, opacity=0.35))
             for part, pixels in zip(self.model.part_names, frame.visible_px[view], strict=True):
-                log(f"metrics/visible_px/{view}/{part}", rr.Scalars(float(pixels)))
+                self._scalar(f"metrics/visible_px/{view}/{part}", pixels)
         self._log_meshes("truth", frame.meshes)
         self._log_params("truth", frame.truth)
 
@@ -118,7 +133,7 @@ class RunRecording:
                 for cost in self.weight_maps:
                     log(f"capture/{view}/weights/{cost}", rr.Image(weight_map(cost, silhouette).astype(np.float32)))
             if view in captured.iou:
-                log(f"metrics/silhouette_iou/{view}", rr.Scalars(captured.iou[view]))
+                self._scalar(f"metrics/silhouette_iou/{view}", captured.iou[view])
 
     def log_result(self, result: StepResult, evaluated: tuple[dict, dict] = ({}, {})) -> None:
         """A tracker's result for the frame (call after `log_frame`): the estimate (its meshes when they moved, its
@@ -136,7 +151,7 @@ class RunRecording:
             elif column in evaluated[1]:
                 series[f"error/{column}"] = evaluated[1][column]
         for name, value in series.items():
-            log(f"metrics/{name}", rr.Scalars(float(value)))
+            self._scalar(f"metrics/{name}", value)
         for view, overlays in result.points.items():
             for name, points in overlays.items():
                 self._log_points(f"world/cameras/{view}/image/{name}", name, points)
@@ -159,7 +174,8 @@ class RunRecording:
         self.stream.log(path, rr.Points2D(points.uv, class_ids=points.state, radii=1.5))
 
     def _log_meshes(self, kind: str, meshes, rgba: tuple[int, int, int, int] | None = None) -> None:
-        """``world/<kind>/<part>``: faces and colour once (static), vertices whenever they moved."""
+        """``world/<kind>/<part>``: faces and colour once (static); when the part moved, a Transform3D if it moved
+        rigidly from its last logged vertices (a pose change), else its new vertices (a shape change)."""
         for mesh in meshes:
             path = f"world/{kind}/{mesh.key}"
             if path not in self._static:
@@ -167,20 +183,40 @@ class RunRecording:
                 self.stream.log(path, rr.Mesh3D.from_fields(triangle_indices=mesh.faces, albedo_factor=colour),
                                 static=True)  # fmt: skip
                 self._static.add(path)
-            vertices = mesh.vertices.astype(np.float32)  # positions only: the viewer shades without normals
-            if path not in self._vertices or not np.array_equal(vertices, self._vertices[path]):
-                self.stream.log(path, rr.Mesh3D.from_fields(vertex_positions=vertices))
-                self._vertices[path] = vertices
+            logged = self._meshes.get(path)
+            if logged is not None and np.array_equal(mesh.vertices, logged.shown):
+                continue
+            transform, residual = fit_rigid(logged.vertices, mesh.vertices) if logged else (None, np.inf)
+            if residual <= RIGID_MESH_M:
+                self.stream.log(path, rr.Transform3D(translation=transform[:3, 3], mat3x3=transform[:3, :3]))
+                self._meshes[path] = LoggedMesh(logged.vertices, mesh.vertices, moved=True)
+                continue
+            # positions only (the viewer shades without normals), and the transform reset in the same row
+            vertices = rr.Mesh3D.from_fields(vertex_positions=mesh.vertices.astype(np.float32))
+            identity = [rr.Transform3D(translation=np.zeros(3), mat3x3=np.eye(3))] if logged and logged.moved else []
+            self.stream.log(path, vertices, *identity)
+            self._meshes[path] = LoggedMesh(mesh.vertices, mesh.vertices, moved=False)
 
     def _log_params(self, kind: str, params: np.ndarray) -> None:
         """``metrics/params/<name>/<kind>`` for every named parameter of the model."""
         for name, value in self.model.parameter_series(params).items():
-            self.stream.log(f"metrics/params/{name}/{kind}", rr.Scalars(value))
+            self._scalar(f"metrics/params/{name}/{kind}", value)
 
     def log_timings(self, frame: int, timings_ms: dict[str, float]) -> None:
-        self.stream.set_time(TIMELINE, sequence=frame)
         for stage, milliseconds in timings_ms.items():
-            self.stream.log(f"metrics/timing/{stage}_ms", rr.Scalars(milliseconds))
+            self._scalar(f"metrics/timing/{stage}_ms", milliseconds, frame)
+
+    def _scalar(self, entity: str, value: float, frame: int | None = None) -> None:
+        """One value of the series at ``entity``, at ``frame`` (default: the frame being logged)."""
+        frames, values = self._series.setdefault(entity, ([], []))
+        frames.append(self._frames[-1] if frame is None else frame)
+        values.append(float(value))
+
+    def _log_series(self) -> None:
+        """Every series as one column (without a wall-clock time per row, which took half a series' bytes)."""
+        for entity, (frames, values) in self._series.items():
+            self.stream.send_columns(entity, indexes=[rr.TimeColumn(TIMELINE, sequence=frames)],
+                                     columns=rr.Scalars.columns(scalars=values))  # fmt: skip
 
     def _log_videos(self) -> None:
         """Each view's video, and which of its frames each run frame shows."""
@@ -195,10 +231,11 @@ class RunRecording:
                                          video.read_frame_timestamps_nanos()))  # fmt: skip
 
     def close(self) -> None:
-        """Write the videos, flush, close the file and move it to ``path`` (idempotent)."""
+        """Write the series and videos, flush, close the file and move it to ``path`` (idempotent)."""
         if self._file is None:
             return
         file, self._file = self._file, None
+        self._log_series()
         self._log_videos()
         self.stream.flush()
         self.stream.disconnect()

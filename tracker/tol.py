@@ -30,3 +30,7 @@ LOG_MAP_ANGLE_RAD = 1e-6  # logarithm map near 0 (first order) and near pi (axis
 
 # A count computed from a float product this close below a whole number is that number (0.1 * 30 = 2.9999...).
 COUNT_ROUNDING = 1e-9
+
+# A recording writes a mesh that moved as a rigid transform of its last vertices when no vertex lands farther than
+# this from where it is (metres): below the positions' own float32 rounding (~1e-7 m at 2 m from the origin).
+RIGID_MESH_M = 1e-7

@@ -2,8 +2,11 @@ import json
 
 import numpy as np
 import pandas as pd
+from omegaconf import OmegaConf
 from rerun.chunk import RrdReader
 
+from eval.recordings import read_mesh_vertices
+from experiments.components import build
 from tests.experiments.test_run import PARTS, VIEWS, frames_by_entity
 from tracker.abis.correspondences import COUNT_NAMES
 from tracker.models.dsq import PARAM_NAMES
@@ -48,3 +51,21 @@ def test_recording_has_the_count_series_features_and_estimate(abis_run):
         assert frames[f"/world/cameras/{view}/image/features"] == every_frame
         assert frames[f"/world/cameras/{view}/image/estimate"] == every_frame
     assert RrdReader(abis_run / "run.rrd").recordings()
+
+
+def test_recorded_meshes_are_the_models_surfaces_at_every_frame(abis_run):
+    """Read back as the viewer shows them (vertices moved by their transform), the truth and estimate meshes are
+    the model's surfaces for the parameters in frames.parquet; parts that only moved were written as transforms."""
+    model = build(OmegaConf.load(abis_run / ".hydra" / "config.yaml")).model
+    table = pd.read_parquet(abis_run / "frames.parquet")
+    for kind, prefix in (("truth", "truth_"), ("estimate", "est_")):
+        recorded = {part: read_mesh_vertices(abis_run / "run.rrd", f"/world/{kind}/{part}") for part in PARTS}
+        for frame, rows in table.groupby("frame"):
+            params = rows.set_index("part").loc[list(PARTS), [prefix + name for name in PARAM_NAMES]].to_numpy()
+            for mesh in model.surface_meshes(params):
+                np.testing.assert_allclose(recorded[mesh.key][frame], mesh.vertices, atol=1e-5)
+    chunks = [chunk.to_record_batch() for chunk in RrdReader(abis_run / "run.rrd").stream().to_chunks()
+              if chunk.entity_path == "/world/truth/upper_arm" and not chunk.is_static]  # fmt: skip
+    vertex_rows = sum(batch.column("Mesh3D:vertex_positions").null_count < batch.num_rows
+                      for batch in chunks if "Mesh3D:vertex_positions" in batch.schema.names)  # fmt: skip
+    assert vertex_rows >= 1 and any("Transform3D:translation" in batch.schema.names for batch in chunks)

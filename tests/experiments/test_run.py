@@ -70,6 +70,9 @@ def test_recording_has_images_labels_params_and_timings_for_every_frame(five_fra
     for part in PARTS:
         assert frames[f"/world/truth/{part}"] == every_frame
         assert frames[f"/metrics/params/{part}/b1/truth"] == every_frame
+    series = [chunk for chunk in reader.stream().to_chunks() if chunk.entity_path.startswith("/metrics/")]
+    assert all(chunk.timeline_names == ["frame"] for chunk in series)  # a series is sent as columns, one chunk each
+    assert len(series) == len({chunk.entity_path for chunk in series})
 
 
 def blueprint_origins(path) -> set[str]:

@@ -4,6 +4,7 @@ from scipy.spatial.transform import Rotation
 
 from tracker.geometry.rotations import (
     euler_to_matrix,
+    fit_rigid,
     invert_rigid,
     matrix_to_euler,
     rigid_transform,
@@ -93,3 +94,17 @@ def test_the_geodesic_angle_is_the_angle_between_two_orientations():
     assert rotation_angle_deg(a, a @ turn) == pytest.approx(25.0)
     # Gimbal lock of eq 4's angles: at r2 = 90 degrees, (r1, r3) = (t, t) is one orientation for any t.
     assert rotation_angle_deg(euler_to_matrix([0.7, np.pi / 2, 0.7]), euler_to_matrix([-0.4, np.pi / 2, -0.4])) < 1e-6
+
+
+def test_fit_rigid_recovers_a_motion_and_measures_what_is_not_rigid():
+    rng = np.random.default_rng(3)
+    source = rng.normal(size=(200, 3))
+    truth = rigid_transform(Rotation.random(random_state=4).as_matrix(), [0.4, -1.0, 2.5])
+    transform, residual = fit_rigid(source, transform_points(truth, source))
+    np.testing.assert_allclose(transform, truth, atol=1e-12)
+    assert residual < 1e-12
+    mirrored = source * [1.0, 1.0, -1.0]  # a reflection is no rigid motion: the fit stays a rotation
+    transform, residual = fit_rigid(source, mirrored)
+    assert np.linalg.det(transform[:3, :3]) > 0 and residual > 0.5
+    bent = transform_points(truth, source) + [0.0, 0.0, 1e-3] * (source[:, :1] > 0)
+    assert 1e-4 < fit_rigid(source, bent)[1] < 2e-3

@@ -136,3 +136,16 @@ def invert_rigid(transform: np.ndarray) -> np.ndarray:
 def transform_points(transform: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Apply a ``(4, 4)`` transform to ``(n, 3)`` points."""
     return points @ transform[:3, :3].T + transform[:3, 3]
+
+
+def fit_rigid(source: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, float]:
+    """The rigid transform ``T`` (4, 4) that best maps ``(n, 3)`` points ``source`` onto ``target`` in the least
+    squares (Kabsch: the SVD of their centred cross-covariance, a reflection excluded), and the largest distance
+    left, ``max_i |T source_i - target_i|``."""
+    source_mean, target_mean = source.mean(axis=0), target.mean(axis=0)
+    u, _, vt = np.linalg.svd((source - source_mean).T @ (target - target_mean))
+    flip = np.diag([1.0, 1.0, np.sign(np.linalg.det(vt.T @ u.T)) or 1.0])
+    rotation = vt.T @ flip @ u.T
+    transform = rigid_transform(rotation, target_mean - rotation @ source_mean)
+    residual = float(np.linalg.norm(transform_points(transform, source) - target, axis=1).max())
+    return transform, residual
