@@ -7,6 +7,7 @@ Every frame of the run is encoded in order, its presentation time its frame inde
 from __future__ import annotations
 
 import io
+import os
 
 import av
 import numpy as np
@@ -16,6 +17,8 @@ FRAME_RATE = 30  # of the file only: Rerun shows each frame at its own index on 
 # BT.709, limited range, stated in the stream and used both ways: RGB -> YUV 4:2:0 -> RGB loses ~1.3 levels on
 # average (mismatched matrices lose 2 and shift dark colours).
 COLORSPACE, COLOR_RANGE = 1, 1
+# SVT-AV1 prints 24 lines of configuration for every encoder it opens; errors only, unless the user set SVT_LOG.
+SVT_LOG_ERRORS = "1"
 
 
 class VideoEncoder:
@@ -24,6 +27,7 @@ class VideoEncoder:
     def __init__(self, width: int, height: int, quality: int) -> None:
         if width % 2 or height % 2:
             raise ValueError(f"video frames need even sides, got {width}x{height}")
+        os.environ.setdefault("SVT_LOG", SVT_LOG_ERRORS)  # read by the encoder when it opens
         self._buffer = io.BytesIO()
         self._container = av.open(self._buffer, "w", format="mp4")
         # preset 12: the fastest (0.8 ms a 320x240 frame); crf: constant quality, lower is better (0-63).
