@@ -9,7 +9,7 @@ Paper 2 (silhouette tree-based filtering): experiment A (24 right-arm swings, si
 the motion model (XOR, wXOR and nwXOR with DM1 and DM2; the paper has no XOR row) into
 ``reports/tbf_table4c/<job>/``, one job per core; ``reports/table4c.md`` / ``.csv`` (Fig 4c) and
 ``reports/table6d.md`` (Fig 6d) from them (`eval.tables`). ``--scale paper`` also runs ``experiment=tbf_paper_scale``
-(about 58,000 samples; the first run renders them for ~12 min) into ``reports/tbf_paper_scale/``, which adds its
+(about 58,000 samples; the first run renders them in ~1.5 min) into ``reports/tbf_paper_scale/``, which adds its
 timings to Fig 6(d) and its MPJPE on the held-out clip to the report.
 """
 
