@@ -19,7 +19,7 @@ log = logging.getLogger(__name__)
 
 def views_sheet(run_dir: str | Path, frames: Sequence[int] | None = None, out: str | Path | None = None) -> Path:
     """A PNG grid of the recorded RGB views: one column per view, one row per frame (default: 4 spread frames)."""
-    plt = _pyplot()
+    plt = pyplot()
     run_dir = Path(run_dir)
     views = json.loads((run_dir / "metrics.json").read_text())["views"]
     images = {view: read_rgb_frames(run_dir / "run.rrd", view) for view in views}
@@ -36,12 +36,12 @@ def views_sheet(run_dir: str | Path, frames: Sequence[int] | None = None, out: s
                 axis.set_title(view)
             if column == 0:
                 axis.set_ylabel(f"frame {frame}")
-    return _save(plt, figure, Path(out) if out is not None else run_dir / "views.png")
+    return save_png(plt, figure, Path(out) if out is not None else run_dir / "views.png")
 
 
 def fig8_part2_b1_r2(run_dir: str | Path, out: str | Path | None = None) -> Path:
     """Paper 1, Fig 8: part 2's bending b1 and rotation r2, estimated and true, over the frames."""
-    plt = _pyplot()
+    plt = pyplot()
     run_dir = Path(run_dir)
     rows = _paper_part_rows(run_dir)
     figure, (bend, turn) = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
@@ -58,12 +58,12 @@ def fig8_part2_b1_r2(run_dir: str | Path, out: str | Path | None = None) -> Path
                    f"(range {metrics['part2_b1_range'] * 1e3:.0f} mm), r2 RMS {metrics['part2_r2_rms_deg']:.2f} deg, "
                    f"{_tracker_name(metrics)}", fontsize=9)  # fmt: skip
     bend.legend(loc="upper right", fontsize=8)
-    return _save(plt, figure, Path(out) if out else run_dir / "fig8_part2_b1_r2.png")
+    return save_png(plt, figure, Path(out) if out else run_dir / "fig8_part2_b1_r2.png")
 
 
 def fig9_part2_correspondences(run_dir: str | Path, out: str | Path | None = None) -> Path:
     """Paper 1, Fig 9: part 2's new, discarded and tracked pairs per frame (all views)."""
-    plt = _pyplot()
+    plt = pyplot()
     run_dir = Path(run_dir)
     rows = _paper_part_rows(run_dir)
     figure, axis = plt.subplots(figsize=(7, 3.8))
@@ -74,7 +74,7 @@ def fig9_part2_correspondences(run_dir: str | Path, out: str | Path | None = Non
     axis.set_xlabel("frame")
     axis.set_ylabel("pairs of part 2")
     axis.legend(fontsize=8, ncol=3)
-    return _save(plt, figure, Path(out) if out else run_dir / "fig9_part2_correspondences.png")
+    return save_png(plt, figure, Path(out) if out else run_dir / "fig9_part2_correspondences.png")
 
 
 def _paper_part_rows(run_dir: Path):
@@ -106,7 +106,7 @@ def _shade_hidden(axis, rows) -> None:
         axis.axvspan(frame - 0.5, frame + 0.5, color="0.9", linewidth=0, zorder=0)
 
 
-def _pyplot():
+def pyplot():
     import matplotlib
 
     matplotlib.use("Agg")
@@ -115,7 +115,7 @@ def _pyplot():
     return plt
 
 
-def _save(plt, figure, out: Path) -> Path:
+def save_png(plt, figure, out: Path) -> Path:
     figure.tight_layout()
     with atomic_path(out) as temporary:
         figure.savefig(temporary, format="png", dpi=100)

@@ -119,7 +119,8 @@ class RunRecording:
                 log(f"world/cameras/{view}/image/labels", rr.SegmentationImage(rendered.labels, opacity=0.35))
             for part, pixels in zip(self.model.part_names, frame.visible_px[view], strict=True):
                 self._scalar(f"metrics/visible_px/{view}/{part}", pixels)
-        self._log_meshes("truth", frame.meshes)
+        if self._meshes_due(frame.frame):
+            self._log_meshes("truth", frame.meshes)
         self._log_params("truth", frame.truth)
 
     def log_capture(self, captured: CapturedFrame) -> None:
@@ -141,7 +142,8 @@ class RunRecording:
         per-part and per-frame columns), and why the frame failed if it did."""
         log = self.stream.log
         if result.estimate is not None:
-            self._log_meshes("estimate", self.model.surface_meshes(result.estimate), rgba=(255, 255, 0, 120))
+            if self._meshes_due(result.frame):
+                self._log_meshes("estimate", self.model.surface_meshes(result.estimate), rgba=(255, 255, 0, 120))
             self._log_params("estimate", result.estimate)
         series = dict(result.series)
         for column in getattr(self.evaluation, "series", ()):
@@ -172,6 +174,10 @@ class RunRecording:
             self.stream.log(path, rr.AnnotationContext(classes), static=True)
             self._static.add(path)
         self.stream.log(path, rr.Points2D(points.uv, class_ids=points.state, radii=1.5))
+
+    def _meshes_due(self, frame: int) -> bool:
+        every = self.record.meshes_every
+        return every > 0 and frame % every == 0
 
     def _log_meshes(self, kind: str, meshes, rgba: tuple[int, int, int, int] | None = None) -> None:
         """``world/<kind>/<part>``: faces and colour once (static); when the part moved, a Transform3D if it moved

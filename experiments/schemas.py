@@ -38,11 +38,15 @@ SCHEMA_PREFIX = "schema_"
 
 @dataclass(frozen=True)
 class RecordSettings:
-    """What ``run.rrd`` holds besides the series: the images, and the weight maps of the silhouette costs."""
+    """What ``run.rrd`` holds besides the series: the images, the meshes, and the weight maps of the silhouette
+    costs."""
 
     images: bool = True  # each view's RGB (as video), part labels and extracted silhouette
     weight_maps: bool = False  # silhouette scenes: each cost's weight map d_P as a float image (300 KB a frame)
     video_quality: Annotated[int, Range(0, 63)] = 30  # the RGB video's constant quality (AV1's crf: lower is finer)
+    # The truth and estimate meshes every this many frames (0: none); series, images and tables keep every frame.
+    # A subject whose every part moves non-rigidly costs ~30 KB of vertices a frame.
+    meshes_every: Annotated[int, Range(0, 1_000_000)] = 1
 
 
 @dataclass(frozen=True)

@@ -12,6 +12,8 @@ angle trace over the same frames (`score_swing`):
              (correlation with the truth below ``min_correlation``);
     Error    it followed, but the largest error over the swing exceeds ``max_error_deg``;
     Success  it followed, with every frame within ``max_error_deg``.
+Each swing's frames, whether it was followed and its largest error go to ``metrics.json`` too
+(``swing_details``), so a reader can score the run at any other bound (`count_outcomes`).
 
 Columns per frame (`BodyEvaluation.columns`): ``truth_pose`` and ``est_pose`` (pose vectors, lists),
 ``swing_truth_deg``, ``swing_est_deg``, ``joint_error_mm`` and ``joint_error_aligned_mm``.
@@ -56,23 +58,51 @@ def split_swings(truth_deg: np.ndarray) -> list[slice]:
     return [slice(int(a), int(b)) for a, b in zip(starts[:-1], starts[1:], strict=True)]
 
 
-def score_swing(truth_deg: np.ndarray, estimate_deg: np.ndarray, rule: SwingRule = SwingRule()) -> str:
+def followed(truth_deg: np.ndarray, estimate_deg: np.ndarray, rule: SwingRule = SwingRule()) -> bool:
+    """Whether the estimate followed one swing (not a Fail; see the module docstring)."""
     truth_deg, estimate_deg = np.asarray(truth_deg, float), np.asarray(estimate_deg, float)
     forward, backward = truth_deg.max(), truth_deg.min()
     reaches = (estimate_deg.max() >= rule.follow_fraction * forward
                and estimate_deg.min() <= rule.follow_fraction * backward)
     spread = np.std(estimate_deg) > 0 and np.std(truth_deg) > 0
     correlation = float(np.corrcoef(truth_deg, estimate_deg)[0, 1]) if spread else 0.0
-    if not (reaches and correlation >= rule.min_correlation):
+    return bool(reaches and correlation >= rule.min_correlation)
+
+
+def outcome(followed_swing: bool, max_error_deg: float, bound_deg: float) -> str:
+    """A swing's verdict from whether it was followed and its largest error, at the rule's bound."""
+    if not followed_swing:
         return "fail"
-    return "success" if np.abs(estimate_deg - truth_deg).max() <= rule.max_error_deg else "error"
+    return "success" if max_error_deg <= bound_deg else "error"
+
+
+def score_swing(truth_deg: np.ndarray, estimate_deg: np.ndarray, rule: SwingRule = SwingRule()) -> str:
+    error = float(np.abs(np.asarray(estimate_deg, float) - np.asarray(truth_deg, float)).max())
+    return outcome(followed(truth_deg, estimate_deg, rule), error, rule.max_error_deg)
+
+
+def swing_details(truth_deg: np.ndarray, estimate_deg: np.ndarray,
+                  rule: SwingRule = SwingRule()) -> dict[str, list]:  # fmt: skip
+    """Per complete swing of the truth trace: its frames (``start`` up to ``stop``, excluded), whether it was
+    followed and its largest error (degrees): enough to score it at any bound (`outcome`)."""
+    truth_deg, estimate_deg = np.asarray(truth_deg, float), np.asarray(estimate_deg, float)
+    swings = split_swings(truth_deg)
+    errors = [float(np.abs(estimate_deg[swing] - truth_deg[swing]).max()) for swing in swings]
+    return {"start": [swing.start for swing in swings], "stop": [swing.stop for swing in swings],
+            "followed": [followed(truth_deg[swing], estimate_deg[swing], rule) for swing in swings],
+            "max_error_deg": errors}  # fmt: skip
 
 
 def score_swings(truth_deg: np.ndarray, estimate_deg: np.ndarray, rule: SwingRule = SwingRule()) -> dict[str, int]:
     """Counts of `OUTCOMES` over the complete swings of the truth trace."""
+    return count_outcomes(swing_details(truth_deg, estimate_deg, rule), rule.max_error_deg)
+
+
+def count_outcomes(details: Mapping[str, list], bound_deg: float) -> dict[str, int]:
+    """Counts of `OUTCOMES` over the swings of `swing_details`, at the bound ``bound_deg``."""
     counts = dict.fromkeys(OUTCOMES, 0)
-    for swing in split_swings(truth_deg):
-        counts[score_swing(truth_deg[swing], np.asarray(estimate_deg)[swing], rule)] += 1
+    for followed_swing, error in zip(details["followed"], details["max_error_deg"], strict=True):
+        counts[outcome(followed_swing, error, bound_deg)] += 1
     return counts
 
 
@@ -106,9 +136,11 @@ class BodyEvaluation:
             return {}
         frame = table["part"] == body.part_names[0]  # one row per frame
         truth, estimate = table["swing_truth_deg"][frame], table["swing_est_deg"][frame]
+        details = swing_details(truth, estimate, self.rule)
         return {
             "mpjpe_mm": float(np.mean(table["joint_error_mm"][frame])),
             "mpjpe_root_aligned_mm": float(np.mean(table["joint_error_aligned_mm"][frame])),
-            "swings": score_swings(truth, estimate, self.rule),
+            "swings": count_outcomes(details, self.rule.max_error_deg),
+            "swing_details": details,
             "swing_error_deg_mean": float(np.mean(np.abs(estimate - truth))),
         }

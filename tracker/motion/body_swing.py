@@ -5,23 +5,37 @@ right upper arm swings about the body's left-right axis between ``forward_deg`` 
 behind the vertical with a triangle wave, so at constant angular speed, one forward-and-back cycle every
 ``period_frames`` (frame 0: arm down, moving forward). Seen side-on from the body's left (rig ``body_side``), the
 right arm passes behind the torso twice per swing. Pose vectors follow `tracker.models.body_mesh`.
+
+``variation`` (0: the clean swing above, exactly) makes it a person's (`SwingVariation`, seeded by ``seed``):
+each swing's amplitude and speed differ, the elbow and abduction drift, the trunk, head, left arm, knees and weight
+sway within `tracker.motion.posture.NATURAL_SPREAD`, the root takes small steps and the body faces a few degrees
+off ``yaw_deg``; all scaled by ``variation``. Swings still start at the vertical moving forward, and every
+`SWINGS_PER_BLOCK` of them take ``SWINGS_PER_BLOCK * period_frames`` frames together.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Annotated
 
 import numpy as np
 
-from tracker.geometry.rotations import matrix_to_rotation_vector, rotation_x, rotation_y, rotation_z
 from tracker.models.body_mesh import BodyMesh
-from tracker.models.body_skeleton import JOINT_INDEX
-from tracker.ranges import Finite, Positive, Range
+from tracker.motion.posture import NATURAL_SPREAD, RANGE_SIGMAS, Drifts, Posture, arms_pose, standing_pose
+from tracker.ranges import Finite, Positive, Range, Seed
 
-# The T-pose's arms hang this far below the horizontal already (frame 0 of the CMU clips).
-_T_POSE_DROOP_DEG = 8.0
+Unit = Annotated[float, Range(0.0, 1.0)]
+
+SWINGS_PER_BLOCK = 24  # paper 2's experiment A: 24 swings
+_SWING_SPREAD = 0.15  # each swing's amplitudes and duration: this fraction (one standard deviation) at variation 1
+_ELBOW_DRIFT_DEG = 20.0  # the elbow drifts between straight and this much bent
+_ABDUCTION_DRIFT_DEG = 6.0  # the abduction drifts this far either side of abduction_deg
+_YAW_OFFSET_DEG = 5.0  # the body faces up to this far off yaw_deg
+_STEP_M = 0.03  # one standard deviation of a step of the root on the floor, each axis
+_STEP_EVERY_FRAMES = (100, 250)  # a step every so many frames (drawn) ...
+_STEP_FRAMES = 12  # ... taking this long
+_DRIFT_PERIODS_FRAMES = (80.0, 400.0)  # slow drifts: sums of three sines with periods in this range
 
 
 @dataclass(frozen=True)
@@ -33,37 +47,87 @@ class BodySwing:
     backward_deg: Annotated[float, Range(0.0, 90.0)] = 40.0  # behind it
     abduction_deg: Annotated[float, Range(0.0, 90.0)] = 8.0  # both arms this far out from the trunk
     yaw_deg: Finite = -90.0  # the direction the body faces, world xy angle from +x (-90: facing -y)
+    variation: Unit = 0.0  # 0: the clean swing; 1: a person's (see the module docstring)
+    seed: Seed = 0  # of the variation
 
     def swing_angle_deg(self, frame: float) -> float:
         """The right arm's elevation in the sagittal plane: + in front of the vertical, - behind."""
-        span = self.forward_deg + self.backward_deg
-        # One cycle walks 0 -> forward -> -backward -> 0, a path of 2 * span degrees at constant speed.
-        walked = (frame / self.period_frames) % 1.0 * 2 * span
-        if walked <= self.forward_deg:
-            return walked
-        if walked <= self.forward_deg + span:
-            return self.forward_deg - (walked - self.forward_deg)
-        return -self.backward_deg + (walked - self.forward_deg - span)
+        if self.variation == 0:
+            return _triangle((frame / self.period_frames) % 1.0, self.forward_deg, self.backward_deg)
+        return self._variation.swing_angle_deg(frame)
 
     def params(self, body: BodyMesh, frame: int) -> np.ndarray:
-        return arms_pose(body, right=(self.swing_angle_deg(frame), self.abduction_deg, 0.0),
-                         left=(0.0, self.abduction_deg, 0.0), yaw_deg=self.yaw_deg)  # fmt: skip
+        if self.variation == 0:
+            return arms_pose(body, right=(self.swing_angle_deg(frame), self.abduction_deg, 0.0),
+                             left=(0.0, self.abduction_deg, 0.0), yaw_deg=self.yaw_deg)  # fmt: skip
+        return standing_pose(body, self._variation.posture(frame))
+
+    @cached_property
+    def _variation(self) -> SwingVariation:
+        return SwingVariation.draw(self, np.random.default_rng(self.seed))
 
 
-def arms_pose(body: BodyMesh, right: tuple[float, float, float], left: tuple[float, float, float],
-              yaw_deg: float = -90.0) -> np.ndarray:  # fmt: skip
-    """The standing body with each arm at ``(swing, abduction, elbow)`` degrees: swing in the sagittal plane
-    (+ in front of the vertical), abduction out from the trunk, elbow flexion (+ brings the forearm forward);
-    facing ``yaw_deg`` (world xy angle from +x; -90 faces -y)."""
-    pose = body.rest_pose()
-    for side, (swing, abduction, elbow), sign in (("Right", right, -1.0), ("Left", left, 1.0)):
-        lower = math.radians(90.0 - _T_POSE_DROOP_DEG - abduction)
-        _set(pose, f"{side}Arm", rotation_x(-math.radians(swing)) @ rotation_y(sign * lower))
-        _set(pose, f"{side}ForeArm", rotation_z(-sign * math.radians(elbow)))
-    _set(pose, "Hips", rotation_z(math.radians(yaw_deg + 90.0)))
-    return pose
+def _triangle(phase: float, forward: float, backward: float) -> float:
+    """One swing at constant angular speed, ``phase`` in [0, 1): 0 -> forward -> -backward -> 0."""
+    span = forward + backward
+    walked = phase * 2 * span
+    if walked <= forward:
+        return walked
+    if walked <= forward + span:
+        return forward - (walked - forward)
+    return -backward + (walked - forward - span)
 
 
-def _set(pose: np.ndarray, joint: str, rotation: np.ndarray) -> None:
-    start = 3 + 3 * JOINT_INDEX[joint]
-    pose[start : start + 3] = matrix_to_rotation_vector(rotation)
+@dataclass(frozen=True, eq=False)
+class SwingVariation:
+    """A drawn person's swing (`BodySwing` with ``variation`` > 0): per swing its start frame and amplitudes, and
+    the slow drifts of everything else."""
+
+    swing: BodySwing
+    starts: np.ndarray  # (swings + 1,) frame each swing starts (the last: where the last one ends)
+    forward: np.ndarray  # (swings,) degrees
+    backward: np.ndarray
+    drifts: Drifts  # of NATURAL_SPREAD's variations, the elbow and the abduction
+    yaw_offset_deg: float
+    steps: np.ndarray  # (k, 3): frame a step starts, its x and y (m)
+
+    @classmethod
+    def draw(cls, swing: BodySwing, rng: np.random.Generator, swings: int = 10 * SWINGS_PER_BLOCK) -> SwingVariation:
+        v = swing.variation
+
+        def spread(n: int) -> np.ndarray:
+            return 1.0 + v * _SWING_SPREAD * np.clip(rng.normal(0.0, 1.0, n), -RANGE_SIGMAS, RANGE_SIGMAS)
+
+        durations = spread(swings).reshape(-1, SWINGS_PER_BLOCK)
+        durations *= SWINGS_PER_BLOCK * swing.period_frames / durations.sum(axis=1, keepdims=True)
+        drifts = Drifts.draw(rng, [*NATURAL_SPREAD, "elbow", "abduction"], _DRIFT_PERIODS_FRAMES)
+        step_frames = np.cumsum(rng.uniform(*_STEP_EVERY_FRAMES, 64))
+        steps = np.column_stack([step_frames, rng.normal(0.0, v * _STEP_M, (64, 2))])
+        return cls(swing=swing, starts=np.r_[0.0, np.cumsum(durations)], forward=swing.forward_deg * spread(swings),
+                   backward=swing.backward_deg * spread(swings), drifts=drifts,
+                   yaw_offset_deg=float(v * rng.uniform(-_YAW_OFFSET_DEG, _YAW_OFFSET_DEG)), steps=steps)  # fmt: skip
+
+    def swing_angle_deg(self, frame: float) -> float:
+        k = int(np.searchsorted(self.starts, frame, side="right")) - 1
+        if k >= len(self.forward):
+            raise ValueError(f"frame {frame} is past the {len(self.forward)} swings drawn")
+        phase = (frame - self.starts[k]) / (self.starts[k + 1] - self.starts[k])
+        return _triangle(phase, self.forward[k], self.backward[k])
+
+    def root_offset_m(self, frame: float) -> tuple[float, float]:
+        """Where the steps taken by ``frame`` have moved the root (each step eased over `_STEP_FRAMES`)."""
+        progress = np.clip((frame - self.steps[:, 0]) / _STEP_FRAMES, 0.0, 1.0)
+        eased = progress * progress * (3 - 2 * progress)
+        offset = eased @ self.steps[:, 1:]
+        return float(offset[0]), float(offset[1])
+
+    def posture(self, frame: float) -> Posture:
+        v, swing = self.swing.variation, self.swing
+        natural = {name: float(value) for name, value in self.drifts.natural(frame, v).items()}
+        elbow = v * _ELBOW_DRIFT_DEG * (float(self.drifts.value("elbow", frame)) + 1) / 2
+        abduction = swing.abduction_deg + v * _ABDUCTION_DRIFT_DEG * float(self.drifts.value("abduction", frame))
+        left = (natural.pop("left_swing_deg"), swing.abduction_deg + natural.pop("left_abduction_deg"),
+                natural.pop("left_elbow_deg"))  # fmt: skip
+        yaw = swing.yaw_deg + self.yaw_offset_deg + natural.pop("yaw_deg")
+        return Posture(right=(self.swing_angle_deg(frame), abduction, elbow), left=left, yaw_deg=yaw,
+                       root_offset_m=self.root_offset_m(frame), **natural)  # fmt: skip

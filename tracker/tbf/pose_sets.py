@@ -1,6 +1,7 @@
 """Where pose samples come from (paper 2, 3.1: motion capture, "mainly side-on with the right arm moved variously").
 
-`arm_grid` walks both arms of the standing body over grids of angles (`tracker.motion.body_swing.arms_pose`);
+`arm_grid` walks both arms of the standing body over grids of angles (`tracker.motion.posture.arms_pose`);
+`tracker.motion.arm_capture` gives a capture session of the side-on person moving the right arm in various ways;
 `clip_samples` takes every frame of CMU-style BVH clips at a chosen rate, each clip turned to face ``yaw_deg`` at
 its first frame and centred over the origin. Either gives pose vectors; `remove_near_duplicates` then
 keeps no two within ``min_joint_deg`` in every joint (the paper's rule), for `tracker.tbf.samples.load_or_build`.
@@ -18,8 +19,8 @@ from scipy.spatial.transform import Rotation
 
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.body_skeleton import JOINT_NAMES
-from tracker.motion.body_swing import arms_pose
 from tracker.motion.mocap import MocapScene
+from tracker.motion.posture import arms_pose
 from tracker.tol import ZERO_LENGTH
 
 

@@ -20,24 +20,28 @@ import numpy as np
 
 from tracker.geometry.cameras import Camera
 from tracker.models.body_mesh import BodyMesh
-from tracker.models.makehuman import Triangles, build_body
-from tracker.motion.body_swing import arms_pose
+from tracker.models.body_shapes import STANDARD_BODIES, MacroShape
+from tracker.models.makehuman import Triangles, body_measurements, build_body, nearest_standard_body
+from tracker.motion.arm_capture import ArmRanges, capture_poses
 from tracker.motion.mocap import read_cmu_clip
+from tracker.motion.posture import arms_pose
 from tracker.protocol import FrameInput, StepResult, Tracker
 from tracker.ranges import Finite, NonNegative, Positive, Range, Rule, Seed
 from tracker.registry import TRACKERS
+from tracker.tbf.alignment import feet_anchor, samples_anchor, shifted, world_offset
 from tracker.tbf.distances import Cost, EmptySilhouette
 from tracker.tbf.filter import FilterResult, FilterSettings, TreeFilter
 from tracker.tbf.motion import RandomWalk
 from tracker.tbf.pose_sets import arm_grid, clip_samples, remove_near_duplicates, varied
 from tracker.tbf.sample_build import BuildSettings, load_or_build
 from tracker.tbf.samples import PoseSampleSet
-from tracker.tbf.tree import PoseTree, load_or_build_tree
+from tracker.tbf.tree import PoseTree, load_or_build_tree, thresholds_for_shares
 from tracker.timing import elapsed_ms
 
 log = logging.getLogger(__name__)
 
 _ORDERED = Rule(lambda span: span[0] <= span[1], "allowed [start, stop, step] with start <= stop")
+Share = Annotated[float, Range(0.0, 1.0, low_open=True)]
 DegreeSpan = Annotated[tuple[Finite, Finite, Positive], _ORDERED]  # start, stop (included), step
 
 
@@ -62,10 +66,33 @@ class GridSpec:
 
 
 @dataclass(frozen=True)
+class CaptureSpec:
+    """Samples as paper 2's capture gave them (`tracker.motion.arm_capture`): a continuous session of the side-on
+    person moving the right arm in various ways over the ranges (``[low, high]`` degrees) while standing naturally
+    (`tracker.motion.posture.NATURAL_SPREAD` times ``amplitude``), every frame at ``fps``; drawn from ``seed``."""
+
+    seconds: Annotated[float, Range(0.1, 36000.0)] = 120.0
+    fps: Positive = 30.0
+    swing_deg: tuple[Finite, Finite] = (-60.0, 120.0)
+    abduction_deg: tuple[Finite, Finite] = (0.0, 40.0)
+    elbow_deg: tuple[Finite, Finite] = (0.0, 90.0)
+    yaw_deg: Finite = -90.0
+    amplitude: Annotated[float, Range(0.0, 1.0)] = 1.0
+    seed: Seed = 0
+
+    def poses(self, body: BodyMesh) -> np.ndarray:
+        ranges = ArmRanges(self.swing_deg, self.abduction_deg, self.elbow_deg)
+        return capture_poses(body, ranges, self.seconds, self.fps, self.yaw_deg, self.amplitude,
+                             np.random.default_rng(self.seed))  # fmt: skip
+
+
+@dataclass(frozen=True)
 class SampleSpec:
-    """Where the pose samples come from: a grid and/or BVH clips with procedural variation."""
+    """Where the pose samples come from: a grid, a capture session of the right arm moving, and/or BVH clips
+    with procedural variation."""
 
     grid: GridSpec | None = field(default_factory=GridSpec)
+    capture: CaptureSpec | None = None
     clips: tuple[str, ...] = ()  # BVH files: every frame at clip_fps, facing clip_yaw_deg at its start
     clip_fps: Positive = 10.0
     clip_yaw_deg: Finite = -90.0
@@ -86,6 +113,9 @@ class TbfSettings:
     samples: SampleSpec = field(default_factory=SampleSpec)
     # T_l: XOR distance (fraction of the window) at 80x60, 160x120, 320x240.
     thresholds: tuple[Positive, Positive, Positive] = (0.006, 0.002, 0.001)
+    # Or T_l chosen for the sample set at hand: each level holds this share of the samples as nodes
+    # (`tracker.tbf.tree.thresholds_for_shares`; the paper's experiment A: 0.203, 0.882, 0.971). Replaces thresholds.
+    node_shares: tuple[Share, Share, Share] | None = None
     filter: FilterSettings = field(default_factory=FilterSettings)
     initial_yaw_deg: Finite = -90.0  # the initial pose: upright, arms down, facing this way (the body faces -y)
     cache_dir: str = ".cache/tbf"  # sample sets and trees, keyed by everything that affects them
@@ -93,6 +123,12 @@ class TbfSettings:
     cache_check: Literal["sampled", "full"] = "sampled"
     build: BuildSettings = field(default_factory=BuildSettings)  # shards, processes, joblib backend
     body_triangles: Triangles = 4500  # the tracker's model: the standard body (the subject may differ)
+    # Which standard body: MakeHuman's base mesh, or the one of `STANDARD_BODIES` nearest to the subject's
+    # stature and chest girth, measured on the subject as a tailor would (paper 2, section 7).
+    body: Literal["base", "nearest_standard"] = "base"
+    # The observed silhouette as it is, or moved by whole pixels so that its feet stand where the samples' do,
+    # the estimate's root moved back by as much (`tracker.tbf.alignment`): a person who steps about.
+    align: Literal["none", "feet"] = "none"
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -138,13 +174,16 @@ class TbfTracker(Tracker):
         start = time.perf_counter()
         settings = self.settings
         cache_dir = Path(settings.cache_dir)
-        # The tracker's own model is the standard body, whatever the subject's height and girth.
-        self.body = build_body(triangles=settings.body_triangles)
+        self.body = self.standard_body(model)
         poses = self.sample_poses(self.body)
         self.samples = load_or_build(self.body, self.camera, poses, cache_dir / "samples", build=settings.build,
                                      check=settings.cache_check)  # fmt: skip
-        self.tree = load_or_build_tree(self.samples, settings.thresholds, cache_dir / "trees")
+        self.thresholds = settings.thresholds
+        if settings.node_shares is not None:
+            self.thresholds = thresholds_for_shares(self.samples, settings.node_shares)
+        self.tree = load_or_build_tree(self.samples, self.thresholds, cache_dir / "trees")
         self.filter = TreeFilter(self.samples, self.tree, self.cost, self.motion, settings.filter)
+        self.anchor = samples_anchor(self.samples) if settings.align == "feet" else None
         self.filter.start(arms_pose(self.body, (0.0, 8.0, 0.0), (0.0, 8.0, 0.0), yaw_deg=settings.initial_yaw_deg))
         self._estimate = np.asarray(self.samples.poses[0]).copy()
         self.setup_s = time.perf_counter() - start
@@ -152,11 +191,27 @@ class TbfTracker(Tracker):
                  len(self.samples), self.tree.node_counts, [f"{s:.3g}" for s in self.filter.level_sigmas],
                  self.setup_s)  # fmt: skip
 
+    def standard_body(self, subject: BodyMesh) -> BodyMesh:
+        """The tracker's own model: a standard body, never the subject itself (`TbfSettings.body`)."""
+        measured = body_measurements(subject)
+        self.body_name = "base"
+        if self.settings.body == "nearest_standard":
+            self.body_name = nearest_standard_body(subject, self.settings.body_triangles)
+        body = build_body(triangles=self.settings.body_triangles, shape=STANDARD_BODIES.get(self.body_name,
+                                                                                            MacroShape()))
+        chosen = body_measurements(body)
+        self.body_choice = {"name": self.body_name, "stature_m": round(chosen.stature_m, 4),
+                            "chest_girth_m": round(chosen.chest_girth_m, 4),
+                            "subject_stature_m": round(measured.stature_m, 4),
+                            "subject_chest_girth_m": round(measured.chest_girth_m, 4)}  # fmt: skip
+        return body
+
     def describe(self) -> dict[str, Any]:
-        """What `start` built: the number of pose samples and the tree's nodes per level."""
+        """What `start` built: the standard body chosen, the number of pose samples and the tree's nodes per level."""
         if self.samples is None or self.tree is None:
             return {}
-        return {"samples": len(self.samples), "tree_nodes": self.tree.node_counts}
+        return {"body": self.body_choice, "samples": len(self.samples), "tree_nodes": self.tree.node_counts,
+                "tree_thresholds": [round(t, 6) for t in self.thresholds]}
 
     def summarize(self, table: Mapping[str, np.ndarray]) -> dict[str, Any]:
         """The tree search's mean effort: nodes evaluated per level, and the fraction of them pruned."""
@@ -175,6 +230,8 @@ class TbfTracker(Tracker):
         parts = []
         if spec.grid is not None:
             parts.append(spec.grid.poses(body))
+        if spec.capture is not None:
+            parts.append(spec.capture.poses(body))
         if spec.clips:
             clips = clip_samples(body, spec.clips, spec.clip_fps, spec.clip_yaw_deg)
             if spec.clip_in_place:
@@ -182,7 +239,7 @@ class TbfTracker(Tracker):
             parts.append(varied(clips, spec.clip_turns_deg, spec.clip_copies, spec.clip_jitter_deg,
                                 np.random.default_rng(spec.seed)))  # fmt: skip
         if not parts:
-            raise ValueError("tracker.samples names no poses: set a grid or clips")
+            raise ValueError("tracker.samples names no poses: set a grid, a capture or clips")
         poses = np.concatenate(parts)
         return poses[remove_near_duplicates(poses, spec.min_joint_deg)]
 
@@ -192,11 +249,25 @@ class TbfTracker(Tracker):
             raise ValueError("tracker=tbf needs the frame's silhouette (the capture stage of a body scene)")
         observed = silhouettes[self.camera.name]
         start = time.perf_counter()
+        shift = self._alignment(observed)
         try:
-            found = self.filter.step(observed)
+            found = self.filter.step(shifted(observed, *shift) if any(shift) else observed)
         except EmptySilhouette as error:  # nobody in view: keep the last estimate, say why
             return TbfResult.of(self.part_names, None, frame=frame.frame, estimate=self._estimate.copy(),
                                 timings_ms={"filter": elapsed_ms(start)}, failure=f"{error}")  # fmt: skip
-        self._estimate = found.pose
-        return TbfResult.of(self.part_names, found, frame=frame.frame, estimate=found.pose,
-                            timings_ms={**found.timings_ms, "filter": elapsed_ms(start)})  # fmt: skip
+        estimate = found.pose.copy()
+        if any(shift):  # the subject stands away from the samples' spot: so does the estimate
+            estimate[:3] += world_offset(self.camera, estimate[:3], -shift[0], -shift[1])
+        self._estimate = estimate
+        result = TbfResult.of(self.part_names, found, frame=frame.frame, estimate=estimate,
+                              timings_ms={**found.timings_ms, "filter": elapsed_ms(start)})  # fmt: skip
+        if self.anchor is not None:
+            result.frame_columns.update(align_du_px=shift[0], align_dv_px=shift[1])
+        return result
+
+    def _alignment(self, observed: np.ndarray) -> tuple[int, int]:
+        """Whole pixels ``(du, dv)`` that move the observed feet onto the samples' (`TbfSettings.align`)."""
+        found = feet_anchor(observed) if self.anchor is not None else None
+        if found is None:
+            return 0, 0
+        return int(round(self.anchor[0] - found[0])), int(round(self.anchor[1] - found[1]))

@@ -102,26 +102,59 @@ def _build_logged(samples: PoseSampleSet, thresholds, resolutions, key: str, pat
 
 def build_tree(samples: PoseSampleSet, thresholds: tuple[float, ...], resolutions=LEVEL_RESOLUTIONS,
                key: str = "") -> PoseTree:  # fmt: skip
-    poses = np.asarray(samples.poses)
-    node_of_sample = np.zeros(len(poses), dtype=np.int64)  # level 0: one node
+    node_of_sample = np.zeros(len(samples), dtype=np.int64)  # level 0: one node
     levels = []
     for threshold, resolution in zip(thresholds, resolutions, strict=True):
-        silhouettes = samples.silhouettes(resolution)
-        pixels = int(np.prod(silhouettes.images.shape[1:]))
-        masks = _packed_bits(silhouettes.images)
-        representatives, seeds, parents = [], [], []
-        assignment = np.empty(len(poses), dtype=np.int64)
-        for parent in range(node_of_sample.max() + 1):
-            members = np.flatnonzero(node_of_sample == parent)
-            reps, first_reps, nearest = _split(poses[members], masks[members], pixels, threshold)
-            assignment[members] = len(representatives) + nearest
-            representatives.extend(members[reps])
-            seeds.extend(members[first_reps])
-            parents.extend([parent] * len(reps))
-        levels.append(TreeLevel(np.array(representatives), np.array(seeds), np.array(parents), assignment,
-                                tuple(resolution), float(threshold)))  # fmt: skip
-        node_of_sample = assignment
+        levels.append(_build_level(samples, node_of_sample, threshold, resolution))
+        node_of_sample = levels[-1].node_of_sample
     return PoseTree(tuple(levels), key)
+
+
+def _build_level(samples: PoseSampleSet, node_of_sample: np.ndarray, threshold: float,
+                 resolution: tuple[int, int]) -> TreeLevel:  # fmt: skip
+    """The level below the nodes ``node_of_sample``: each node split at T_l = ``threshold`` (steps 1-4)."""
+    poses = np.asarray(samples.poses)
+    silhouettes = samples.silhouettes(resolution)
+    pixels = int(np.prod(silhouettes.images.shape[1:]))
+    masks = _packed_bits(silhouettes.images)
+    representatives, seeds, parents = [], [], []
+    assignment = np.empty(len(poses), dtype=np.int64)
+    for parent in range(node_of_sample.max() + 1):
+        members = np.flatnonzero(node_of_sample == parent)
+        reps, first_reps, nearest = _split(poses[members], masks[members], pixels, threshold)
+        assignment[members] = len(representatives) + nearest
+        representatives.extend(members[reps])
+        seeds.extend(members[first_reps])
+        parents.extend([parent] * len(reps))
+    return TreeLevel(np.array(representatives), np.array(seeds), np.array(parents), assignment, tuple(resolution),
+                     float(threshold))  # fmt: skip
+
+
+SHARE_BISECTIONS = 16  # halvings of each threshold's bracket (in log space: ~0.1 % of the bracket's ratio)
+_THRESHOLD_BRACKET = (1e-5, 1.0)  # T_l is a fraction of the window's pixels
+
+
+def thresholds_for_shares(samples: PoseSampleSet, shares: tuple[float, ...],
+                          resolutions=LEVEL_RESOLUTIONS) -> tuple[float, ...]:  # fmt: skip
+    """T_l per level, top down, such that level l holds about ``shares[l]`` of the samples as nodes (the paper's
+    3,417 samples gave 693 / 3,013 / 3,318 nodes: shares 0.20 / 0.88 / 0.97): each by bisection (more nodes for a
+    smaller T_l), below the levels already chosen. Kept with the sample set (`PoseSampleSet.derived`)."""
+    chosen: list[float] = []
+    node_of_sample = np.zeros(len(samples), dtype=np.int64)
+    for share, resolution in zip(shares, resolutions, strict=True):
+        name = f"tree_threshold share={list(shares)} level={len(chosen) + 1}"
+
+        def bisect(parents=node_of_sample, share=share, resolution=resolution) -> float:
+            low, high = np.log(_THRESHOLD_BRACKET[0]), np.log(_THRESHOLD_BRACKET[1])
+            for _ in range(SHARE_BISECTIONS):
+                middle = (low + high) / 2
+                nodes = len(_build_level(samples, parents, float(np.exp(middle)), resolution))
+                low, high = (middle, high) if nodes > share * len(samples) else (low, middle)
+            return float(np.exp(high))
+
+        chosen.append(samples.derived(name, bisect))
+        node_of_sample = _build_level(samples, node_of_sample, chosen[-1], resolution).node_of_sample
+    return tuple(chosen)
 
 
 def _split(poses, masks, pixels, threshold) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
