@@ -1,5 +1,6 @@
 """Paper 2's experiment A as pictures: the right arm's angle per cell with each swing's verdict (Fig 4c's
-evidence), frames with the estimated posture drawn over the input (Fig 4b), and success against realism.
+evidence), frames with the estimated posture drawn over the input (Fig 4b), success against realism, and the
+samples a cost weighed at its worst frame (why it went wrong).
 
 Verdict colours: Success green, Error orange, Fail red (`tracker.evaluation.body`).
 """
@@ -14,13 +15,16 @@ import numpy as np
 import pandas as pd
 
 from eval.figures import pyplot, save_png
-from eval.recordings import read_rgb_frames
+from eval.recordings import read_images, read_rgb_frames
 from tracker import catalog  # noqa: F401  (registers the built-in components)
-from tracker.evaluation.body import SwingRule, outcome
+from tracker.evaluation.body import SwingRule, nearest_in_3d, outcome
 from tracker.models.body_shapes import STANDARD_BODIES, MacroShape
 from tracker.models.body_skeleton import JOINT_INDEX, JOINT_NAMES, PART_BONES, PART_COLORS
 from tracker.models.makehuman import build_body
 from tracker.registry import REGISTRIES
+from tracker.tbf.alignment import shifted
+from tracker.tbf.distances import ObservationScorer, weight_map
+from tracker.tbf.samples import LEVEL_RESOLUTIONS
 
 VERDICT_COLORS = {"success": "#2ca02c", "error": "#ff7f0e", "fail": "#d62728"}
 # The skeleton drawn: every bone from its parent down to the hands and feet (fingers and toes left out).
@@ -99,3 +103,58 @@ def realism_plot(table: pd.DataFrame, out: Path) -> Path:
     axis.set_ylim(-0.5, 24.5)
     axis.legend(fontsize=7, ncol=2)
     return save_png(plt, figure, out)
+
+
+def competing_samples(runs: Mapping[str, Path], out: Path) -> Path:
+    """Why a cost goes wrong, for the worst frame of each run (label -> run folder, recorded with images): the
+    observed silhouette as the filter saw it (moved onto the samples' feet) with the cost's weight map d_P, then the
+    sample the filter chose and the sample nearest the truth in 3-D, each drawn against the observation (grey both,
+    red only the observation, blue only the sample) with its distance under the run's cost. When the chosen
+    sample's distance is the smaller, the cost itself preferred the wrong posture."""
+    plt = pyplot()
+    figure, axes = plt.subplots(len(runs), 3, figsize=(9.0, 3.0 * len(runs)), squeeze=False)
+    for row, (label, run_dir) in enumerate(runs.items()):
+        tracker, table = _restarted_tracker(run_dir)
+        frame = int((table["swing_est_deg"] - table["swing_truth_deg"]).abs().idxmax())
+        observed = read_images(run_dir / "run.rrd", f"/world/cameras/{tracker.camera.name}/image/silhouette")[frame]
+        du, dv = (int(table.loc[frame, c]) if c in table and pd.notna(table.loc[frame, c]) else 0
+                  for c in ("align_du_px", "align_dv_px"))  # fmt: skip
+        observed = shifted(observed.astype(bool), du, dv)
+        stack = tracker.samples.silhouettes(LEVEL_RESOLUTIONS[-1])
+        scores = ObservationScorer(tracker.cost, observed, stack.window).scores(stack)
+        chosen = int(table.loc[frame, "est_sample"])
+        nearest = int(nearest_in_3d(tracker.subject, np.asarray(table.loc[frame, "truth_pose"])[None], tracker.body,
+                                    tracker.samples.poses)[0][0])  # fmt: skip
+        axes[row, 0].imshow(weight_map(tracker.cost, observed, stack.window), cmap="magma")
+        axes[row, 0].set_title(f"{label}, frame {frame}: observed, d_P", fontsize=8)
+        for column, (name, index) in enumerate((("chosen", chosen), ("nearest in 3-D", nearest)), start=1):
+            model = np.zeros_like(observed)
+            u0, v0, u1, v1 = stack.window
+            model[v0:v1, u0:u1] = stack.mask(index)
+            overlay = np.full(observed.shape + (3,), 255, np.uint8)
+            overlay[observed & model] = (150, 150, 150)
+            overlay[observed & ~model] = (220, 40, 40)
+            overlay[~observed & model] = (40, 90, 220)
+            axes[row, column].imshow(overlay)
+            swing = tracker.body.right_arm_swing_deg(tracker.samples.poses[index])
+            axes[row, column].set_title(f"{name}: arm {swing:.0f}° (truth {table.loc[frame, 'swing_truth_deg']:.0f}°)"
+                                        f", d = {scores[index]:.4g}", fontsize=8)  # fmt: skip
+        for axis in axes[row]:
+            axis.set_xticks([]), axis.set_yticks([])
+            axis.set_xlim(stack.window[0], stack.window[2]), axis.set_ylim(stack.window[3], stack.window[1])
+    return save_png(plt, figure, out)
+
+
+def _restarted_tracker(run_dir: Path):
+    """The run's tracker started again from its config (its samples and tree come from the cache), and the run's
+    table one row per frame."""
+    from omegaconf import OmegaConf
+
+    from experiments.components import build
+
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    components = build(OmegaConf.create(metrics["config"]))
+    table = pd.read_parquet(run_dir / "frames.parquet").drop_duplicates("frame").set_index("frame")
+    components.tracker.start(components.model, components.cameras, np.asarray(table.iloc[0]["truth_pose"]),
+                             np.random.default_rng(0))  # fmt: skip
+    return components.tracker, table

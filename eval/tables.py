@@ -56,6 +56,7 @@ def collect(directories: list[Path]) -> pd.DataFrame:
                          "frames": metrics.get("frames_done"), **numbers, "fail": swings.get("fail"),
                          "error": swings.get("error"), "success": swings.get("success"),
                          "samples": metrics.get("samples"), **timings, "run": str(path.parent),
+                         "floor_success": metrics.get("swings_floor", {}).get("success"),
                          "swing_followed": metrics.get("swing_details", {}).get("followed", []),
                          "swing_max_error_deg": metrics.get("swing_details", {}).get("max_error_deg", [])})  # fmt: skip
     return pd.DataFrame(rows)
@@ -106,7 +107,9 @@ def _finished(runs: pd.DataFrame, *columns: str) -> pd.DataFrame:
 def table_4c(runs: pd.DataFrame) -> pd.DataFrame:
     """One row per experiment and cell (cost, motion) of the finished runs that scored swings (experiment A), cells
     in the order the costs and motion models are registered: the number of runs (the subject's seeds), each
-    outcome's count (``mean ± std`` over the runs, the count itself for one run), MPJPE (mean), the distribution of
+    outcome's count (``mean ± std`` over the runs, the count itself for one run), the Success count of the dictionary's
+    floor (the sample nearest the truth in 3-D taken as the estimate, where the tracker reports it), MPJPE and its
+    floor (root-aligned; means), the distribution of
     the swings' largest errors (median and 90th percentile over every swing of every run, degrees), and the paper's
     counts for the cell."""
     scored = _finished(runs, "fail", "cost", "motion")
@@ -118,7 +121,11 @@ def table_4c(runs: pd.DataFrame) -> pd.DataFrame:
         errors = np.concatenate([np.asarray(e, float) for e in group["swing_max_error_deg"]])
         row = {"experiment": experiment, "cost": cost, "motion": motion, "runs": len(group)}
         row.update({outcome: _mean_std(group[outcome]) for outcome in OUTCOMES})
+        if "floor_success" in group and group["floor_success"].notna().all():
+            row["floor_success"] = _mean_std(group["floor_success"])
         row.update({"mpjpe_mm": round(float(group["mpjpe_mm"].mean()), 1),
+                    "mpjpe_floor_mm": round(float(group["mpjpe_floor_mm"].mean()), 1) if "mpjpe_floor_mm" in group
+                    else None,
                     "max_err_median_deg": round(float(np.median(errors)), 1) if len(errors) else None,
                     "max_err_p90_deg": round(float(np.percentile(errors, 90)), 1) if len(errors) else None,
                     "paper_fail": paper[0] if paper else None, "paper_error": paper[1] if paper else None,
@@ -153,13 +160,15 @@ def table_4c_bounds(runs: pd.DataFrame, bounds: tuple[float, ...] = SWING_BOUNDS
 
 
 def table_order(runs: pd.DataFrame) -> pd.DataFrame:
-    """``runs`` with their cells (cost, motion) in the order the costs and motion models are registered."""
+    """``runs`` by experiment (as named), then their cells (cost, motion) in the order the costs and motion models
+    are registered."""
     order = {name: k for kind in ("cost", "motion") for k, name in enumerate(REGISTRIES[kind].names())}
-    return runs.sort_values(["cost", "motion"], key=lambda c: c.map(order), kind="stable")
+    columns = [c for c in ("experiment", "cost", "motion") if c in runs]
+    return runs.sort_values(columns, key=lambda c: c if c.name == "experiment" else c.map(order), kind="stable")
 
 
 def _cells(scored: pd.DataFrame):
-    """The runs grouped by experiment, cost and motion; cells in registration order."""
+    """The runs grouped by experiment, cost and motion, in `table_order`."""
     scored = scored.assign(experiment=scored.get("experiment", pd.Series("", index=scored.index)).fillna(""))
     return table_order(scored).groupby(["experiment", "cost", "motion"], sort=False)
 

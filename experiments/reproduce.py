@@ -12,7 +12,7 @@ paper has no XOR row) into ``reports/tbf_table4c/<job>/``, one job per core; the
 (``tbf_table4c_clean``) into ``reports/tbf_table4c_clean/``; a sweep of realism (DM2, three costs) into
 ``reports/tbf_realism/``. ``reports/table4c.md`` / ``.csv`` (Fig 4c, with each cell's largest errors and the counts
 at other bounds) and ``reports/table6d.md`` (Fig 6d) come from them (`eval.tables`), and the figures
-``fig4c_swings.png``, ``fig4b_strip.png`` and ``fig4c_realism.png`` (`eval.body_figures`).
+``fig4c_swings.png``, ``fig4b_strip.png``, ``fig4c_realism.png`` and ``fig4c_why.png`` (`eval.body_figures`).
 
 ``--scale paper`` also runs ``experiment=tbf_paper_scale`` (about 58,000 samples; the first run renders them in
 ~1.5 min) into ``reports/tbf_paper_scale/``, which adds its timings to Fig 6(d) and its MPJPE on the held-out clip
@@ -34,7 +34,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from eval.body_figures import posture_strip, realism_plot, swing_traces
+from eval.body_figures import competing_samples, posture_strip, realism_plot, swing_traces
 from eval.figures import write_figures
 from eval.tables import collect, machine, markdown, table_4c, table_4c_bounds, table_6d, table_order, write_reports
 from experiments.components import compose
@@ -44,11 +44,18 @@ from tracker.models.makehuman import build_body, nearest_standard_body
 
 REPORTS = Path("reports")
 TBF_CELLS = ("cost=xor,wxor,nwxor", "motion=dm1,dm2")  # the paper's 4 cells, and XOR beyond it
-SUBJECT_SEEDS = (0, 1, 2)  # of the subject's variation in experiment A
 REALISM_LEVELS = (0.0, 0.25, 0.5)  # swept below the experiment itself (1)
 STRIP_FRAMES = (200, 206, 212, 218, 224, 230, 236)  # Fig 4(b): one swing of frames 200-240
-# Runs kept for their tables: series only (the experiment's first seed keeps images and meshes).
+# Runs kept for their tables: series only (~2 MB); the two cells the paper compares keep images and meshes.
 LIGHT_RECORDING = ("record.images=false", "record.meshes_every=0")
+# Experiment A: 6 cells x 3 seeds of the subject's variation, in four multiruns (Hydra sweeps a grid) so that
+# only wXOR and nwXOR with DM2 on the first subject are recorded whole. Folder under reports/tbf_table4c -> overrides.
+EXPERIMENT_A_SWEEPS = {
+    "recorded": ("cost=wxor,nwxor", "motion=dm2", "scene.body.seed=0"),
+    "seed0_xor": ("cost=xor", "motion=dm1,dm2", "scene.body.seed=0", *LIGHT_RECORDING),
+    "seed0_dm1": ("cost=wxor,nwxor", "motion=dm1", "scene.body.seed=0", *LIGHT_RECORDING),
+    "seeds_1_2": (*TBF_CELLS, "scene.body.seed=1,2", *LIGHT_RECORDING),
+}
 
 
 @dataclass(frozen=True)
@@ -119,8 +126,9 @@ def paper_2(paper_scale: bool) -> Section:
     realism_dirs = {level: REPORTS / "tbf_realism" / f"realism_{level:g}" for level in REALISM_LEVELS}
     for directory in (experiment_dir, control_dir, REPORTS / "tbf_realism"):
         shutil.rmtree(directory, ignore_errors=True)
-    print(f"paper 2: experiment A, 6 cells x {len(SUBJECT_SEEDS)} subjects' seeds, one job per core ...", flush=True)
-    run_sweep("tbf_table4c", experiment_dir, *TBF_CELLS, f"scene.body.seed={','.join(map(str, SUBJECT_SEEDS))}")
+    for folder, overrides in EXPERIMENT_A_SWEEPS.items():
+        print(f"paper 2: experiment A, {folder}, one job per core ...", flush=True)
+        run_sweep("tbf_table4c", experiment_dir / folder, *overrides)
     print("paper 2: the clean control, 6 cells ...", flush=True)
     run_sweep("tbf_table4c_clean", control_dir, *TBF_CELLS, *LIGHT_RECORDING)
     for level, directory in realism_dirs.items():
@@ -142,7 +150,7 @@ def paper_2(paper_scale: bool) -> Section:
                      for r in four_c.itertuples())  # fmt: skip
     seconds = time.perf_counter() - start
     console = (f"\nPaper 2 (silhouette tree-based filtering), {len(runs)} runs in {seconds:.0f} s:\n{rows}\n"
-               + "\n".join(f"  {path}" for path in [*written, *figures]))  # fmt: skip
+               + "\n".join(f"  {path}" for path in [*written, *figures.values()]))  # fmt: skip
     experiment = runs[runs["experiment"] == "tbf_table4c"]
     first = json.loads((Path(experiment["run"].iloc[0]) / "metrics.json").read_text())
     text = ("## Paper 2: silhouette tree-based filtering (Okada & Stenger)\n\n"
@@ -191,7 +199,8 @@ def realism_overrides(level: float) -> list[str]:
 
 def experiment_a_figures(runs: pd.DataFrame, realism_runs: pd.DataFrame) -> dict[str, Path]:
     """The pictures of experiment A (`eval.body_figures`): each cell's swings (first subject's seed), the
-    estimate over the input for nwXOR + DM2, and success against realism."""
+    estimate over the input for nwXOR + DM2, success against realism, and why wXOR and nwXOR erred where they
+    erred most."""
     first_seed = runs["overrides"].str.split().map(lambda overrides: "scene.body.seed=0" in overrides)
     experiment = runs[(runs["experiment"] == "tbf_table4c") & first_seed]
     cells = {f"{r.cost} + {r.motion}": Path(r.run) for r in table_order(experiment).itertuples()}
@@ -204,9 +213,13 @@ def experiment_a_figures(runs: pd.DataFrame, realism_runs: pd.DataFrame) -> dict
         points += [{"realism": level, "cost": r.cost, "success": r.success, "followed": r.success + r.error}
                    for r in group.itertuples()]  # fmt: skip
     realism = realism_plot(pd.DataFrame(points), REPORTS / "fig4c_realism.png")
+    recorded = {label: cells[label] for label in ("wxor + dm2", "nwxor + dm2") if label in cells}
+    why = competing_samples(recorded, REPORTS / "fig4c_why.png")
     return {"Fig 4(c): the right arm's angle, truth and estimate, each swing's verdict (subject seed 0)": traces,
             "Fig 4(b): the estimated posture over the input (nwXOR + DM2, subject seed 0)": strip,
-            "Success (solid) and swings followed (dashed) against realism (DM2, subject seed 0)": realism}
+            "Success (solid) and swings followed (dashed) against realism (DM2, subject seed 0)": realism,
+            "Why: at each cost's worst frame, the observation and its weights, the sample chosen and the sample "
+            "nearest the truth in 3-D, with their distances (subject seed 0)": why}
 
 
 def _realism_of(overrides: str) -> float:

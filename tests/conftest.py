@@ -83,6 +83,14 @@ def body_swing_run(tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
+def experiment_a_run(tmp_path_factory):
+    """A 2-frame run of paper 2's experiment A under its conditions, on a short capture session of samples."""
+    cache = tmp_path_factory.mktemp("experiment_a_cache")
+    return _cli_run(tmp_path_factory, "experiment_a", "experiment=tbf_table4c", "frames=2",
+                    "tracker.samples.capture.seconds=15", f"tracker.cache_dir={cache}")  # fmt: skip
+
+
+@pytest.fixture(scope="session")
 def tbf_run(tmp_path_factory):
     """A 6-frame TBF run (nwXOR, DM2) of the body's arm swing on a small pose grid, through the real CLI."""
     cache = tmp_path_factory.mktemp("tbf_cache")

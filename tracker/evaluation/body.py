@@ -117,6 +117,25 @@ def joint_error_mm(body: BodyMesh, truth: np.ndarray, estimate: np.ndarray, root
     return float(1e3 * np.linalg.norm(estimated - true, axis=1).mean())
 
 
+def nearest_in_3d(body: BodyMesh, truths: np.ndarray, candidate_body: BodyMesh,
+                  candidates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """For each truth pose ``(n, POSE_SIZE)`` of ``body``: the candidate pose (of ``candidate_body``) nearest in 3-D
+    — the smallest root-aligned mean distance over `MPJPE_JOINTS` — and that distance (mm). The dictionary's own
+    floor when the candidates are a tracker's samples."""
+    joints = [JOINT_INDEX[name] for name in MPJPE_JOINTS]
+    pelvis = MPJPE_JOINTS.index("Hips")
+    true = body.joint_positions(np.asarray(truths, dtype=np.float64))[:, joints]
+    true = true - true[:, pelvis : pelvis + 1]
+    known = candidate_body.joint_positions(np.asarray(candidates, dtype=np.float64))[:, joints]
+    known = known - known[:, pelvis : pelvis + 1]
+    nearest, distance = np.empty(len(true), dtype=np.int64), np.empty(len(true))
+    for k, frame in enumerate(true):
+        errors = np.linalg.norm(known - frame, axis=2).mean(axis=1)
+        nearest[k] = int(np.argmin(errors))
+        distance[k] = 1e3 * errors[nearest[k]]
+    return nearest, distance
+
+
 @dataclass(frozen=True)
 class BodyEvaluation:
     rule: SwingRule = field(default_factory=SwingRule)

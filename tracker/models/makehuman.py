@@ -10,6 +10,7 @@ positions are in the body frame.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib.util
 import json
@@ -104,9 +105,13 @@ def body_measurements(body: BodyMesh) -> Measurements:
 def nearest_standard_body(subject: BodyMesh, triangles: int) -> str:
     """The name of the `STANDARD_BODIES` entry nearest to ``subject`` by stature and chest girth, each standard
     body built at ``triangles`` and measured as the subject is."""
-    standards = {name: body_measurements(build_body(triangles=triangles, shape=shape))
-                 for name, shape in STANDARD_BODIES.items()}  # fmt: skip
-    return nearest_standard(body_measurements(subject), standards)
+    return nearest_standard(body_measurements(subject), _standard_measurements(triangles))
+
+
+@functools.cache
+def _standard_measurements(triangles: int) -> dict[str, Measurements]:
+    return {name: body_measurements(build_body(triangles=triangles, shape=shape))
+            for name, shape in STANDARD_BODIES.items()}  # fmt: skip
 
 
 def _source_files(data_dir: Path) -> list[Path]:

@@ -1,10 +1,13 @@
 """The silhouette tree-based filtering tracker (paper 2): `tracker=tbf` with a cost and a motion model.
 
-`start` builds (or loads from ``cache_dir``) the pose sample set of the standard body (``body_triangles``; the
-rendered subject may differ in height and girth) seen by the camera and its tree, then sets the
-initial prior around the configured initial pose (upright, arms down, facing ``initial_yaw_deg``); `step` takes
-the frame's observed silhouette (background subtraction, done by the run's capture stage: ``frame.silhouettes``)
-and runs `tracker.tbf.filter.TreeFilter`. The tracker never sees the truth after `start`.
+`start` picks the tracker's own body (``body``: MakeHuman's base mesh, or the standard body nearest the subject's
+stature and chest girth, measured on the subject as a tailor would), builds (or loads from ``cache_dir``) the pose
+sample set of that body seen by the camera and its tree (``thresholds``, or ``node_shares``), then sets the initial
+prior around the configured initial pose (upright, arms down, facing ``initial_yaw_deg``); `step` takes the
+frame's observed silhouette (background subtraction, done by the run's capture stage: ``frame.silhouettes``),
+moves it onto the samples' feet when ``align`` says so (`tracker.tbf.alignment`), and runs
+`tracker.tbf.filter.TreeFilter`. The tracker never sees the truth after `start`; measuring the subject's size
+there stands for the paper's measuring of the person.
 """
 
 from __future__ import annotations
@@ -18,9 +21,10 @@ from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
 
+from tracker.evaluation.body import nearest_in_3d, score_swings
 from tracker.geometry.cameras import Camera
 from tracker.models.body_mesh import BodyMesh
-from tracker.models.body_shapes import STANDARD_BODIES, MacroShape
+from tracker.models.body_shapes import BASE_SHAPE, STANDARD_BODIES
 from tracker.models.makehuman import Triangles, body_measurements, build_body, nearest_standard_body
 from tracker.motion.arm_capture import ArmRanges, capture_poses
 from tracker.motion.mocap import read_cmu_clip
@@ -170,7 +174,7 @@ class TbfTracker(Tracker):
 
     def start(self, model: BodyMesh, cameras: Sequence[Camera], truth: np.ndarray, rng: np.random.Generator) -> None:
         self.camera = cameras[0]
-        self.part_names = model.part_names
+        self.subject, self.part_names = model, model.part_names
         start = time.perf_counter()
         settings = self.settings
         cache_dir = Path(settings.cache_dir)
@@ -192,13 +196,14 @@ class TbfTracker(Tracker):
                  self.setup_s)  # fmt: skip
 
     def standard_body(self, subject: BodyMesh) -> BodyMesh:
-        """The tracker's own model: a standard body, never the subject itself (`TbfSettings.body`)."""
+        """The tracker's own model: MakeHuman's base mesh or the standard body nearest the subject
+        (`TbfSettings.body`), whatever the subject's own shape; ``body_choice`` says which, with both measured."""
         measured = body_measurements(subject)
         self.body_name = "base"
         if self.settings.body == "nearest_standard":
             self.body_name = nearest_standard_body(subject, self.settings.body_triangles)
-        body = build_body(triangles=self.settings.body_triangles, shape=STANDARD_BODIES.get(self.body_name,
-                                                                                            MacroShape()))
+        shape = STANDARD_BODIES.get(self.body_name, BASE_SHAPE)
+        body = build_body(triangles=self.settings.body_triangles, shape=shape)
         chosen = body_measurements(body)
         self.body_choice = {"name": self.body_name, "stature_m": round(chosen.stature_m, 4),
                             "chest_girth_m": round(chosen.chest_girth_m, 4),
@@ -214,7 +219,8 @@ class TbfTracker(Tracker):
                 "tree_thresholds": [round(t, 6) for t in self.thresholds]}
 
     def summarize(self, table: Mapping[str, np.ndarray]) -> dict[str, Any]:
-        """The tree search's mean effort: nodes evaluated per level, and the fraction of them pruned."""
+        """The tree search's mean effort (nodes evaluated per level, and the fraction of them pruned) and what the
+        samples alone allow (`dictionary_floor`)."""
         frame = table["part"] == self.part_names[0]  # one row per frame
         levels = sorted(column for column in table if column.startswith("nodes_level"))
         evaluated = [table[column][frame] for column in levels]
@@ -222,7 +228,17 @@ class TbfTracker(Tracker):
         # (failed frames have no tree search: NaN in these columns)
         return {"nodes_evaluated_mean": [float(np.nanmean(values)) for values in evaluated],
                 "pruned_fraction_mean": [float(1 - np.nansum(k) / np.nansum(e))
-                                         for k, e in zip(kept, evaluated, strict=True)]}  # fmt: skip
+                                         for k, e in zip(kept, evaluated, strict=True)],
+                **self.dictionary_floor(np.stack(table["truth_pose"][frame]))}  # fmt: skip
+
+    def dictionary_floor(self, truths: np.ndarray) -> dict[str, Any]:
+        """The best any filter could do with these samples: per frame the sample nearest the truth in 3-D
+        (root-aligned, the tracker's body against the subject's), as MPJPE (``mpjpe_floor_mm``) and as Fig 4(c)'s
+        swings had it been the estimate (``swings_floor``)."""
+        nearest, distance_mm = nearest_in_3d(self.subject, truths, self.body, self.samples.poses)
+        truth_deg = np.array([self.subject.right_arm_swing_deg(pose) for pose in truths])
+        floor_deg = np.array([self.body.right_arm_swing_deg(self.samples.poses[k]) for k in nearest])
+        return {"mpjpe_floor_mm": float(distance_mm.mean()), "swings_floor": score_swings(truth_deg, floor_deg)}
 
     def sample_poses(self, body: BodyMesh) -> np.ndarray:
         """The pose samples the settings name, near-duplicates removed (before rendering)."""

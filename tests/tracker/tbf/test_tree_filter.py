@@ -10,7 +10,7 @@ from tracker.tbf.filter import FilterSettings, TreeFilter
 from tracker.tbf.motion import OccludedWiderWalk, PosePrior, RandomWalk
 from tracker.tbf.pose_sets import arm_grid
 from tracker.tbf.sample_build import load_or_build
-from tracker.tbf.tree import build_tree
+from tracker.tbf.tree import build_tree, thresholds_for_shares
 
 CAMERA = mono(position=(4.0, 0.0, 0.9), target=(0.0, 0.0, 0.9), focal_px=480.0, width=320, height=240)[0]
 THRESHOLDS = (0.006, 0.002, 0.001)
@@ -145,3 +145,14 @@ def test_root_aligned_mpjpe_ignores_where_the_body_stands_but_not_its_posture(bo
     arm = [JOINT_INDEX[name] for name in ("RightForeArm", "RightHand")]
     expected = 1e3 * np.linalg.norm(joints[arm] - (joints[JOINT_INDEX["Hips"]]), axis=1).sum() / 15
     assert joint_error_mm(body, pose, raised, root_aligned=True) == pytest.approx(expected, rel=1e-9)
+
+
+def test_thresholds_for_shares_give_each_level_its_share_of_the_samples_at_the_boundary(samples):
+    shares = (0.2, 0.6, 0.9)
+    thresholds = thresholds_for_shares(samples, shares)
+    counts = build_tree(samples, thresholds).node_counts
+    for level, (share, count) in enumerate(zip(shares, counts, strict=True)):
+        assert count <= share * len(samples)  # the largest tree not above the share ...
+        smaller = (*thresholds[:level], thresholds[level] * 0.97, *thresholds[level + 1 :])
+        assert build_tree(samples, smaller).node_counts[level] > share * len(samples)  # ... at the boundary
+    assert thresholds_for_shares(samples, shares) == thresholds  # kept with the set
