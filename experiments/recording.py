@@ -204,7 +204,10 @@ class RunRecording:
             self._meshes[path] = LoggedMesh(mesh.vertices, mesh.vertices, moved=False)
 
     def _log_params(self, kind: str, params: np.ndarray) -> None:
-        """``metrics/params/<name>/<kind>`` for every named parameter of the model."""
+        """``metrics/params/<name>/<kind>`` for every named parameter of the model (unless ``record.parameters``
+        is off)."""
+        if not self.record.parameters:
+            return
         for name, value in self.model.parameter_series(params).items():
             self._scalar(f"metrics/params/{name}/{kind}", value)
 

@@ -46,8 +46,9 @@ REPORTS = Path("reports")
 TBF_CELLS = ("cost=xor,wxor,nwxor", "motion=dm1,dm2")  # the paper's 4 cells, and XOR beyond it
 REALISM_LEVELS = (0.0, 0.25, 0.5)  # swept below the experiment itself (1)
 STRIP_FRAMES = (200, 206, 212, 218, 224, 230, 236)  # Fig 4(b): one swing of frames 200-240
-# Runs kept for their tables: series only (~2 MB); the two cells the paper compares keep images and meshes.
-LIGHT_RECORDING = ("record.images=false", "record.meshes_every=0")
+# Runs kept for their tables: the tracker's and the errors' series only (~0.7 MB); the two cells the paper compares
+# keep images, meshes and parameters.
+LIGHT_RECORDING = ("record.images=false", "record.meshes_every=0", "record.parameters=false")
 # Experiment A: 6 cells x 3 seeds of the subject's variation, in four multiruns (Hydra sweeps a grid) so that
 # only wXOR and nwXOR with DM2 on the first subject are recorded whole. Folder under reports/tbf_table4c -> overrides.
 EXPERIMENT_A_SWEEPS = {

@@ -38,8 +38,8 @@ SCHEMA_PREFIX = "schema_"
 
 @dataclass(frozen=True)
 class RecordSettings:
-    """What ``run.rrd`` holds besides the series: the images, the meshes, and the weight maps of the silhouette
-    costs."""
+    """What ``run.rrd`` holds besides the tracker's and the evaluation's series: the images, the meshes, the
+    parameters, and the weight maps of the silhouette costs."""
 
     images: bool = True  # each view's RGB (as video), part labels and extracted silhouette
     weight_maps: bool = False  # silhouette scenes: each cost's weight map d_P as a float image (300 KB a frame)
@@ -47,6 +47,7 @@ class RecordSettings:
     # The truth and estimate meshes every this many frames (0: none); series, images and tables keep every frame.
     # A subject whose every part moves non-rigidly costs ~30 KB of vertices a frame.
     meshes_every: Annotated[int, Range(0, 1_000_000)] = 1
+    parameters: bool = True  # every parameter of every part, truth and estimate, as series (~1 MB per 1,000 frames)
 
 
 @dataclass(frozen=True)

@@ -55,9 +55,10 @@ def write_json(target: str | Path, data: Any) -> None:
 
 
 def write_parquet(target: str | Path, frame) -> None:
-    """Write a pandas DataFrame as parquet, atomically."""
+    """Write a pandas DataFrame as parquet (zstd: a third smaller than the default snappy on a run's table, whose
+    per-frame columns repeat on every part's row), atomically."""
     with atomic_path(target) as temporary:
-        frame.to_parquet(temporary, index=False)
+        frame.to_parquet(temporary, index=False, compression="zstd")
 
 
 @contextmanager

@@ -8,7 +8,8 @@ def test_tables_collect_tbf_runs_next_to_the_papers_numbers(tbf_run, tmp_path):
     assert len(runs) == 1 and runs.loc[0, "tracker"] == "tbf" and runs.loc[0, "status"] == "ok"
     four_c = table_4c(runs)
     assert list(four_c.columns) == ["experiment", "cost", "motion", "runs", "fail", "error", "success",
-                                    "floor_success", "mpjpe_mm", "mpjpe_floor_mm", "max_err_median_deg",
+                                    "floor_success", "mpjpe_mm", "mpjpe_aligned_mm", "mpjpe_floor_mm",
+                                    "max_err_median_deg",
                                     "max_err_p90_deg", "paper_fail", "paper_error", "paper_success"]  # fmt: skip
     row = four_c.iloc[0]
     assert (row["cost"], row["motion"]) == ("nwxor", "dm2")
@@ -20,7 +21,7 @@ def test_tables_collect_tbf_runs_next_to_the_papers_numbers(tbf_run, tmp_path):
     assert set(six_d["samples"]) == {runs.loc[0, "samples"]} and set(six_d["frames"]) == {len(frames)}
     written = write_reports(runs, tmp_path)
     assert {path.name for path in written} == {"table4c.md", "table4c.csv", "table6d.md"}
-    assert pd.read_csv(tmp_path / "table4c.csv").shape == (1, 15)
+    assert pd.read_csv(tmp_path / "table4c.csv").shape == (1, 16)
     assert "| nwxor | dm2 |" in (tmp_path / "table4c.md").read_text()
 
 

@@ -23,16 +23,13 @@ import gzip
 import itertools
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated
 
 import numpy as np
 from scipy.spatial import ConvexHull
 
 from tracker.models.body_skeleton import JOINT_INDEX, PART_NAMES
-from tracker.ranges import Range
+from tracker.ranges import Fraction
 from tracker.settings import validate
-
-Unit = Annotated[float, Range(0.0, 1.0)]
 
 _AGE = "young"  # 25 years: the standard bodies are adults
 _RACES = ("african", "asian", "caucasian")  # an even mix of the three, as MakeHuman's default
@@ -44,10 +41,10 @@ _STEP_M = 0.005  # between the horizontal sections measured
 class MacroShape:
     """A person's MakeHuman macro values (0.5 each: the base mesh)."""
 
-    gender: Unit = 0.5  # 0 female, 1 male
-    muscle: Unit = 0.5
-    weight: Unit = 0.5
-    height: Unit = 0.5
+    gender: Fraction = 0.5  # 0 female, 1 male
+    muscle: Fraction = 0.5
+    weight: Fraction = 0.5
+    height: Fraction = 0.5
 
     def __post_init__(self) -> None:
         validate(self)

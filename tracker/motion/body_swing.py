@@ -23,9 +23,7 @@ import numpy as np
 
 from tracker.models.body_mesh import BodyMesh
 from tracker.motion.posture import NATURAL_SPREAD, RANGE_SIGMAS, Drifts, Posture, arms_pose, standing_pose
-from tracker.ranges import Finite, Positive, Range, Seed
-
-Unit = Annotated[float, Range(0.0, 1.0)]
+from tracker.ranges import Finite, Fraction, Positive, Range, Seed
 
 SWINGS_PER_BLOCK = 24  # paper 2's experiment A: 24 swings
 _SWING_SPREAD = 0.15  # each swing's amplitudes and duration: this fraction (one standard deviation) at variation 1
@@ -47,7 +45,7 @@ class BodySwing:
     backward_deg: Annotated[float, Range(0.0, 90.0)] = 40.0  # behind it
     abduction_deg: Annotated[float, Range(0.0, 90.0)] = 8.0  # both arms this far out from the trunk
     yaw_deg: Finite = -90.0  # the direction the body faces, world xy angle from +x (-90: facing -y)
-    variation: Unit = 0.0  # 0: the clean swing; 1: a person's (see the module docstring)
+    variation: Fraction = 0.0  # 0: the clean swing; 1: a person's (see the module docstring)
     seed: Seed = 0  # of the variation
 
     def swing_angle_deg(self, frame: float) -> float:

@@ -9,9 +9,10 @@ again, so the foot stays under the hip); the weight shift (the pelvis rolled, + 
 and lower back turned back upright); and the root's offset on the floor. The root is lowered so that the lower
 foot stays on the floor. Degrees and metres; rotations in the body frame (`tracker.models.body_skeleton`).
 
-`NATURAL_SPREAD`: how far each of those varies in natural standing (one standard deviation at full amplitude).
-They are set from the usual magnitudes of quiet standing and shifting weight: trunk sway of a few degrees, the
-head turning and nodding more freely, knees from straight to slightly bent. `RANGE_SIGMAS` bounds every draw.
+`NATURAL_SPREAD`: the scale of each of those in natural standing; at full amplitude each stays within
+`RANGE_SIGMAS` times its scale (`Drifts.natural`). They are set from the usual magnitudes of quiet standing and
+shifting weight: trunk sway of a few degrees, the head turning and nodding more freely, knees from straight to
+slightly bent.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from tracker.models.body_skeleton import JOINT_INDEX
 
 # The T-pose's arms hang this far below the horizontal already (frame 0 of the CMU clips).
 _T_POSE_DROOP_DEG = 8.0
-RANGE_SIGMAS = 2.0  # every natural variation is drawn within this many of its standard deviations
+RANGE_SIGMAS = 2.0  # every natural variation stays within this many times its NATURAL_SPREAD
 
 
 @dataclass(frozen=True)
@@ -47,25 +48,15 @@ class Posture:
     root_offset_m: tuple[float, float] = (0.0, 0.0)
 
 
-# One standard deviation of each natural variation at full amplitude (see the module docstring); the left arm's
-# entries are its swing, abduction and elbow about the posture's own.
+# The scale of each natural variation at full amplitude (see the module docstring); the left arm's entries are its
+# swing, abduction and elbow about the posture's own.
 NATURAL_SPREAD = {
     "yaw_deg": 4.0, "lean_deg": 3.0, "side_deg": 2.0, "twist_deg": 4.0, "nod_deg": 5.0, "head_turn_deg": 8.0,
     "left_knee_deg": 4.0, "right_knee_deg": 4.0, "weight_shift_deg": 2.0,
     "left_swing_deg": 8.0, "left_abduction_deg": 4.0, "left_elbow_deg": 10.0,
 }  # fmt: skip
-# Knees and the elbow bend one way only: their draws are folded to >= 0.
+# Knees and the elbow bend one way only: they vary from 0 upward.
 ONE_SIDED = ("left_knee_deg", "right_knee_deg", "left_elbow_deg")
-
-
-def natural_offsets(rng: np.random.Generator, n: int, amplitude: float) -> dict[str, np.ndarray]:
-    """``n`` independent draws of every `NATURAL_SPREAD` variation, each a normal of its spread times
-    ``amplitude`` clipped to `RANGE_SIGMAS` of it (one-sided ones folded)."""
-    out = {}
-    for name, spread in NATURAL_SPREAD.items():
-        values = np.clip(rng.normal(0.0, 1.0, n), -RANGE_SIGMAS, RANGE_SIGMAS) * spread * amplitude
-        out[name] = np.abs(values) if name in ONE_SIDED else values
-    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,7 +87,7 @@ class Drifts:
 
 
 def with_offsets(posture: Posture, offsets: dict[str, float]) -> Posture:
-    """``posture`` moved by one draw of `natural_offsets` (angles added; the left arm's three too)."""
+    """``posture`` moved by the `NATURAL_SPREAD` variations ``offsets`` (angles added; the left arm's three too)."""
     left = (posture.left[0] + offsets["left_swing_deg"], posture.left[1] + offsets["left_abduction_deg"],
             posture.left[2] + offsets["left_elbow_deg"])  # fmt: skip
     names = {f.name for f in fields(Posture)}

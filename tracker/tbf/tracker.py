@@ -30,7 +30,7 @@ from tracker.motion.arm_capture import ArmRanges, capture_poses
 from tracker.motion.mocap import read_cmu_clip
 from tracker.motion.posture import arms_pose
 from tracker.protocol import FrameInput, StepResult, Tracker
-from tracker.ranges import Finite, NonNegative, Positive, Range, Rule, Seed
+from tracker.ranges import Finite, Fraction, NonNegative, Positive, Range, Rule, Seed
 from tracker.registry import TRACKERS
 from tracker.tbf.alignment import feet_anchor, samples_anchor, shifted, world_offset
 from tracker.tbf.distances import Cost, EmptySilhouette
@@ -81,7 +81,7 @@ class CaptureSpec:
     abduction_deg: tuple[Finite, Finite] = (0.0, 40.0)
     elbow_deg: tuple[Finite, Finite] = (0.0, 90.0)
     yaw_deg: Finite = -90.0
-    amplitude: Annotated[float, Range(0.0, 1.0)] = 1.0
+    amplitude: Fraction = 1.0
     seed: Seed = 0
 
     def poses(self, body: BodyMesh) -> np.ndarray:
