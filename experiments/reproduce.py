@@ -143,7 +143,7 @@ def paper_2(paper_scale: bool) -> Section:
     runs = collect(directories)
     written = write_reports(runs, REPORTS)
     figures = experiment_a_figures(runs, collect(list(realism_dirs.values())))
-    four_c, bounds, six_d = table_4c(runs), table_4c_bounds(runs), table_6d(runs)
+    four_c = table_4c(runs)
     rows = "\n".join(f"  {r.experiment:>17} {r.cost:>5} + {r.motion}: fail {r.fail}, error {r.error}, "
                      f"success {r.success}  "
                      + ("(paper: no such row)" if pd.isna(r.paper_fail) else
@@ -152,6 +152,13 @@ def paper_2(paper_scale: bool) -> Section:
     seconds = time.perf_counter() - start
     console = (f"\nPaper 2 (silhouette tree-based filtering), {len(runs)} runs in {seconds:.0f} s:\n{rows}\n"
                + "\n".join(f"  {path}" for path in [*written, *figures.values()]))  # fmt: skip
+    return Section(console, paper_2_markdown(runs, seconds, figures))
+
+
+def paper_2_markdown(runs: pd.DataFrame, seconds: float, figures: dict[str, Path]) -> str:
+    """Paper 2's part of report.md: Fig 4(c) under the paper's conditions and its control, the counts at other
+    bounds, the figures, Fig 6(d), the paper-scale run, the recordings."""
+    four_c, bounds, six_d = table_4c(runs), table_4c_bounds(runs), table_6d(runs)
     experiment = runs[runs["experiment"] == "tbf_table4c"]
     first = json.loads((Path(experiment["run"].iloc[0]) / "metrics.json").read_text())
     text = ("## Paper 2: silhouette tree-based filtering (Okada & Stenger)\n\n"
@@ -175,7 +182,7 @@ def paper_2(paper_scale: bool) -> Section:
     named = [f"`{Path(r.run).relative_to(REPORTS) / 'run.rrd'}` ({r.experiment}: {r.cost} + {r.motion})"
              for r in runs.itertuples()]  # fmt: skip
     text += "\nRecordings: " + ", ".join(named) + "\n"
-    return Section(console, text)
+    return text
 
 
 def _body_line(metrics: dict) -> str:
