@@ -66,7 +66,8 @@ register_presentation("dsq_arm", Presentation(
     panels=lambda parts: [_series(f"{_paper_part_first(parts)[0]}: b1 (m) and r2 (rad), Fig 8",
                                   f"metrics/params/{_paper_part_first(parts)[0]}", "b1/*", "r2/*"),
                           _series("rotation error (geodesic, deg)", "metrics/error", "*/rotation_error_deg"),
-                          _series("surface error (mm)", "metrics/error", "*/surface_error_mm")]))  # fmt: skip
+                          _series("surface error, same (eta, omega) (mm)", "metrics/error", "*/surface_error_mm"),
+                          _series("point-to-surface (mm)", "metrics/error", "*/surface_distance_mm")]))  # fmt: skip
 register_presentation("body_mesh", Presentation(
     panels=lambda parts: [_series("right arm swing (deg)", "metrics/params/swing"),
                           _series("joint error (mm; root-aligned: posture)", "metrics/error"),

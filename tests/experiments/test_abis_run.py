@@ -20,7 +20,8 @@ def test_frames_table_has_estimates_counts_and_costs(abis_run):
     for count in COUNT_NAMES:
         assert count in table.columns and {f"{count}_{view}" for view in VIEWS} <= set(table.columns)
         np.testing.assert_array_equal(table[count], sum(table[f"{count}_{view}"] for view in VIEWS))
-    assert {"pairs", "cost", "iterations", "surface_error_mm", "estimate_ms", "estimate_fit_ms"} <= set(table.columns)
+    assert {"pairs", "cost", "iterations", "surface_error_mm", "surface_distance_mm", "estimate_ms",
+            "estimate_fit_ms"} <= set(table.columns)  # fmt: skip
     forearm = table[table["part"] == "forearm"]
     assert (forearm["iterations"].iloc[1:] > 0).all() and (forearm["cost"].iloc[1:] > 0).all()
 

@@ -1,0 +1,80 @@
+"""Point-to-surface distances against independent answers: a brute-force search over each triangle, a square, and
+a fine sphere."""
+
+import numpy as np
+import pytest
+import trimesh
+
+from tracker.geometry.surface_distance import point_mesh_distance, point_triangle_distance
+
+
+def brute_force(point, a, b, c, steps=400):
+    """The nearest of a fine barycentric grid over the triangle (a little above the true distance)."""
+    u, v = np.meshgrid(np.linspace(0, 1, steps), np.linspace(0, 1, steps))
+    inside = u + v <= 1
+    grid = a + u[inside, None] * (b - a) + v[inside, None] * (c - a)
+    return np.linalg.norm(grid - point, axis=1).min()
+
+
+def test_every_region_of_a_triangle_gives_the_distance_a_brute_force_search_finds():
+    rng = np.random.default_rng(1)
+    a, b, c = rng.normal(size=(3, 200, 3))
+    points = rng.normal(scale=2.0, size=(200, 3))
+    fast = point_triangle_distance(points, a, b, c)
+    slow = np.array([brute_force(p, *t) for p, t in zip(points, zip(a, b, c, strict=True), strict=True)])
+    assert np.all(fast <= slow + 1e-12)  # never above a point of the triangle
+    np.testing.assert_allclose(fast, slow, atol=0.02)  # and as close as the grid can tell
+
+
+def test_a_square_gives_its_height_above_and_the_euclidean_distance_beside():
+    vertices = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
+    faces = np.array([[0, 1, 2], [0, 2, 3]])
+    points = np.array([[0.3, 0.6, 0.25], [1.5, 0.5, 0.0], [2.0, 2.0, 1.0], [0.5, 0.5, 0.0]])
+    np.testing.assert_allclose(point_mesh_distance(points, vertices, faces), [0.25, 0.5, np.sqrt(3.0), 0.0],
+                               atol=1e-12)  # fmt: skip
+
+
+def test_points_around_a_fine_sphere_are_their_height_above_it_and_the_shortcut_is_exact():
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=1.0)
+    rng = np.random.default_rng(2)
+    directions = rng.normal(size=(300, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    heights = rng.uniform(-0.5, 1.0, 300)
+    points = directions * (1.0 + heights)[:, None]
+    distance = point_mesh_distance(points, sphere.vertices, sphere.faces)
+    np.testing.assert_allclose(distance, np.abs(heights), atol=3e-3)  # the facets sit inside the sphere by < 3 mm
+    every = np.array([point_triangle_distance(np.repeat(p[None], len(sphere.faces), 0),
+                                              *(sphere.vertices[sphere.faces[:, j]] for j in range(3))).min()
+                      for p in points[:40]])  # fmt: skip
+    np.testing.assert_array_equal(distance[:40], every)
+
+
+@pytest.mark.parametrize("shift", [0.0, 0.004])
+def test_a_surface_of_revolution_turned_about_its_axis_is_at_distance_zero_but_shifted_is_not(shift):
+    cylinder = trimesh.creation.cylinder(radius=0.05, height=0.3, sections=64)
+    angle = 2 * np.pi / 64  # one section: the mesh maps onto itself
+    turn = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]])
+    moved = cylinder.vertices @ turn.T + [shift, 0, 0]
+    distance = point_mesh_distance(moved, cylinder.vertices, cylinder.faces)
+    assert distance.max() == pytest.approx(shift, abs=1e-9)
+
+
+def test_the_arms_forearm_turned_about_its_own_axis_slides_along_its_surface_but_stays_on_it():
+    """The forearm is a surface of revolution (a1 = a2, eps2 = 1, equal tapering, no bending in x or y): turned about
+    its own axis, its samples move (surface_error_mm) but stay on the true surface (surface_distance_mm)."""
+    from experiments.components import build, compose
+    from tracker.evaluation.arm import PAPER_PART, ArmEvaluation
+    from tracker.geometry.rotations import euler_to_matrix, matrix_to_euler, rotation_z
+    from tracker.models.dsq import PARAM_INDEX
+
+    components = build(compose(["frames=2"]))
+    arm, truth = components.model, components.scene.params(components.model, 0)
+    truth[PAPER_PART, PARAM_INDEX["b1"]] = 0.0  # unbent
+    r = slice(PARAM_INDEX["r1"], PARAM_INDEX["r3"] + 1)
+    turned = truth.copy()
+    turned[PAPER_PART, r] = matrix_to_euler(euler_to_matrix(truth[PAPER_PART, r]) @ rotation_z(0.5))
+    part, _ = ArmEvaluation().columns(arm, truth, arm.connect(turned))
+    assert part["surface_error_mm"][PAPER_PART] > 20.0  # samples slid by centimetres ...
+    assert part["surface_distance_mm"][PAPER_PART] < 0.5  # ... along the surface (facets' chords: < 0.5 mm)
+    same, _ = ArmEvaluation().columns(arm, truth, truth.copy())
+    assert np.all(same["surface_distance_mm"] < 0.5) and np.all(same["surface_error_mm"] == 0.0)
