@@ -8,6 +8,8 @@ visible samples. Every later frame:
     3. a z-buffer render of the new estimate decides visibility: pairs whose sample is now hidden are discarded
        ("discarded_occlusion"), then pairs whose residual exceeds `max_residual_px` ("discarded_error");
     4. unpaired features are paired with visible samples not yet taken ("new").
+``selection=none`` is the ablation of steps 3-4's model image: nothing is discarded for occlusion, and features
+pair with any sample facing the camera (`tracker.abis.visibility.facing_samples`), as bottom-up tracking would.
 So per part and view: pairs(t) = pairs(t-1) - lost - discarded_occlusion - discarded_error + new.
 """
 
@@ -16,14 +18,21 @@ from __future__ import annotations
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Annotated, Any, ClassVar
+from typing import Annotated, Any, ClassVar, Literal
 
 import cv2
 import numpy as np
 
 from tracker.abis.correspondences import COUNT_NAMES, Pairs, pair_features, refine_surface_coordinates
 from tracker.abis.fitting import FitSettings, PartProblem, Prior, ViewPairs, fit_part
-from tracker.abis.visibility import VisibleSamples, visible_mask, visible_samples
+from tracker.abis.visibility import (
+    VisibleSamples,
+    facing_samples,
+    in_image,
+    outward_normals,
+    visible_mask,
+    visible_samples,
+)
 from tracker.geometry.cameras import Camera
 from tracker.models.dsq import PARAM_INDEX, pole_point
 from tracker.models.dsq_arm import DSQArm
@@ -85,6 +94,9 @@ class AbisSettings:
     # Features this close to a silhouette or occlusion edge do not pair.
     boundary_margin_px: Annotated[int, Range(0, 50)] = 5
     max_residual_px: Positive = 2.0  # after fitting, a pair farther off is a false match
+    # Which samples a view sees: the z-buffer of the estimate (paper 1), or, as bottom-up tracking would, any that
+    # faces the camera (the ablation: nothing discarded for occlusion, new pairs on hidden parts too).
+    selection: Literal["zbuffer", "none"] = "zbuffer"
     initial_noise: InitialNoise = field(default_factory=InitialNoise)
 
 
@@ -188,7 +200,11 @@ class AbisTracker(Tracker):
         start = time.perf_counter()  # 3. visibility of the new estimate
         zbuffers = self._renderer.render_depth_labels(self.cameras, self.model.zbuffer_meshes(self._estimate))
         samples = self.model.sample_points(self._estimate)
-        visible = {c.name: visible_samples(c, zbuffers[c.name], samples) for c in self.cameras}
+        if self.settings.selection == "zbuffer":
+            visible = {c.name: visible_samples(c, zbuffers[c.name], samples) for c in self.cameras}
+        else:
+            normals = self._sample_normals()
+            visible = {c.name: facing_samples(c, samples, normals) for c in self.cameras}
         timings["visibility"] = elapsed_ms(start)
         start = time.perf_counter()  # 4. pair upkeep
         world = self.model.world_transforms(self._estimate)
@@ -205,6 +221,18 @@ class AbisTracker(Tracker):
         return AbisResult.of(self.model.part_names, frame=frame.frame, estimate=self._estimate.copy(), counts=counts,
                              pairs={name: self._pairs[name].count_by_part(n_parts) for name in names}, cost=cost,
                              iterations=iterations, views=views, timings_ms=timings, failure=failure)  # fmt: skip
+
+    def _sample_normals(self) -> list[np.ndarray]:
+        """Each part's outward normals at its grid samples, for the estimate."""
+        world, grid = self.model.world_transforms(self._estimate), self.model.sample_grid
+        normals = []
+        for part in range(len(self.model.parts)):
+
+            def surface(eta, omega, part=part):
+                return self.model.part_points(self._estimate, part, eta, omega, world)
+
+            normals.append(outward_normals(surface, grid.eta, grid.omega, world[part][:3, 3]))
+        return normals
 
     def _carry_over(self, features: Mapping[str, FeatureFrame], counts: dict[str, np.ndarray]) -> None:
         """Keep the pairs whose feature was tracked into this frame; count them and the lost ones."""
@@ -251,10 +279,12 @@ class AbisTracker(Tracker):
         n_parts = len(self.model.parts)
         pairs = self._pairs[camera.name]
         seen, uv = np.zeros(len(pairs), bool), np.zeros((len(pairs), 2))
+        by_zbuffer = self.settings.selection == "zbuffer"
         for part in range(n_parts):
             mine = pairs.parts == part
             points = self.model.part_points(self._estimate, part, pairs.eta[mine], pairs.omega[mine], world)
-            seen[mine], uv[mine] = visible_mask(camera, zbuffer, part, points)
+            seen[mine], uv[mine] = visible_mask(camera, zbuffer, part, points) if by_zbuffer else in_image(camera,
+                                                                                                           points)
         counts[:, DISCARDED_OCCLUSION] = pairs.subset(~seen).count_by_part(n_parts)
         residual = np.linalg.norm(uv - _rows(features, pairs.feature_ids), axis=1)
         wrong = seen & (residual > self.settings.max_residual_px)
@@ -265,18 +295,22 @@ class AbisTracker(Tracker):
         unpaired = ~np.isin(features.ids, pairs.feature_ids) & ~np.isin(features.ids, discarded)
         # Only features inside a part's region (away from silhouettes and occlusion edges, whose corners are no
         # material point of either side) pair, and only with samples of that part.
-        interior = interior_labels(zbuffer.labels, self.settings.boundary_margin_px)
-        pixel = np.rint(features.points).astype(int)
-        region = interior[pixel[:, 1], pixel[:, 0]]
         grid = self.model.sample_grid
         new = Pairs.empty()
-        for part in range(n_parts):
-            candidates = unpaired & (region == part + 1)
-            own = visible.part == part
-            new = new.extend(pair_features(
-                features.ids[candidates], features.points[candidates],
-                VisibleSamples(visible.part[own], visible.sample[own], visible.uv[own]),
-                self.settings.pairing_radius_px, grid.eta, grid.omega, taken=pairs))  # fmt: skip
+        if by_zbuffer:
+            interior = interior_labels(zbuffer.labels, self.settings.boundary_margin_px)
+            pixel = np.rint(features.points).astype(int)
+            region = interior[pixel[:, 1], pixel[:, 0]]
+            for part in range(n_parts):
+                candidates = unpaired & (region == part + 1)
+                own = visible.part == part
+                new = new.extend(pair_features(
+                    features.ids[candidates], features.points[candidates],
+                    VisibleSamples(visible.part[own], visible.sample[own], visible.uv[own]),
+                    self.settings.pairing_radius_px, grid.eta, grid.omega, taken=pairs))  # fmt: skip
+        else:  # bottom-up: any unpaired feature with the nearest facing sample of any part
+            new = pair_features(features.ids[unpaired], features.points[unpaired], visible,
+                                self.settings.pairing_radius_px, grid.eta, grid.omega, taken=pairs)  # fmt: skip
         keep = np.zeros(len(new), bool)
         for part in np.unique(new.parts):  # move each new pair's point exactly under its feature
             mine = new.parts == part

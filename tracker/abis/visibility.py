@@ -4,6 +4,9 @@ A point of part j (a grid sample, or a pair's own surface point) is visible in a
 image, the label image shows part j at its pixel (nothing else in front: occlusion by other parts) and the
 z-buffer depth there is not more than `VISIBILITY_DEPTH_M` in front of the point (not behind its own part's near
 side: self-occlusion).
+
+Without the model's image (`facing_samples`, the ablation ``tracker.selection=none``), a sample counts as seen when
+it projects inside the image and its surface faces the camera: the back-face test alone, blind to other parts.
 """
 
 from __future__ import annotations
@@ -57,3 +60,41 @@ def visible_samples(camera: Camera, zbuffer: DepthLabels, samples_world: Sequenc
         indices.append(chosen)
         uvs.append(uv[chosen])
     return VisibleSamples(np.concatenate(parts), np.concatenate(indices), np.concatenate(uvs).reshape(-1, 2))
+
+
+def in_image(camera: Camera, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Which world points ``(n, 3)`` project inside ``camera``'s image, and their pixels ``(n, 2)``."""
+    uv, _ = camera.project(points)
+    pixel = np.rint(uv)
+    inside = np.all(np.isfinite(pixel), axis=1)
+    inside[inside] &= np.all((pixel[inside] >= 0) & (pixel[inside] <= [camera.width - 1, camera.height - 1]), 1)
+    return inside, uv
+
+
+def facing_samples(camera: Camera, samples_world: Sequence[np.ndarray],
+                   normals_world: Sequence[np.ndarray]) -> VisibleSamples:  # fmt: skip
+    """Samples of every part that project inside the image with their outward normal toward the camera."""
+    parts, indices, uvs = [], [], []
+    for part, (points, normals) in enumerate(zip(samples_world, normals_world, strict=True)):
+        inside, uv = in_image(camera, points)
+        facing = np.einsum("ij,ij->i", normals, camera.position - points) > 0
+        chosen = np.flatnonzero(inside & facing)
+        parts.append(np.full(len(chosen), part))
+        indices.append(chosen)
+        uvs.append(uv[chosen])
+    return VisibleSamples(np.concatenate(parts), np.concatenate(indices), np.concatenate(uvs).reshape(-1, 2))
+
+
+NORMAL_STEP_RAD = 1e-4  # central differences in eta and omega for a sample's normal
+
+
+def outward_normals(surface, eta: np.ndarray, omega: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """``(n, 3)`` unit normals of ``surface(eta, omega)`` (world points) at its samples, turned away from
+    ``centre`` (the part's own origin: its surface is star-shaped about it)."""
+    h = NORMAL_STEP_RAD
+    d_eta = surface(eta + h, omega) - surface(eta - h, omega)
+    d_omega = surface(eta, omega + h) - surface(eta, omega - h)
+    normals = np.cross(d_eta, d_omega)
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
+    outward = np.einsum("ij,ij->i", normals, surface(eta, omega) - centre) >= 0
+    return np.where(outward[:, None], normals, -normals)
