@@ -176,8 +176,7 @@ class RunRecording:
         self.stream.log(path, rr.Points2D(points.uv, class_ids=points.state, radii=1.5))
 
     def _meshes_due(self, frame: int) -> bool:
-        every = self.record.meshes_every
-        return every > 0 and frame % every == 0
+        return self.record.meshes_every > 0 and frame % self.record.meshes_every == 0
 
     def _log_meshes(self, kind: str, meshes, rgba: tuple[int, int, int, int] | None = None) -> None:
         """``world/<kind>/<part>``: faces and colour once (static); when the part moved, a Transform3D if it moved

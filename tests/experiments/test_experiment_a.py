@@ -9,7 +9,7 @@ import pytest
 from PIL import Image
 
 from eval.body_figures import competing_samples, posture_strip, realism_plot, swing_traces
-from experiments.reproduce import realism_overrides
+from experiments.experiment_a import realism_overrides
 from tracker.models.body_shapes import STANDARD_BODIES
 
 
