@@ -18,7 +18,7 @@ from eval.figures import pyplot, save_png
 from eval.recordings import read_images, read_rgb_frames
 from tracker import catalog  # noqa: F401  (registers the built-in components)
 from tracker.evaluation.body import SwingRule, nearest_in_3d, outcome
-from tracker.models.body_shapes import STANDARD_BODIES, MacroShape
+from tracker.models.body_shapes import standard_shape
 from tracker.models.body_skeleton import JOINT_INDEX, JOINT_NAMES, PART_BONES, PART_COLORS
 from tracker.models.makehuman import build_body
 from tracker.registry import REGISTRIES
@@ -63,7 +63,7 @@ def posture_strip(run_dir: Path, frames: Sequence[int], out: Path) -> Path:
     rigs = REGISTRIES["rig"]
     camera = rigs.build(rigs.entry_for(config["rig"]["_target_"]).name, config["rig"])[0]
     body_name = metrics.get("body", {}).get("name", "base")
-    body = build_body(triangles=config["tracker"]["body_triangles"], shape=STANDARD_BODIES.get(body_name, MacroShape()))
+    body = build_body(triangles=config["tracker"]["body_triangles"], shape=standard_shape(body_name))
     table = pd.read_parquet(run_dir / "frames.parquet").drop_duplicates("frame").set_index("frame")
     images = read_rgb_frames(run_dir / "run.rrd", camera.name)
     part_of = {bone: part for part, bones in enumerate(PART_BONES.values()) for bone in bones}

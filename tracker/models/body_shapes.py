@@ -161,6 +161,11 @@ STANDARD_BODIES: dict[str, MacroShape] = {
 }
 
 
+def standard_shape(name: str) -> MacroShape:
+    """The shape of the standard body ``name``, or of the base mesh for "base" (`TbfSettings.body`'s choices)."""
+    return BASE_SHAPE if name == "base" else STANDARD_BODIES[name]
+
+
 def nearest_standard(subject: Measurements, standards: dict[str, Measurements]) -> str:
     """The standard body nearest to ``subject`` by stature and chest girth, each difference relative to the
     subject's own value (a tailor's choice of size)."""

@@ -24,7 +24,7 @@ import numpy as np
 from tracker.evaluation.body import nearest_in_3d, score_swings
 from tracker.geometry.cameras import Camera
 from tracker.models.body_mesh import BodyMesh
-from tracker.models.body_shapes import BASE_SHAPE, STANDARD_BODIES
+from tracker.models.body_shapes import standard_shape
 from tracker.models.makehuman import Triangles, body_measurements, build_body, nearest_standard_body
 from tracker.motion.arm_capture import ArmRanges, capture_poses
 from tracker.motion.mocap import read_cmu_clip
@@ -202,8 +202,7 @@ class TbfTracker(Tracker):
         self.body_name = "base"
         if self.settings.body == "nearest_standard":
             self.body_name = nearest_standard_body(subject, self.settings.body_triangles)
-        shape = STANDARD_BODIES.get(self.body_name, BASE_SHAPE)
-        body = build_body(triangles=self.settings.body_triangles, shape=shape)
+        body = build_body(triangles=self.settings.body_triangles, shape=standard_shape(self.body_name))
         chosen = body_measurements(body)
         self.body_choice = {"name": self.body_name, "stature_m": round(chosen.stature_m, 4),
                             "chest_girth_m": round(chosen.chest_girth_m, 4),
