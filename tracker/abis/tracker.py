@@ -198,11 +198,12 @@ class AbisTracker(Tracker):
                 self._estimate = estimate
 
         start = time.perf_counter()  # 3. visibility of the new estimate
-        zbuffers = self._renderer.render_depth_labels(self.cameras, self.model.zbuffer_meshes(self._estimate))
         samples = self.model.sample_points(self._estimate)
         if self.settings.selection == "zbuffer":
+            zbuffers = self._renderer.render_depth_labels(self.cameras, self.model.zbuffer_meshes(self._estimate))
             visible = {c.name: visible_samples(c, zbuffers[c.name], samples) for c in self.cameras}
-        else:
+        else:  # no model image at all: the back-face test alone
+            zbuffers = dict.fromkeys(names)
             normals = self._sample_normals()
             visible = {c.name: facing_samples(c, samples, normals) for c in self.cameras}
         timings["visibility"] = elapsed_ms(start)
@@ -271,11 +272,12 @@ class AbisTracker(Tracker):
             cost[part], iterations[part] = fitted.cost, fitted.iterations
         return estimate, cost, iterations, None
 
-    def _upkeep(self, camera: Camera, features: FeatureFrame, zbuffer: DepthLabels, visible: VisibleSamples,
+    def _upkeep(self, camera: Camera, features: FeatureFrame, zbuffer: DepthLabels | None, visible: VisibleSamples,
                 world: np.ndarray, counts: np.ndarray) -> np.ndarray:
         """Discard hidden and false pairs, pair the unpaired features; returns the discarded features' ids.
 
-        ``world``: the estimate's part -> world transforms (the same for every view)."""
+        ``world``: the estimate's part -> world transforms (the same for every view); ``zbuffer``: None under
+        ``selection=none``."""
         n_parts = len(self.model.parts)
         pairs = self._pairs[camera.name]
         seen, uv = np.zeros(len(pairs), bool), np.zeros((len(pairs), 2))
