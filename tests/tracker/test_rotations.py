@@ -108,3 +108,24 @@ def test_fit_rigid_recovers_a_motion_and_measures_what_is_not_rigid():
     assert np.linalg.det(transform[:3, :3]) > 0 and residual > 0.5
     bent = transform_points(truth, source) + [0.0, 0.0, 1e-3] * (source[:, :1] > 0)
     assert 1e-4 < fit_rigid(source, bent)[1] < 2e-3
+
+
+def test_matrix_to_euler_near_follows_a_hinge_past_the_gimbal_lock():
+    # A hinge about y turning from 0 to 120 degrees: the canonical angles fold back at r2 = 90 deg (r1 and r3 jump
+    # by pi); taken near the last frame's angles they keep following the hinge.
+    angles = np.array([0.0, 0.0, 0.0])
+    for theta in np.linspace(0.0, np.radians(120), 61):
+        rotation = euler_to_matrix([0.0, theta, 0.0])
+        angles = matrix_to_euler(rotation, near=angles)
+        np.testing.assert_allclose(angles, [0.0, theta, 0.0], atol=1e-6)
+    assert matrix_to_euler(euler_to_matrix([0.0, np.radians(120), 0.0]))[1] == pytest.approx(np.radians(60))
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_matrix_to_euler_near_gives_the_same_rotation_within_pi_of_near(seed):
+    rng = np.random.default_rng(seed)
+    rotation = Rotation.random(random_state=seed).as_matrix()
+    near = rng.uniform(-4, 4, 3)
+    angles = matrix_to_euler(rotation, near=near)
+    np.testing.assert_allclose(euler_to_matrix(angles), rotation, atol=1e-9)
+    assert np.all(np.abs(angles - near) <= np.pi + 1e-9)

@@ -276,7 +276,7 @@ def _apply(q: np.ndarray, free: np.ndarray, delta: np.ndarray) -> np.ndarray:
     is_rotation = np.isin(free, _ROTATION)
     candidate[free[~is_rotation]] += delta[~is_rotation]
     turned = euler_to_matrix(q[_ROTATION]) @ rotation_vector_to_matrix(delta[is_rotation])
-    candidate[_ROTATION] = matrix_to_euler(turned)
+    candidate[_ROTATION] = matrix_to_euler(turned, near=q[_ROTATION])
     for index in free[~is_rotation]:  # stay inside eq 1-2's ranges
         low, high = _bounds(index)
         candidate[index] = min(max(candidate[index], low), high)

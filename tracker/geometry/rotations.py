@@ -110,13 +110,25 @@ def _rotation_derivative(axis: int, angle: float) -> np.ndarray:
     return generator @ (rotation_x, rotation_y, rotation_z)[axis](angle)
 
 
-def matrix_to_euler(rotation: np.ndarray) -> np.ndarray:
-    """Inverse of `euler_to_matrix`, with ``r2`` in ``[-pi/2, pi/2]``; at ``|r2| = pi/2`` (gimbal lock) ``r1 = 0``."""
+def matrix_to_euler(rotation: np.ndarray, near: np.ndarray | None = None) -> np.ndarray:
+    """Inverse of `euler_to_matrix`, with ``r2`` in ``[-pi/2, pi/2]``; at ``|r2| = pi/2`` (gimbal lock) ``r1 = 0``.
+
+    With ``near`` (3,), the angles of the same rotation nearest to it instead: of the two triples every rotation
+    has, ``(r1, r2, r3)`` and ``(r1 + pi, pi - r2, r3 + pi)``, each angle taken modulo 2 pi, the closer one. A
+    tracked rotation's angles then move continuously, also past ``|r2| = pi/2``.
+    """
     m = np.asarray(rotation, dtype=np.float64)
     r2 = np.arcsin(np.clip(-m[2, 0], -1.0, 1.0))
     if np.hypot(m[2, 1], m[2, 2]) < ZERO_LENGTH:  # cos(r2) == 0: only r3 - r1 (or r3 + r1) is defined
-        return np.array([0.0, r2, np.arctan2(-m[0, 1], m[1, 1])])
-    return np.array([np.arctan2(m[2, 1], m[2, 2]), r2, np.arctan2(m[1, 0], m[0, 0])])
+        angles = np.array([0.0, r2, np.arctan2(-m[0, 1], m[1, 1])])
+    else:
+        angles = np.array([np.arctan2(m[2, 1], m[2, 2]), r2, np.arctan2(m[1, 0], m[0, 0])])
+    if near is None:
+        return angles
+    near = np.asarray(near, dtype=np.float64)
+    branches = np.stack([angles, angles * [1, -1, 1] + [np.pi, np.pi, np.pi]])
+    branches = near + (branches - near + np.pi) % (2 * np.pi) - np.pi  # each angle nearest to near's
+    return branches[np.argmin(np.sum((branches - near) ** 2, axis=1))]
 
 
 def rigid_transform(rotation: np.ndarray, translation: np.ndarray) -> np.ndarray:
