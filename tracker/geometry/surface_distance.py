@@ -5,7 +5,8 @@ point-triangle pairs at once. `point_mesh_distance` tries each point against the
 nearest to it (`CANDIDATES`, from a KD-tree) and keeps that answer where it is provably the nearest: a triangle
 whose centroid is farther than ``r`` from the point is at least ``r - R`` away, ``R`` the largest distance from a
 centroid to its own corners. The other points are tried against every triangle whose centroid lies within their
-best distance plus ``R``, so the result is exact.
+best distance plus ``R``, so the result is exact. The largest triangles form a group of their own (their ``R``
+would make the shortcut fail for every point).
 """
 
 from __future__ import annotations
@@ -54,30 +55,32 @@ def point_mesh_distance(points: np.ndarray, vertices: np.ndarray, faces: np.ndar
     """``(n,)`` distance from each point to the nearest point of the mesh's surface (exact; see the module).
 
     The few largest triangles (beyond `LARGE_QUANTILE` of the centroid-to-corner radii, e.g. a cap's fan) are
-    tried against every point, so that ``R`` for the others stays small and the shortcut mostly holds."""
+    searched on their own, so that ``R`` for the others stays small and the shortcut mostly holds."""
     points = np.asarray(points, dtype=np.float64)
     corners = np.asarray(vertices, dtype=np.float64)[np.asarray(faces)]  # (m, 3, 3)
     centroids = corners.mean(axis=1)
     radii = np.linalg.norm(corners - centroids[:, None], axis=2).max(axis=1)
     large = radii > np.quantile(radii, LARGE_QUANTILE)
     best = np.full(len(points), np.inf)
-    if large.any():
-        pairs_point, pairs_triangle = np.meshgrid(np.arange(len(points)), np.flatnonzero(large), indexing="ij")
-        distance = _pairs(points, corners, pairs_point.ravel(), pairs_triangle.ravel()).reshape(len(points), -1)
-        best = distance.min(axis=1)
-    small = np.flatnonzero(~large)
-    if len(small) == 0:
-        return best
-    tree, reach = cKDTree(centroids[small]), float(radii[small].max())
-    k = min(CANDIDATES, len(small))
+    for group in (np.flatnonzero(large), np.flatnonzero(~large)):
+        if len(group):
+            best = np.minimum(best, _nearest_in(points, corners, centroids, radii, group))
+    return best
+
+
+def _nearest_in(points: np.ndarray, corners: np.ndarray, centroids: np.ndarray, radii: np.ndarray,
+                group: np.ndarray) -> np.ndarray:  # fmt: skip
+    """``(n,)`` exact distance from each point to the nearest of the triangles ``group``."""
+    tree, reach = cKDTree(centroids[group]), float(radii[group].max())
+    k = min(CANDIDATES, len(group))
     centroid_distance, nearest = (a.reshape(len(points), k) for a in tree.query(points, k=k))
-    distance = _pairs(points, corners, np.repeat(np.arange(len(points)), k), small[nearest.ravel()])
-    best = np.minimum(best, distance.reshape(len(points), k).min(axis=1))
-    unsure = np.flatnonzero(best > centroid_distance[:, -1] - reach) if k < len(small) else np.array([], int)
+    distance = _pairs(points, corners, np.repeat(np.arange(len(points)), k), group[nearest.ravel()])
+    best = distance.reshape(len(points), k).min(axis=1)
+    unsure = np.flatnonzero(best > centroid_distance[:, -1] - reach) if k < len(group) else np.array([], int)
     if len(unsure):  # a triangle beyond the candidates might be nearer: try every one that could be, at once
         near = tree.query_ball_point(points[unsure], best[unsure] + reach)
         counts = np.array([len(triangles) for triangles in near])
-        triangles = small[np.concatenate([np.asarray(t, dtype=np.int64) for t in near])]
+        triangles = group[np.concatenate([np.asarray(t, dtype=np.int64) for t in near])]
         distance = _pairs(points, corners, np.repeat(unsure, counts), triangles)
         best[unsure] = np.minimum(best[unsure], np.minimum.reduceat(distance, np.r_[0, np.cumsum(counts)[:-1]]))
     return best
