@@ -7,6 +7,6 @@ from tracker import protocol  # noqa: F401  (render_only)
 from tracker.abis import tracker as abis_tracker  # noqa: F401
 from tracker.geometry import rigs  # noqa: F401
 from tracker.models import dsq_arm, makehuman  # noqa: F401
-from tracker.motion import mocap, scenes  # noqa: F401
+from tracker.motion import arm_sweep, mocap, scenes  # noqa: F401
 from tracker.tbf import distances, motion  # noqa: F401
 from tracker.tbf import tracker as tbf_tracker  # noqa: F401

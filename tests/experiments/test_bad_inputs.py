@@ -92,8 +92,8 @@ AT_START = [
     (["model=schema_dsq_arm"], r"^model=schema_dsq_arm is a schema, not an option"),
     (["frames=["], r"^cannot parse the overrides"),
     (["experiment=nope"],
-     r"^experiment=nope: no such option, allowed abis_fig8_fig9, arm_scene, tbf_paper_scale, tbf_table4c, "
-     r"tbf_table4c_clean$"),
+     r"^experiment=nope: no such option, allowed abis_fig8_fig9, abis_occlusion, arm_scene, tbf_paper_scale, "
+     r"tbf_table4c, tbf_table4c_clean$"),
     (["tracker=kalman"], r"^tracker=kalman: no such option, allowed abis, render_only, tbf$"),
     ([*BODY_TBF, "tracker.thresholds=[0.01,0.002]"], r"^tracker\.thresholds=.* has 2 values: allowed exactly 3$"),
     (["scene.arm.bend_amplitude=nan"], r"^scene\.arm\.bend_amplitude=nan is out of range: allowed a finite number$"),
