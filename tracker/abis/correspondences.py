@@ -103,22 +103,31 @@ def refine_surface_coordinates(
     0.2 rad, eta kept off the poles (where omega is degenerate). Returns eta, omega and the final pixel distances.
     """
     eta, omega = eta.astype(np.float64).copy(), omega.astype(np.float64).copy()
-    step = DIFFERENCE_STEP_RAD
 
     def pixels(e, w):
         return camera.project(surface(e, w))[0]
 
     for _ in range(iterations):
         residual = pixels(eta, omega) - targets
-        d_eta = (pixels(eta + step, omega) - pixels(eta - step, omega)) / (2 * step)
-        d_omega = (pixels(eta, omega + step) - pixels(eta, omega - step)) / (2 * step)
-        jacobian = np.stack([d_eta, d_omega], axis=2)  # (k, 2, 2)
+        jacobian = pixel_jacobian(surface, camera, eta, omega)
         normal = np.einsum("kji,kjl->kil", jacobian, jacobian) + GAUSS_NEWTON_DAMPING * np.eye(2)
         delta = -np.linalg.solve(normal, np.einsum("kji,kj->ki", jacobian, residual)[..., None])[..., 0]
         delta = np.clip(delta, -0.2, 0.2)
         eta = np.clip(eta + delta[:, 0], -np.pi / 2 + POLE_MARGIN_RAD, np.pi / 2 - POLE_MARGIN_RAD)
         omega = (omega + delta[:, 1] + np.pi) % (2 * np.pi) - np.pi
     return eta, omega, np.linalg.norm(pixels(eta, omega) - targets, axis=1)
+
+
+def pixel_jacobian(surface: Callable[[np.ndarray, np.ndarray], np.ndarray], camera: Camera, eta: np.ndarray,
+                   omega: np.ndarray) -> np.ndarray:  # fmt: skip
+    """``(k, 2, 2)``: how the pixels of ``surface(eta, omega)`` move with (eta, omega), by central differences;
+    rows (u, v), columns (d/d eta, d/d omega)."""
+    step = DIFFERENCE_STEP_RAD
+    # The four displaced points of every pair in one evaluation and one projection.
+    eta_all = np.concatenate([eta + step, eta - step, eta, eta])
+    omega_all = np.concatenate([omega, omega, omega + step, omega - step])
+    eta_plus, eta_minus, omega_plus, omega_minus = camera.project(surface(eta_all, omega_all))[0].reshape(4, -1, 2)
+    return np.stack([(eta_plus - eta_minus) / (2 * step), (omega_plus - omega_minus) / (2 * step)], axis=2)
 
 
 def sample_keys(parts: np.ndarray, samples: np.ndarray) -> np.ndarray:

@@ -5,9 +5,12 @@ with a user's help; `initial_estimate` stands in with the truth plus configurabl
 visible samples. Every later frame:
     1. features are tracked; pairs whose feature was lost are dropped ("lost"), the rest carry over ("tracked");
     2. parts are fitted top-down (root first, each child against its freshly fitted parent), eq 8;
-    3. a z-buffer render of the new estimate decides visibility: pairs whose sample is now hidden are discarded
-       ("discarded_occlusion"), then pairs whose residual exceeds `max_residual_px` ("discarded_error");
-    4. unpaired features are paired with visible samples not yet taken ("new").
+    3. a z-buffer render of the new estimate decides visibility: pairs whose point is now hidden, or that another
+       part's edge is about to reach (the model's prediction of occlusion), are discarded ("discarded_occlusion"),
+       then pairs whose residual exceeds `max_residual_px` ("discarded_error"); the rest are anchored again to the
+       material point their feature shows (`tracker.abis.anchoring`), against the features' drift;
+    4. unpaired features are paired with visible samples not yet taken ("new"), refined to lie under their feature
+       and anchored likewise.
 ``selection=none`` is the ablation of steps 3-4's model image: nothing is discarded for occlusion, and features
 pair with any sample facing the camera (`tracker.abis.visibility.facing_samples`), as bottom-up tracking would.
 So per part and view: pairs(t) = pairs(t-1) - lost - discarded_occlusion - discarded_error + new.
@@ -23,13 +26,22 @@ from typing import Annotated, Any, ClassVar, Literal
 import cv2
 import numpy as np
 
-from tracker.abis.correspondences import COUNT_NAMES, Pairs, pair_features, refine_surface_coordinates
+from tracker.abis.anchoring import AnchorSettings, texture_offsets
+from tracker.abis.correspondences import (
+    COUNT_NAMES,
+    Pairs,
+    pair_features,
+    pixel_jacobian,
+    refine_surface_coordinates,
+)
 from tracker.abis.fitting import FitSettings, PartProblem, Prior, ViewPairs, fit_part
 from tracker.abis.visibility import (
     VisibleSamples,
     facing_samples,
     in_image,
+    occlusion_edges,
     outward_normals,
+    reached_by_other_parts,
     visible_mask,
     visible_samples,
 )
@@ -93,10 +105,22 @@ class AbisSettings:
     refined_tolerance_px: Positive = 0.5  # ... and keeps the pair if its own point then lies this close under it
     # Features this close to a silhouette or occlusion edge do not pair.
     boundary_margin_px: Annotated[int, Range(0, 50)] = 5
+    # The model image predicts occlusion: a pair whose point another part's visible samples come this close to,
+    # plus their image motion relative to the point over the last frame, is discarded for occlusion before that
+    # part's edge reaches it: its feature's Lucas-Kanade window (`features.window_px`) would straddle two surfaces
+    # moving differently, and bottom-up tracking would lose it or slide onto the occluder. No new pair forms this
+    # close to an occluding edge either.
+    occlusion_margin_px: Annotated[int, Range(0, 50)] = 7
     max_residual_px: Positive = 2.0  # after fitting, a pair farther off is a false match
     # Which samples a view sees: the z-buffer of the estimate (paper 1), or, as bottom-up tracking would, any that
     # faces the camera (the ablation: nothing discarded for occlusion, new pairs on hidden parts too).
     selection: Literal["zbuffer", "none"] = "zbuffer"
+    # New pairs anchored where the model's texture says their feature's material point is (None: under the
+    # feature on the estimate, which carries the estimate's error into the pair).
+    anchor: AnchorSettings | None = field(default_factory=AnchorSettings)
+    # ... and every pair again every this many frames (a share of them each frame, by feature id), against the
+    # features' drift; 0: never
+    reanchor_every: Annotated[int, Range(0, 100)] = 3
     initial_noise: InitialNoise = field(default_factory=InitialNoise)
 
 
@@ -169,6 +193,9 @@ class AbisTracker(Tracker):
             camera.name: FeatureTracker(self.settings.features, first_id=k << 40) for k, camera in enumerate(cameras)
         }
         self._pairs = {camera.name: Pairs.empty() for camera in cameras}
+        self._sample_pixels: dict[str, np.ndarray] = {}  # view -> the last estimate's samples' pixels
+        self._textures = [cv2.cvtColor(texture, cv2.COLOR_RGB2GRAY).astype(np.float32) for texture in model.textures]
+        self._sample_offsets = np.arange(len(model.parts)) * len(model.sample_grid.eta)  # part -> its first row
         if self._renderer is None:
             self._renderer = SceneRenderer(cameras[0].width, cameras[0].height)
         self._frame = 0
@@ -212,7 +239,10 @@ class AbisTracker(Tracker):
         views = {}
         for camera in self.cameras:
             name = camera.name
-            discarded = self._upkeep(camera, features[name], zbuffers[name], visible[name], world, counts[name])
+            motion = self._sample_motion(camera, samples)
+            gray = cv2.cvtColor(frame.views[name].rgb, cv2.COLOR_RGB2GRAY).astype(np.float32)
+            discarded = self._upkeep(camera, features[name], gray, zbuffers[name], visible[name], world, motion,
+                                     counts[name])  # fmt: skip
             views[name] = ViewResult(features[name], self._feature_states(name, features[name], discarded),
                                      visible[name])  # fmt: skip
         timings["pairing"] = elapsed_ms(start)
@@ -222,6 +252,15 @@ class AbisTracker(Tracker):
         return AbisResult.of(self.model.part_names, frame=frame.frame, estimate=self._estimate.copy(), counts=counts,
                              pairs={name: self._pairs[name].count_by_part(n_parts) for name in names}, cost=cost,
                              iterations=iterations, views=views, timings_ms=timings, failure=failure)  # fmt: skip
+
+    def _sample_motion(self, camera: Camera, samples: list[np.ndarray]) -> np.ndarray:
+        """``(n, 2)``: every sample's image motion in ``camera`` between the last two estimates (pixels; parts'
+        samples one after another, `_sample_offsets`; zero at the first frame and where a sample does not
+        project). Keeps this frame's pixels for the next."""
+        pixels = camera.project(np.concatenate(samples))[0]
+        before = self._sample_pixels.get(camera.name, pixels)
+        self._sample_pixels[camera.name] = pixels
+        return np.nan_to_num(pixels - before, nan=0.0, posinf=0.0, neginf=0.0)
 
     def _sample_normals(self) -> list[np.ndarray]:
         """Each part's outward normals at its grid samples, for the estimate."""
@@ -272,12 +311,14 @@ class AbisTracker(Tracker):
             cost[part], iterations[part] = fitted.cost, fitted.iterations
         return estimate, cost, iterations, None
 
-    def _upkeep(self, camera: Camera, features: FeatureFrame, zbuffer: DepthLabels | None, visible: VisibleSamples,
-                world: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    def _upkeep(self, camera: Camera, features: FeatureFrame, gray: np.ndarray, zbuffer: DepthLabels | None,
+                visible: VisibleSamples, world: np.ndarray, motion: np.ndarray,
+                counts: np.ndarray) -> np.ndarray:  # fmt: skip
         """Discard hidden and false pairs, pair the unpaired features; returns the discarded features' ids.
 
         ``world``: the estimate's part -> world transforms (the same for every view); ``zbuffer``: None under
-        ``selection=none``."""
+        ``selection=none``; ``motion``: the samples' image motion over the last frame (`_sample_motion`);
+        ``gray``: the view's image (float32 grey), for anchoring new pairs to the model's texture."""
         n_parts = len(self.model.parts)
         pairs = self._pairs[camera.name]
         seen, uv = np.zeros(len(pairs), bool), np.zeros((len(pairs), 2))
@@ -287,6 +328,11 @@ class AbisTracker(Tracker):
             points = self.model.part_points(self._estimate, part, pairs.eta[mine], pairs.omega[mine], world)
             seen[mine], uv[mine] = visible_mask(camera, zbuffer, part, points) if by_zbuffer else in_image(camera,
                                                                                                            points)
+        if by_zbuffer:  # the model image also predicts the pairs another part's edge is about to cover
+            seen[seen] = ~reached_by_other_parts(
+                uv[seen], pairs.parts[seen], motion[self._sample_offsets[pairs.parts[seen]] + pairs.samples[seen]],
+                visible, motion[self._sample_offsets[visible.part] + visible.sample],
+                self.settings.occlusion_margin_px, self.settings.features.window_px)  # fmt: skip
         counts[:, DISCARDED_OCCLUSION] = pairs.subset(~seen).count_by_part(n_parts)
         residual = np.linalg.norm(uv - _rows(features, pairs.feature_ids), axis=1)
         wrong = seen & (residual > self.settings.max_residual_px)
@@ -300,7 +346,8 @@ class AbisTracker(Tracker):
         grid = self.model.sample_grid
         new = Pairs.empty()
         if by_zbuffer:
-            interior = interior_labels(zbuffer.labels, self.settings.boundary_margin_px)
+            edges = occlusion_edges(zbuffer.labels, self.settings.occlusion_margin_px)
+            interior = np.where(edges, 0, interior_labels(zbuffer.labels, self.settings.boundary_margin_px))
             pixel = np.rint(features.points).astype(int)
             region = interior[pixel[:, 1], pixel[:, 0]]
             for part in range(n_parts):
@@ -325,8 +372,35 @@ class AbisTracker(Tracker):
             keep[mine] = distance <= self.settings.refined_tolerance_px
         new = new.subset(keep)
         counts[:, NEW] = new.count_by_part(n_parts)
-        self._pairs[camera.name] = pairs.extend(new)
+        held = pairs.extend(new)
+        if self.settings.anchor is not None:  # the material point each feature shows, by the model's texture:
+            # every new pair, and the others in turn (by feature id), against the features' drift
+            is_new = np.r_[np.zeros(len(pairs), bool), np.ones(len(new), bool)]
+            every = self.settings.reanchor_every
+            due = is_new | ((held.feature_ids % every == self._frame % every) if every else False)
+            self._anchor(held, due, is_new, camera, features, gray, world)
+        self._pairs[camera.name] = held
         return discarded
+
+    def _anchor(self, pairs: Pairs, due: np.ndarray, search: np.ndarray, camera: Camera, features: FeatureFrame,
+                gray: np.ndarray, world: np.ndarray) -> None:  # fmt: skip
+        """Move the ``due`` pairs' surface coordinates (in place) to the material point their feature shows, as
+        matched against the model's texture around where the estimate puts each pair (`tracker.abis.anchoring`;
+        ``search``: over whole pixels first, for new pairs)."""
+        for part in np.unique(pairs.parts[due]):
+            mine = np.flatnonzero(due & (pairs.parts == part))
+
+            def surface(eta, omega, part=part):
+                return self.model.part_points(self._estimate, part, eta, omega, world)
+
+            # The observed patch around the feature against the texture around the pair's point, as the estimate
+            # maps it: the match is in the material, whatever the estimate's offset in the image.
+            jacobian = pixel_jacobian(surface, camera, pairs.eta[mine], pairs.omega[mine])
+            offsets, _ = texture_offsets(gray, _rows(features, pairs.feature_ids[mine]), pairs.eta[mine],
+                                         pairs.omega[mine], jacobian, self._textures[part], self.settings.anchor,
+                                         search[mine])  # fmt: skip
+            pairs.eta[mine] += offsets[:, 0]
+            pairs.omega[mine] += offsets[:, 1]
 
     def _feature_states(self, name: str, features: FeatureFrame, discarded: np.ndarray) -> np.ndarray:
         """Each feature's index into FEATURE_STATES after this frame's upkeep in view ``name``."""

@@ -14,7 +14,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
+from scipy.spatial import cKDTree
 
 from tracker.geometry.cameras import Camera
 from tracker.render.offscreen import DepthLabels
@@ -60,6 +62,38 @@ def visible_samples(camera: Camera, zbuffer: DepthLabels, samples_world: Sequenc
         indices.append(chosen)
         uvs.append(uv[chosen])
     return VisibleSamples(np.concatenate(parts), np.concatenate(indices), np.concatenate(uvs).reshape(-1, 2))
+
+
+def occlusion_edges(labels: np.ndarray, margin_px: int) -> np.ndarray:
+    """``(h, w)`` bool: pixels of a part with another part within ``margin_px`` (a square neighbourhood), where a
+    feature's window straddles two parts' surfaces. The background does not count: a part's own silhouette is no
+    occlusion edge."""
+    if margin_px <= 0:
+        return np.zeros(labels.shape, bool)
+    kernel = np.ones((2 * margin_px + 1, 2 * margin_px + 1), np.uint8)
+    largest = cv2.dilate(labels, kernel)
+    smallest = cv2.erode(np.where(labels == 0, np.iinfo(labels.dtype).max, labels).astype(labels.dtype), kernel)
+    return (labels > 0) & (smallest < largest)
+
+
+def reached_by_other_parts(uv: np.ndarray, parts: np.ndarray, motion: np.ndarray, visible: VisibleSamples,
+                           visible_motion: np.ndarray, margin_px: float, most_px: float) -> np.ndarray:  # fmt: skip
+    """``(n,)`` bool: which points, at pixels ``uv`` ``(n, 2)`` on ``parts`` ``(n,)`` and moving ``motion``
+    ``(n, 2)`` px per frame, another part's visible sample (``visible``, moving ``visible_motion`` ``(m, 2)``) is
+    within ``margin_px`` plus their relative motion (at most ``most_px``) of: another part's edge is at the point's
+    feature window, or reaches it by the next frame if both keep moving as in the last one."""
+    if len(uv) == 0 or len(visible) == 0:
+        return np.zeros(len(uv), bool)
+    neighbours = cKDTree(visible.uv).query_ball_point(uv, margin_px + most_px)
+    counts = np.fromiter((len(near) for near in neighbours), int, len(neighbours))
+    if counts.sum() == 0:
+        return np.zeros(len(uv), bool)
+    near = np.concatenate([np.asarray(n, dtype=int) for n in neighbours])
+    point = np.repeat(np.arange(len(uv)), counts)  # (k,) which point each neighbour is near
+    distance = np.linalg.norm(visible.uv[near] - uv[point], axis=1)
+    relative = np.minimum(np.linalg.norm(visible_motion[near] - motion[point], axis=1), most_px)
+    hit = (visible.part[near] != parts[point]) & (distance <= margin_px + relative)
+    return np.bincount(point[hit], minlength=len(uv)) > 0
 
 
 def in_image(camera: Camera, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

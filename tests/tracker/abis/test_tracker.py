@@ -40,8 +40,10 @@ def test_the_forearm_is_followed_and_hidden_from_the_left(run):
     estimates = np.array([result.estimate for result in results])
     r2_error = np.degrees(np.abs(estimates[:, 1, PARAM_INDEX["r2"]] - truths[:, 1, PARAM_INDEX["r2"]]))
     b1_error = np.abs(estimates[:, 1, PARAM_INDEX["b1"]] - truths[:, 1, PARAM_INDEX["b1"]])
-    # b1 rises fastest in these first frames; the bending prior (one sigma per frame) makes the estimate lag a little.
-    assert r2_error.max() < 3.0 and b1_error.max() < 0.012
+    # b1 rises fastest in these first frames; the bending prior (one sigma per frame) makes the estimate lag a little,
+    # and anchoring pairs to the texture (its match is good to ~0.4 px) costs a little more here than it pays: without
+    # it these bounds are 1.5 deg and 11 mm; over whole runs it pays (`make reproduce`'s seeds table).
+    assert r2_error.max() < 4.0 and b1_error.max() < 0.02
     assert all(result.failure is None for result in results)
     assert results[0].pairs["left"][1] == 0  # straight forearm: no pairs where it cannot be seen
     assert all(result.iterations[1] > 0 for result in results[1:])

@@ -1,0 +1,82 @@
+"""Anchoring new pairs to the model's texture: a known offset recovered from a synthetic image, and on real
+renders of the arm, pairs formed on a wrong estimate anchored back onto the material point their feature shows."""
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+from scipy.ndimage import map_coordinates
+from scipy.spatial import cKDTree
+
+from tracker.abis.anchoring import AnchorSettings, texture_offsets
+from tracker.abis.correspondences import pixel_jacobian, refine_surface_coordinates
+from tracker.abis.visibility import outward_normals
+from tracker.models.dsq import PARAM_INDEX
+from tracker.models.textures import block_noise_texture
+
+
+@pytest.mark.parametrize("shift_px", [(0.0, 0.0), (0.6, -0.3), (1.6, -0.7), (-3.2, 2.4)])
+def test_a_known_shift_of_the_material_is_recovered(shift_px):
+    texture = cv2.cvtColor(block_noise_texture(np.random.default_rng(3), (10, 12), (200, 180, 150)),
+                           cv2.COLOR_RGB2GRAY).astype(np.float32)  # fmt: skip
+    jacobian = np.array([[30.0, -6.0], [4.0, 18.0]])  # pixels per radian of (eta, omega)
+    to_surface = np.linalg.inv(jacobian)
+    eta0, omega0, point = 0.3, -0.8, np.array([32.0, 32.0])
+    # The image: pixel p + d shows the material the estimate puts at p + d + shift.
+    ys, xs = np.mgrid[0:64, 0:64].astype(np.float64)
+    d = np.stack([xs.ravel() - point[0] + shift_px[0], ys.ravel() - point[1] + shift_px[1]])
+    eta, omega = eta0 + (to_surface @ d)[0], omega0 + (to_surface @ d)[1]
+    rows = (math.pi / 2 - eta) / math.pi * texture.shape[0] - 0.5
+    columns = ((omega + math.pi) / (2 * math.pi) * texture.shape[1] - 0.5) % texture.shape[1]
+    image = map_coordinates(texture, [rows, columns], order=1, mode="nearest").reshape(64, 64).astype(np.float32)
+    offsets, trusted = texture_offsets(image, point[None], np.array([eta0]), np.array([omega0]), jacobian[None],
+                                       texture, AnchorSettings())  # fmt: skip
+    assert trusted[0]
+    np.testing.assert_allclose(jacobian @ offsets[0], shift_px, atol=0.15)
+    if np.linalg.norm(shift_px) < 1:  # refining alone (a pair anchored before) finds a shift under a pixel
+        offsets, _ = texture_offsets(image, point[None], np.array([eta0]), np.array([omega0]), jacobian[None],
+                                     texture, AnchorSettings(), search=False)  # fmt: skip
+        np.testing.assert_allclose(jacobian @ offsets[0], shift_px, atol=0.15)
+
+
+def test_pairs_formed_on_a_wrong_estimate_are_anchored_onto_their_material_point(arm, motion, rig, renderer):
+    truth = motion.params(arm, 20)
+    estimate = truth.copy()
+    estimate[1, PARAM_INDEX["r2"]] += 0.03
+    estimate[1, PARAM_INDEX["b1"]] += 0.015
+    estimate = arm.connect(estimate)
+    views = renderer.render(rig, arm.surface_meshes(truth))
+    texture = cv2.cvtColor(arm.textures[1], cv2.COLOR_RGB2GRAY).astype(np.float32)
+    grid, before, after = arm.sample_grid, [], []
+    for camera in rig:
+        gray = cv2.cvtColor(views[camera.name].rgb, cv2.COLOR_RGB2GRAY)
+        corners = cv2.goodFeaturesToTrack(gray, 300, 0.01, 5).reshape(-1, 2).astype(np.float64)
+        pixel = np.rint(corners).astype(int)
+        points = corners[views[camera.name].labels[pixel[:, 1], pixel[:, 0]] == 2]
+        if len(points) < 3:
+            continue
+
+        def on(params):
+            world = arm.world_transforms(params)
+            return lambda e, w: arm.part_points(params, 1, e, w, world)
+
+        surface = on(estimate)
+        world = arm.world_transforms(estimate)
+        samples = surface(grid.eta, grid.omega)
+        normals = outward_normals(surface, grid.eta, grid.omega, world[1][:3, 3])
+        facing = np.flatnonzero(np.einsum("ij,ij->i", normals, camera.position - samples) > 0)
+        _, nearest = cKDTree(camera.project(samples[facing])[0]).query(points)
+        start = facing[nearest]
+        eta, omega, distance = refine_surface_coordinates(surface, camera, grid.eta[start].copy(),
+                                                          grid.omega[start].copy(), points)  # fmt: skip
+        keep = distance < 0.5
+        eta, omega, points = eta[keep], omega[keep], points[keep]
+        offsets, trusted = texture_offsets(gray.astype(np.float32), points, eta, omega,
+                                           pixel_jacobian(surface, camera, eta, omega), texture, AnchorSettings())
+        truly = on(truth)  # where the truth shows each pair's point: on its feature when the pair is right
+        before.extend(np.linalg.norm(camera.project(truly(eta, omega))[0] - points, axis=1)[trusted])
+        after.extend(np.linalg.norm(camera.project(truly(eta + offsets[:, 0], omega + offsets[:, 1]))[0] - points,
+                                    axis=1)[trusted])  # fmt: skip
+    assert len(before) >= 5
+    assert np.median(before) > 1.2 and np.median(after) < 0.5 * np.median(before)
