@@ -19,13 +19,19 @@ log = logging.getLogger(__name__)
 
 def views_sheet(run_dir: str | Path, frames: Sequence[int] | None = None, out: str | Path | None = None) -> Path:
     """A PNG grid of the recorded RGB views: one column per view, one row per frame (default: 4 spread frames)."""
-    plt = pyplot()
     run_dir = Path(run_dir)
     views = json.loads((run_dir / "metrics.json").read_text())["views"]
     images = {view: read_rgb_frames(run_dir / "run.rrd", view) for view in views}
     available = sorted(images[views[0]])
     if frames is None:
         frames = [available[i] for i in np.linspace(0, len(available) - 1, min(4, len(available))).astype(int)]
+    return _sheet(images, frames, Path(out) if out is not None else run_dir / "views.png")
+
+
+def _sheet(images: dict[str, dict[int, np.ndarray]], frames: Sequence[int], out: Path) -> Path:
+    """Images (view -> frame -> RGB) in a grid: one column per view, one row per frame."""
+    plt = pyplot()
+    views = list(images)
     figure, axes = plt.subplots(len(frames), len(views), figsize=(3.2 * len(views), 2.5 * len(frames)), squeeze=False)
     for row, frame in enumerate(frames):
         for column, view in enumerate(views):
@@ -36,7 +42,45 @@ def views_sheet(run_dir: str | Path, frames: Sequence[int] | None = None, out: s
                 axis.set_title(view)
             if column == 0:
                 axis.set_ylabel(f"frame {frame}")
-    return save_png(plt, figure, Path(out) if out is not None else run_dir / "views.png")
+    return save_png(plt, figure, out)
+
+
+def fig6_fig7_sheets(run_dir: str | Path, frames: Sequence[int] | None = None) -> list[Path]:
+    """Paper 1, Fig 6 and Fig 7: the input images, and the estimated model rendered from the same views, at the
+    same frames (default: the first and last, the one where part 2 is most hidden in some view and one halfway
+    to it)."""
+    from tracker import catalog  # noqa: F401  (registers the built-in components)
+    from tracker.registry import REGISTRIES
+    from tracker.render.offscreen import SceneRenderer
+
+    run_dir = Path(run_dir)
+    rows = _paper_part_rows(run_dir)
+    if frames is None:
+        visible = rows[[c for c in rows.columns if c.startswith("visible_px_")]].to_numpy()
+        hidden = int(rows["frame"].iloc[int(np.argmin((visible / np.maximum(visible.max(0), 1)).min(1)))])
+        frames = sorted({int(rows["frame"].iloc[0]), hidden // 2, hidden, int(rows["frame"].iloc[-1])})
+    config = json.loads((run_dir / "metrics.json").read_text())["config"]
+    model = REGISTRIES["model"].build("dsq_arm", config["model"])
+    rigs = REGISTRIES["rig"]
+    cameras = rigs.build(rigs.entry_for(config["rig"]["_target_"]).name, config["rig"])
+    table = _estimates(run_dir, model)
+    with SceneRenderer(cameras[0].width, cameras[0].height) as renderer:
+        estimated = {frame: renderer.render(cameras, model.surface_meshes(table[frame])) for frame in frames}
+    images = {camera.name: {frame: views[camera.name].rgb for frame, views in estimated.items()} for camera in cameras}
+    return [views_sheet(run_dir, frames, run_dir / "fig6_input_views.png"),
+            _sheet(images, frames, run_dir / "fig7_estimated_views.png")]
+
+
+def _estimates(run_dir: Path, model) -> dict[int, np.ndarray]:
+    """Frame -> the estimated ``(n_parts, 17)`` parameters of the DSQ arm, from the run's table."""
+    import pandas as pd
+
+    from tracker.models.dsq import PARAM_NAMES
+
+    table = pd.read_parquet(run_dir / "frames.parquet")
+    columns = [f"est_{name}" for name in PARAM_NAMES]
+    return {int(frame): np.stack([rows[rows["part"] == part][columns].to_numpy()[0] for part in model.part_names])
+            for frame, rows in table.groupby("frame")}  # fmt: skip
 
 
 def fig8_part2_b1_r2(run_dir: str | Path, out: str | Path | None = None) -> Path:
@@ -124,18 +168,24 @@ def save_png(plt, figure, out: Path) -> Path:
 
 
 # Each figure and the frames.parquet columns it draws: a run gets every figure its table has the columns of.
-FIGURES = ((fig8_part2_b1_r2, {"truth_b1", "est_b1", "truth_r2", "est_r2"}),
+FIGURES = ((fig6_fig7_sheets, {"est_a", "est_b1", "est_r2"}),
+           (fig8_part2_b1_r2, {"truth_b1", "est_b1", "truth_r2", "est_r2"}),
            (fig9_part2_correspondences, {"tracked", "new", "discarded_occlusion", "discarded_error", "lost"}))
 
 
 def write_figures(run_dir: str | Path) -> list[Path]:
-    """Every figure the run supports: the views sheet, and those whose columns its table has (Fig 8: estimates of
-    the DSQ arm; Fig 9: AbIS's pair counts)."""
+    """Every figure the run supports: the views sheet, and those whose columns its table has (Fig 6-8: estimates
+    of the DSQ arm; Fig 9: AbIS's pair counts)."""
     import pyarrow.parquet as pq
 
     run_dir = Path(run_dir)
     columns = set(pq.read_schema(run_dir / "frames.parquet").names)
-    return [views_sheet(run_dir)] + [figure(run_dir) for figure, needs in FIGURES if needs <= columns]
+    written = [views_sheet(run_dir)]
+    for figure, needs in FIGURES:
+        if needs <= columns:
+            made = figure(run_dir)
+            written.extend(made if isinstance(made, list) else [made])
+    return written
 
 
 def main() -> None:

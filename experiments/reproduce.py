@@ -1,9 +1,11 @@
 """``make reproduce [SCALE=paper]``: regenerate what the papers report, into ``reports/``, summed up in
 ``reports/report.md`` (tables beside the papers' numbers, figures embedded, machine and commit named).
 
-Paper 1 (AbIS): the 3-part DSQ arm tracked from 3 orthogonal views with Levenberg-Marquardt and with the paper's
-steepest descent; Fig 8 and Fig 9 of the LM run in ``reports/``, each run's figures, recording and tables in
-``reports/<run>/``.
+Paper 1 (AbIS, `experiments.paper_1`): the 3-part DSQ arm tracked from 3 orthogonal views with Levenberg-Marquardt
+and with the paper's steepest descent, in the paper's elbow swing (``reports/abis_lm``, ``abis_sd``; Fig 8 and Fig 9
+also at the top of ``reports/``) and in the upper arm's sweep in front of the forearm (``reports/abis_occlusion_lm``,
+``_sd``: Fig 6-9); the seeds table over 10 seeds x optimiser x selection in both (``reports/abis_seeds.md``, the runs
+in ``reports/abis_seeds/``).
 
 Paper 2 (silhouette tree-based filtering): experiment A (24 right-arm swings, side-on) under the paper's
 conditions (``experiment=tbf_table4c``: a subject unlike the standard bodies, a person's variation at three seeds,
@@ -24,27 +26,25 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import json
 import shutil
 import subprocess
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
 
-from eval.figures import write_figures
-from eval.tables import collect, machine, markdown, table_4c, write_reports
+from eval.tables import collect, machine, table_4c, write_reports
+from experiments.cli_runs import LIGHT_RECORDING, run_experiment, run_sweep
 from experiments.experiment_a import experiment_a_figures, paper_2_markdown, realism_overrides
+from experiments.paper_1 import paper_1
 from tracker.atomic import atomic_path
 
 REPORTS = Path("reports")
 TBF_CELLS = ("cost=xor,wxor,nwxor", "motion=dm1,dm2")  # the paper's 4 cells, and XOR beyond it
 REALISM_LEVELS = (0.0, 0.25, 0.5)  # swept below the experiment itself (1)
-# Runs kept for their tables: the tracker's and the errors' series only (~0.7 MB); the two cells the paper compares
-# keep images, meshes and parameters.
-LIGHT_RECORDING = ("record.images=false", "record.meshes_every=0", "record.parameters=false")
+# Runs kept for their tables record lightly (`experiments.cli_runs.LIGHT_RECORDING`); the two cells the paper
+# compares keep images, meshes and parameters.
 # Experiment A: 6 cells x 3 seeds of the subject's variation, in four multiruns (Hydra sweeps a grid) so that
 # only wXOR and nwXOR with DM2 on the first subject are recorded whole. Folder under reports/tbf_table4c -> overrides.
 EXPERIMENT_A_SWEEPS = {
@@ -59,62 +59,6 @@ EXPERIMENT_A_SWEEPS = {
 class Section:
     console: str  # what the command prints
     markdown: str  # its part of report.md
-
-
-def run_experiment(name: str, run_name: str, *overrides: str) -> Path:
-    """Run ``experiment=<name>`` through the real CLI into ``reports/<run_name>``; fail loudly if it failed."""
-    run_dir = REPORTS / run_name
-    command = [sys.executable, "-m", "experiments.run", f"experiment={name}", f"hydra.run.dir={run_dir}", *overrides]
-    subprocess.run(command, check=True)
-    metrics = json.loads((run_dir / "metrics.json").read_text())
-    if metrics["status"] != "ok":
-        raise SystemExit(f"{run_name}: {metrics['status']}")
-    return run_dir
-
-
-def run_sweep(name: str, sweep_dir: Path, *overrides: str) -> None:
-    """A Hydra multirun of ``experiment=<name>`` into ``sweep_dir`` (one folder per job); fail if a job failed."""
-    command = [sys.executable, "-m", "experiments.run", "-m", f"experiment={name}", f"hydra.sweep.dir={sweep_dir}",
-               *overrides]  # fmt: skip
-    subprocess.run(command, check=True)
-    for metrics_path in sorted(sweep_dir.glob("*/metrics.json")):
-        status = json.loads(metrics_path.read_text())["status"]
-        if status != "ok":
-            raise SystemExit(f"{metrics_path.parent}: {status}")
-
-
-def paper_1() -> Section:
-    start = time.perf_counter()
-    lines, rows = [], []
-    for optimizer in ("lm", "sd"):
-        print(f"paper 1: AbIS with {optimizer} ...", flush=True)
-        run_dir = run_experiment("abis_fig8_fig9", f"abis_{optimizer}", f"tracker.fit.optimizer={optimizer}")
-        figures = write_figures(run_dir)
-        metrics = json.loads((run_dir / "metrics.json").read_text())
-        timing = json.loads((run_dir / "timings.json").read_text())
-        b1_mm, b1_pct = metrics["part2_b1_rms"] * 1e3, 100 * metrics["part2_b1_rms"] / metrics["part2_b1_range"]
-        lines.append(f"  {optimizer}: part2_b1_rms {b1_mm:.1f} mm ({b1_pct:.1f}% of the b1 range), part2_r2_rms "
-                     f"{metrics['part2_r2_rms_deg']:.2f} deg, estimation {timing['estimate_ms_median']:.0f} ms/frame "
-                     f"(median), recording {run_dir / 'run.rrd'}")  # fmt: skip
-        rows.append({"optimiser": optimizer, "part 2 b1 RMS (mm)": round(b1_mm, 1),
-                     "b1 RMS (% of its range)": round(b1_pct, 1),
-                     "part 2 r2 RMS (deg)": round(metrics["part2_r2_rms_deg"], 2),
-                     "estimation (ms/frame, median)": round(timing["estimate_ms_median"], 1),
-                     "recording": f"`{run_dir.relative_to(REPORTS) / 'run.rrd'}`"})  # fmt: skip
-        if optimizer == "lm":
-            for figure in figures[1:]:
-                shutil.copyfile(figure, REPORTS / figure.name)
-    seconds = time.perf_counter() - start
-    console = (f"\nPaper 1 (AbIS), {metrics['frames_done']} frames x 3 views, in {seconds:.0f} s:\n" + "\n".join(lines)
-               + f"\nFig 8: {REPORTS / 'fig8_part2_b1_r2.png'}\nFig 9: {REPORTS / 'fig9_part2_correspondences.png'}\n"
-               f"Open a recording with: .venv/bin/rerun {REPORTS / 'abis_lm' / 'run.rrd'}")  # fmt: skip
-    text = (f"## Paper 1: AbIS on the DSQ arm (Yonemoto et al. 1997)\n\n"
-            f"{metrics['frames_done']} frames, 3 orthogonal views at 320x240, seed {metrics['seed']}, {seconds:.0f} s. "
-            "The paper shows its accuracy as curves (Fig 8) and pairs (Fig 9); the numbers are ours.\n\n"
-            + markdown(pd.DataFrame(rows)) + "\n\n"
-            "![Fig 8: part 2's bending b1 and rotation r2, truth and estimate](fig8_part2_b1_r2.png)\n\n"
-            "![Fig 9: part 2's image-model correspondences](fig9_part2_correspondences.png)\n")  # fmt: skip
-    return Section(console, text)
 
 
 def paper_2(paper_scale: bool) -> Section:
@@ -135,7 +79,7 @@ def paper_2(paper_scale: bool) -> Section:
     directories = [experiment_dir, control_dir]
     if paper_scale:
         print("paper 2 at paper scale (the first run renders ~58,000 samples) ...", flush=True)
-        directories.append(run_experiment("tbf_paper_scale", "tbf_paper_scale"))
+        directories.append(run_experiment("tbf_paper_scale", REPORTS / "tbf_paper_scale"))
     runs = collect(directories)
     written = write_reports(runs, REPORTS)
     figures = experiment_a_figures(runs, collect(list(realism_dirs.values())), REPORTS)
@@ -180,7 +124,7 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     start = time.perf_counter()
     REPORTS.mkdir(exist_ok=True)
-    sections = [paper_1(), paper_2(args.scale == "paper")]
+    sections = [Section(*paper_1(REPORTS)), paper_2(args.scale == "paper")]
     for section in sections:
         print(section.console)
     report = write_report(sections, time.perf_counter() - start, args.scale)

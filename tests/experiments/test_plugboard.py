@@ -49,7 +49,8 @@ def test_a_users_tracker_runs_is_recorded_tabled_and_drawn(tmp_path):
     assert recorded["/metrics/hold/frames"] == [0, 1, 2]
     assert recorded["/world/cameras/left/image/corners"] == [0, 1, 2]
     assert recorded["/world/estimate/forearm"] == [0]  # the estimate never changed: its mesh is logged once
-    assert [path.name for path in write_figures(out)] == ["views.png", "fig8_part2_b1_r2.png"]  # no pairs: no Fig 9
+    assert [path.name for path in write_figures(out)] == [  # the arm's figures, but no pairs: no Fig 9
+        "views.png", "fig6_input_views.png", "fig7_estimated_views.png", "fig8_part2_b1_r2.png"]
     runs = collect([out])
     assert sweep_table(runs).loc[0, "tracker"] == "hold_still"
 
