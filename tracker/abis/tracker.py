@@ -29,6 +29,7 @@ import numpy as np
 from tracker.abis.anchoring import AnchorSettings, texture_offsets
 from tracker.abis.correspondences import (
     COUNT_NAMES,
+    POLE_MARGIN_RAD,
     Pairs,
     pair_features,
     pixel_jacobian,
@@ -115,8 +116,8 @@ class AbisSettings:
     # Which samples a view sees: the z-buffer of the estimate (paper 1), or, as bottom-up tracking would, any that
     # faces the camera (the ablation: nothing discarded for occlusion, new pairs on hidden parts too).
     selection: Literal["zbuffer", "none"] = "zbuffer"
-    # New pairs anchored where the model's texture says their feature's material point is (None: under the
-    # feature on the estimate, which carries the estimate's error into the pair).
+    # Pairs anchored where the model's texture says their feature's material point is (None: a new pair's point
+    # stays under its feature on the estimate, which carries the estimate's error into the pair).
     anchor: AnchorSettings | None = field(default_factory=AnchorSettings)
     # ... and every pair again every this many frames (a share of them each frame, by feature id), against the
     # features' drift; 0: never
@@ -239,7 +240,7 @@ class AbisTracker(Tracker):
         views = {}
         for camera in self.cameras:
             name = camera.name
-            motion = self._sample_motion(camera, samples)
+            motion = self._sample_motion(camera, samples) if self.settings.selection == "zbuffer" else None
             gray = cv2.cvtColor(frame.views[name].rgb, cv2.COLOR_RGB2GRAY).astype(np.float32)
             discarded = self._upkeep(camera, features[name], gray, zbuffers[name], visible[name], world, motion,
                                      counts[name])  # fmt: skip
@@ -312,13 +313,13 @@ class AbisTracker(Tracker):
         return estimate, cost, iterations, None
 
     def _upkeep(self, camera: Camera, features: FeatureFrame, gray: np.ndarray, zbuffer: DepthLabels | None,
-                visible: VisibleSamples, world: np.ndarray, motion: np.ndarray,
+                visible: VisibleSamples, world: np.ndarray, motion: np.ndarray | None,
                 counts: np.ndarray) -> np.ndarray:  # fmt: skip
         """Discard hidden and false pairs, pair the unpaired features; returns the discarded features' ids.
 
         ``world``: the estimate's part -> world transforms (the same for every view); ``zbuffer``: None under
-        ``selection=none``; ``motion``: the samples' image motion over the last frame (`_sample_motion`);
-        ``gray``: the view's image (float32 grey), for anchoring new pairs to the model's texture."""
+        ``selection=none``; ``motion``: the samples' image motion over the last frame (`_sample_motion`; None under
+        ``selection=none``); ``gray``: the view's image (float32 grey), for anchoring pairs to the model's texture."""
         n_parts = len(self.model.parts)
         pairs = self._pairs[camera.name]
         seen, uv = np.zeros(len(pairs), bool), np.zeros((len(pairs), 2))
@@ -399,8 +400,10 @@ class AbisTracker(Tracker):
             offsets, _ = texture_offsets(gray, _rows(features, pairs.feature_ids[mine]), pairs.eta[mine],
                                          pairs.omega[mine], jacobian, self._textures[part], self.settings.anchor,
                                          search[mine])  # fmt: skip
-            pairs.eta[mine] += offsets[:, 0]
-            pairs.omega[mine] += offsets[:, 1]
+            pairs.eta[mine] = np.clip(pairs.eta[mine] + offsets[:, 0], -np.pi / 2 + POLE_MARGIN_RAD,
+                                      np.pi / 2 - POLE_MARGIN_RAD)  # as `refine_surface_coordinates` keeps them
+            omega = pairs.omega[mine] + offsets[:, 1]
+            pairs.omega[mine] = np.where(np.abs(omega) > np.pi, (omega + np.pi) % (2 * np.pi) - np.pi, omega)
 
     def _feature_states(self, name: str, features: FeatureFrame, discarded: np.ndarray) -> np.ndarray:
         """Each feature's index into FEATURE_STATES after this frame's upkeep in view ``name``."""
