@@ -47,20 +47,18 @@ def _sheet(images: dict[str, dict[int, np.ndarray]], frames: Sequence[int], out:
 
 def fig6_fig7_sheets(run_dir: str | Path, frames: Sequence[int] | None = None) -> list[Path]:
     """Paper 1, Fig 6 and Fig 7: the input images, and the estimated model rendered from the same views, at the
-    same frames (default: the first and last, the one where part 2 is most hidden in some view and one halfway
-    to it)."""
+    same frames (default: five spread over the run)."""
     from tracker import catalog  # noqa: F401  (registers the built-in components)
     from tracker.registry import REGISTRIES
     from tracker.render.offscreen import SceneRenderer
 
     run_dir = Path(run_dir)
-    rows = _paper_part_rows(run_dir)
     if frames is None:
-        visible = rows[[c for c in rows.columns if c.startswith("visible_px_")]].to_numpy()
-        hidden = int(rows["frame"].iloc[int(np.argmin((visible / np.maximum(visible.max(0), 1)).min(1)))])
-        frames = sorted({int(rows["frame"].iloc[0]), hidden // 2, hidden, int(rows["frame"].iloc[-1])})
-    config = json.loads((run_dir / "metrics.json").read_text())["config"]
-    model = REGISTRIES["model"].build("dsq_arm", config["model"])
+        done = _paper_part_rows(run_dir)["frame"].to_numpy()
+        frames = sorted(set(np.linspace(done[0], done[-1], min(5, len(done))).round().astype(int).tolist()))
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    config = metrics["config"]
+    model = REGISTRIES["model"].build(metrics["choices"]["model"], config["model"])
     rigs = REGISTRIES["rig"]
     cameras = rigs.build(rigs.entry_for(config["rig"]["_target_"]).name, config["rig"])
     table = _estimates(run_dir, model)
