@@ -5,6 +5,9 @@ image, the label image shows part j at its pixel (nothing else in front: occlusi
 z-buffer depth there is not more than `VISIBILITY_DEPTH_M` in front of the point (not behind its own part's near
 side: self-occlusion).
 
+The model's image also predicts occlusion: `occlusion_edges` marks where two parts meet in the label image, and
+`reached_by_other_parts` the points another part's edge reaches by the next frame, moving as in the last one.
+
 Without the model's image (`facing_samples`, the ablation ``tracker.selection=none``), a sample counts as seen when
 it projects inside the image and its surface faces the camera: the back-face test alone, blind to other parts.
 """
