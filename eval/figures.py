@@ -104,18 +104,23 @@ def fig8_part2_b1_r2(run_dir: str | Path, out: str | Path | None = None) -> Path
 
 
 def fig9_part2_correspondences(run_dir: str | Path, out: str | Path | None = None) -> Path:
-    """Paper 1, Fig 9: part 2's new, discarded and tracked pairs per frame (all views)."""
+    """Paper 1, Fig 9: part 2's new, discarded and tracked pairs per frame, over all views (top) and in each view
+    (below; grey where part 2 is mostly hidden in that view)."""
     plt = pyplot()
     run_dir = Path(run_dir)
     rows = _paper_part_rows(run_dir)
-    figure, axis = plt.subplots(figsize=(7, 3.8))
+    views = json.loads((run_dir / "metrics.json").read_text())["views"]
+    figure, axes = plt.subplots(1 + len(views), 1, figsize=(7, 3.8 + 1.6 * len(views)), sharex=True,
+                                gridspec_kw={"height_ratios": [2.2] + [1] * len(views)})  # fmt: skip
     styles = {"tracked": "C2-", "new": "C0-", "discarded_occlusion": "C3-", "discarded_error": "C1--", "lost": "C7:"}
-    for count, style in styles.items():
-        axis.plot(rows["frame"], rows[count], style, label=count.replace("_", " "))
-    _shade_hidden(axis, rows)
-    axis.set_xlabel("frame")
-    axis.set_ylabel("pairs of part 2")
-    axis.legend(fontsize=8, ncol=3)
+    for axis, view in zip(axes, [None, *views], strict=True):
+        suffix = "" if view is None else f"_{view}"
+        for count, style in styles.items():
+            axis.plot(rows["frame"], rows[count + suffix], style, label=count.replace("_", " "))
+        _shade_hidden(axis, rows, view)
+        axis.set_ylabel("pairs of part 2" if view is None else view)
+    axes[0].legend(fontsize=8, ncol=3)
+    axes[-1].set_xlabel("frame")
     return save_png(plt, figure, Path(out) if out else run_dir / "fig9_part2_correspondences.png")
 
 
@@ -136,9 +141,9 @@ def _tracker_name(metrics: dict) -> str:
     return f"tracker {metrics['choices']['tracker']}" + (f", optimizer {optimizer}" if optimizer else "")
 
 
-def _shade_hidden(axis, rows) -> None:
-    """Grey where part 2 is mostly hidden in some view (under 20% of its largest visible area there)."""
-    columns = [c for c in rows.columns if c.startswith("visible_px_")]
+def _shade_hidden(axis, rows, view: str | None = None) -> None:
+    """Grey where part 2 is mostly hidden (under 20% of its largest visible area) in ``view``, or in any view."""
+    columns = [c for c in rows.columns if c.startswith("visible_px_") and (view is None or c.endswith(f"_{view}"))]
     hidden = np.zeros(len(rows), bool)
     for column in columns:
         pixels = rows[column].to_numpy()
