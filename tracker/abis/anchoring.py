@@ -28,7 +28,7 @@ from tracker.ranges import Range
 
 Score = Annotated[float, Range(-1.0, 1.0)]
 HalfSide = Annotated[int, Range(1, 20)]
-SUBPIXEL_ITERATIONS = 3  # Gauss-Newton steps on the shift after the whole-pixel search (a new pair)
+SUBPIXEL_ITERATIONS = 2  # Gauss-Newton steps on the shift after the whole-pixel search (a new pair)
 REFINE_ITERATIONS = 1  # ... and from no shift (a pair anchored before: its feature moved a fraction of a pixel)
 
 

@@ -104,8 +104,9 @@ class AbisSettings:
     prior: PriorSigmas | None = field(default_factory=PriorSigmas)  # None: eq 8 alone
     pairing_radius_px: Positive = 2.0  # a feature pairs with the nearest visible sample within this
     refined_tolerance_px: Positive = 0.5  # ... and keeps the pair if its own point then lies this close under it
-    # Features this close to a silhouette or occlusion edge do not pair.
-    boundary_margin_px: Annotated[int, Range(0, 50)] = 5
+    # Features this close to a silhouette or occlusion edge do not pair (their window holds the background or
+    # another part; 3 px: with pairs anchored to the texture, the forearm's narrow image keeps more of them).
+    boundary_margin_px: Annotated[int, Range(0, 50)] = 3
     # The model image predicts occlusion: a pair whose point another part's visible samples come this close to,
     # plus their image motion relative to the point over the last frame, is discarded for occlusion before that
     # part's edge reaches it: its feature's Lucas-Kanade window (`features.window_px`) would straddle two surfaces
