@@ -154,10 +154,10 @@ class RunRecording:
                 series[f"error/{column}"] = evaluated[1][column]
         for name, value in series.items():
             self._scalar(f"metrics/{name}", value)
-        for view, overlays in result.points.items():
+        for view, overlays in result.points.items() if self.record.images else ():  # drawn on the images
             for name, points in overlays.items():
                 self._log_points(f"world/cameras/{view}/image/{name}", name, points)
-        for view, images in result.images.items():
+        for view, images in result.images.items() if self.record.images else ():
             for name, image in images.items():
                 log(f"world/cameras/{view}/image/{name}", rr.Image(np.asarray(image)))
         if result.failure:

@@ -41,7 +41,7 @@ class RecordSettings:
     """What ``run.rrd`` holds besides the tracker's and the evaluation's series: the images, the meshes, the
     parameters, and the weight maps of the silhouette costs."""
 
-    images: bool = True  # each view's RGB (as video), part labels and extracted silhouette
+    images: bool = True  # each view's RGB (as video), part labels, extracted silhouette, the tracker's overlays
     weight_maps: bool = False  # silhouette scenes: each cost's weight map d_P as a float image (300 KB a frame)
     video_quality: Annotated[int, Range(0, 63)] = 30  # the RGB video's constant quality (AV1's crf: lower is finer)
     # The truth and estimate meshes every this many frames (0: none); series, images and tables keep every frame.
