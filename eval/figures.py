@@ -53,15 +53,15 @@ def fig6_fig7_sheets(run_dir: str | Path, frames: Sequence[int] | None = None) -
     from tracker.render.offscreen import SceneRenderer
 
     run_dir = Path(run_dir)
-    if frames is None:
-        done = _paper_part_rows(run_dir)["frame"].to_numpy()
-        frames = sorted(set(np.linspace(done[0], done[-1], min(5, len(done))).round().astype(int).tolist()))
     metrics = json.loads((run_dir / "metrics.json").read_text())
     config = metrics["config"]
     model = REGISTRIES["model"].build(metrics["choices"]["model"], config["model"])
     rigs = REGISTRIES["rig"]
     cameras = rigs.build(rigs.entry_for(config["rig"]["_target_"]).name, config["rig"])
     table = _estimates(run_dir, model)
+    if frames is None:
+        done = sorted(table)
+        frames = sorted(set(np.linspace(done[0], done[-1], min(5, len(done))).round().astype(int).tolist()))
     with SceneRenderer(cameras[0].width, cameras[0].height) as renderer:
         estimated = {frame: renderer.render(cameras, model.surface_meshes(table[frame])) for frame in frames}
     images = {camera.name: {frame: views[camera.name].rgb for frame, views in estimated.items()} for camera in cameras}

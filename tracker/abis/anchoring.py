@@ -71,11 +71,10 @@ def texture_offsets(observed_gray: np.ndarray, points: np.ndarray, eta: np.ndarr
         scores = _correlation(windows, patches[searched, None, None]).reshape(len(searched), -1)
         row, column = np.divmod(np.argmax(scores, axis=1), 2 * r + 1)
         shift[searched] = np.column_stack([column - r, row - r])
-    # Gauss-Newton on the shift, with a gain and an offset for the shading: the searched ones first, then all once.
-    if len(searched):
+        # Gauss-Newton on the shift, with a gain and an offset for the shading: the searched ones first ...
         for _ in range(SUBPIXEL_ITERATIONS - REFINE_ITERATIONS):
             shift[searched] += _gauss_newton_step(around, shift[searched], patches[searched], h)[0]
-    for _ in range(REFINE_ITERATIONS):
+    for _ in range(REFINE_ITERATIONS):  # ... then all
         step, score = _gauss_newton_step(synthesise, shift, patches, h)  # score: before the last step
         shift += step
     good = (score >= settings.min_score) & np.all(np.abs(shift) < r, axis=1)

@@ -242,7 +242,7 @@ class AbisTracker(Tracker):
         for camera in self.cameras:
             name = camera.name
             motion = self._sample_motion(camera, samples) if self.settings.selection == "zbuffer" else None
-            gray = cv2.cvtColor(frame.views[name].rgb, cv2.COLOR_RGB2GRAY).astype(np.float32)
+            gray = features[name].gray.astype(np.float32)  # the feature tracker's own, for texture matching
             discarded = self._upkeep(camera, features[name], gray, zbuffers[name], visible[name], world, motion,
                                      counts[name])  # fmt: skip
             views[name] = ViewResult(features[name], self._feature_states(name, features[name], discarded),

@@ -40,13 +40,15 @@ class FeatureFrame:
     """The features of one view at one frame.
 
     ids ``(n,)`` int64 and points ``(n, 2)``: every live feature (tracked ones first, then new ones);
-    new ``(n,)`` bool: detected this frame; lost_ids: ids that were live last frame and are not now.
+    new ``(n,)`` bool: detected this frame; lost_ids: ids that were live last frame and are not now;
+    gray ``(h, w)`` uint8: the image they were found in.
     """
 
     ids: np.ndarray
     points: np.ndarray
     new: np.ndarray
     lost_ids: np.ndarray
+    gray: np.ndarray
 
     @property
     def tracked(self) -> np.ndarray:
@@ -81,6 +83,7 @@ class FeatureTracker:
             points=self._points,
             new=np.concatenate([np.zeros(len(ids), bool), np.ones(len(new_ids), bool)]),
             lost_ids=np.setdiff1d(previous_ids, ids),
+            gray=gray,
         )
 
     def _track(self, previous: np.ndarray, current: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
