@@ -3,11 +3,13 @@
 The motion capture clips (CMU, with their terms) live in the data directory beside the project on every machine:
 ``../shared/data`` relative to the project's folder, or wherever the environment variable
 ``ARTICULATED_DATA_DIR`` says (for other checkouts). A relative data path (``mocap/143_33.bvh``) names a file there,
-unless it names an existing file relative to the working directory; an absolute path is used as it is.
+unless it names an existing file relative to the working directory; an absolute path is used as it is. Where
+several files are wanted (a dictionary's clips), a path may hold wildcards (`data_files`).
 """
 
 from __future__ import annotations
 
+import glob
 import os
 from pathlib import Path
 
@@ -26,3 +28,11 @@ def data_path(path: str | Path) -> Path:
     if path.is_absolute() or path.exists():
         return path
     return data_dir() / path
+
+
+def data_files(pattern: str) -> list[Path]:
+    """The files a data path names, which may hold shell wildcards (``mocap_daz/*.bvh``): sorted; a path without
+    wildcards names one file (it need not exist)."""
+    if not glob.has_magic(pattern):
+        return [data_path(pattern)]
+    return [Path(name) for name in sorted(glob.glob(str(data_path(pattern))))]

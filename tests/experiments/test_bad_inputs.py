@@ -43,7 +43,8 @@ BVH_VARIANTS = {
     "binary.bvh": (lambda data: bytes(range(256)) * 4, r"it is not a BVH file \(not text\)$"),
     "hierarchy_only.bvh": (lambda data: data.split(b"MOTION")[0], r"it is not a BVH file: no MOTION section$"),
     "not_cmu.bvh": (lambda data: data.replace(b"JOINT RightHand\n", b"JOINT RightPaw\n"),
-                    r"not a CMU-style skeleton, missing joints RightHand$"),
+                    r"no retargeting table fits its skeleton \(31 joints rooted at 'Hips'\): the nearest, cmu, needs "
+                    r"joints RightHand; known skeletons: cmu, daz \(tracker/motion/retarget.py\)$"),
 }
 
 BODY_TBF = ["model=body_mesh", "tracker=tbf", "cost=nwxor", "motion=dm2"]

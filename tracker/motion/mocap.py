@@ -3,27 +3,32 @@
 A CMU clip's frame 0 is a T-pose added by the conversion (its README); the body's zero rotations are that
 T-pose too, so each joint's rotation is taken relative to frame 0: ``W_j(t) = G_j(t) G_j(0)^T`` in the file's
 frame, turned into the body frame (`BVH_TO_BODY`) and made relative to the parent. The root moves by the clip's
-root displacement from frame 0, scaled so that the clip's leg length becomes the body's.
+root displacement from frame 0, scaled so that the clip's leg length becomes the body's. Which file joint drives
+which CMU joint, and how their T-poses differ, is the skeleton's retargeting table (`tracker.motion.retarget`):
+the MotionBuilder-friendly CMU skeleton of ``mocap/`` maps one to one, the DAZ-friendly one of ``mocap_daz/`` by
+its own table.
+
+A file whose header states a wrong frame rate (the DAZ-friendly salsa clips say 120 fps, were captured at 60) is
+read at its true rate when one is given (``true_fps``).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import Annotated
+from dataclasses import dataclass, field, replace
+from typing import Annotated, Literal
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from tracker.data import data_path
 from tracker.models.body_mesh import BodyMesh
-from tracker.models.body_skeleton import BVH_TO_BODY, JOINT_INDEX, JOINT_NAMES, POSE_SIZE, missing_joints
+from tracker.models.body_skeleton import BVH_TO_BODY, JOINT_INDEX, JOINT_NAMES, POSE_SIZE
 from tracker.motion.bvh import BvhClip, BvhError, read_bvh
-from tracker.ranges import Finite, NonNegative, Range
+from tracker.motion.retarget import CMU, SKELETONS, Skeleton, skeleton_of
+from tracker.ranges import Finite, NonNegative, Positive, Range
 from tracker.registry import SCENES
 from tracker.tol import COUNT_ROUNDING
-
-_LEG = ("LeftUpLeg", "LeftLeg", "LeftFoot")
 
 
 @dataclass(frozen=True)
@@ -38,13 +43,11 @@ class ClipSelection:
 
 def clip_poses(clip: BvhClip, body: BodyMesh, selection: ClipSelection = ClipSelection()) -> np.ndarray:
     """``(n, POSE_SIZE)`` body pose vectors of ``clip`` resampled at ``selection.fps`` (slerp between frames)."""
-    missing = missing_joints(clip.names)
-    if missing:
-        raise BvhError(f"{clip.path}: not a CMU-style skeleton, missing joints {', '.join(missing)}")
+    skeleton = retargeting(clip)
     if clip.frames < 2:
         raise BvhError(f"{clip.path}: needs the T-pose frame and at least one frame of motion, has {clip.frames}")
     times = _sample_times(clip, selection)
-    order = np.array([clip.index(name) for name in JOINT_NAMES])
+    order = np.array([clip.index(skeleton.sources[name]) for name in JOINT_NAMES])
     before = np.clip(np.floor(times / clip.frame_time).astype(int), 1, clip.frames - 1)
     after = np.minimum(before + 1, clip.frames - 1)
     fraction = np.clip(times / clip.frame_time - before, 0.0, 1.0)[:, None]
@@ -52,10 +55,13 @@ def clip_poses(clip: BvhClip, body: BodyMesh, selection: ClipSelection = ClipSel
     world = clip.global_rotations(frames)[:, order]  # (k, J, 3, 3) file frame
     relative = world @ world[frames == 0].transpose(0, 1, 3, 2)  # from the T-pose, file frame
     relative = BVH_TO_BODY @ relative @ BVH_TO_BODY.T
+    if skeleton.rest_bones:
+        relative = relative @ skeleton.rest_corrections(clip.joint_positions([0])[0], clip.names,
+                                                        body.t_pose_heads, BVH_TO_BODY)  # fmt: skip
     parents = body.parents
     local = relative.copy()
     local[:, 1:] = relative[:, parents[1:]].transpose(0, 1, 3, 2) @ relative[:, 1:]
-    root = (clip.root_positions(frames) - clip.root_positions([0])) @ BVH_TO_BODY.T * _scale(clip, body)
+    root = (clip.root_positions(frames) - clip.root_positions([0])) @ BVH_TO_BODY.T * _scale(clip, body, skeleton)
 
     row = {frame: k for k, frame in enumerate(frames)}
     first, second = np.array([row[f] for f in before]), np.array([row[f] for f in after])
@@ -93,20 +99,37 @@ def available_frames(clip: BvhClip, start_s: float, fps: float) -> int:
         return 0
 
 
-def _scale(clip: BvhClip, body: BodyMesh) -> float:
+def _scale(clip: BvhClip, body: BodyMesh, skeleton: Skeleton) -> float:
     """Metres per clip unit: the body's hip-knee-ankle length over the clip's."""
-    clip_length = sum(np.linalg.norm(clip.offsets[clip.index(name)]) for name in _LEG[1:])
-    heads = body.rest_heads[[JOINT_INDEX[name] for name in _LEG]]
+    clip_length = sum(np.linalg.norm(clip.offsets[clip.index(name)]) for name in skeleton.leg[1:])
+    heads = body.rest_heads[[JOINT_INDEX[name] for name in CMU.leg]]
     return float(np.linalg.norm(np.diff(heads, axis=0), axis=1).sum() / clip_length)
 
 
-def read_cmu_clip(path: str, key: str) -> BvhClip:
-    """The CMU-style clip at ``path``, or ``ValueError`` naming the config key ``key`` (its value is ``path``)."""
+def retargeting(clip: BvhClip) -> Skeleton:
+    """The retargeting table for ``clip``'s skeleton, or `BvhError` saying which skeletons are known."""
+    skeleton = skeleton_of(clip.names)
+    if skeleton is None:
+        missing = {s.name: sorted(s.joints() - set(clip.names)) for s in SKELETONS}
+        nearest = min(missing, key=lambda name: len(missing[name]))
+        raise BvhError(f"{clip.path}: no retargeting table fits its skeleton ({len(clip.names)} joints rooted at "
+                       f"{clip.names[0]!r}): the nearest, {nearest}, needs joints {', '.join(missing[nearest])}; "
+                       f"known skeletons: {', '.join(missing)} (tracker/motion/retarget.py)")  # fmt: skip
+    return skeleton
+
+
+def read_clip(path: str, true_fps: float | None = None) -> BvhClip:
+    """The BVH clip at ``path`` (a data path), read at ``true_fps`` when its header's frame rate is wrong."""
+    clip = read_bvh(path)
+    return clip if true_fps is None else replace(clip, frame_time=1.0 / true_fps)
+
+
+def read_cmu_clip(path: str, key: str, true_fps: float | None = None) -> BvhClip:
+    """The clip at ``path`` with a skeleton the body can be driven by, or ``ValueError`` naming the config key
+    ``key`` (its value is ``path``)."""
     try:
-        clip = read_bvh(path)
-        missing = missing_joints(clip.names)
-        if missing:
-            raise BvhError(f"not a CMU-style skeleton, missing joints {', '.join(missing)}")
+        clip = read_clip(path, true_fps)
+        retargeting(clip)
         return clip
     except BvhError as error:  # its message may name the file, as the key already does
         message, located = str(error), data_path(path)
@@ -118,7 +141,7 @@ def read_cmu_clip(path: str, key: str) -> BvhClip:
 def check_clip(scene: MocapScene, frames: int, key: str) -> None:
     """Before a run: the scene's file is a readable CMU-style clip holding ``frames`` frames from its start.
     Raises ``ValueError`` naming the config keys (``key``: the scene's, e.g. ``scene``)."""
-    clip = read_cmu_clip(scene.path, f"{key}.path")
+    clip = read_cmu_clip(scene.path, f"{key}.path", scene.true_fps)
     available = available_frames(clip, scene.start_s, scene.fps)
     if frames > available:
         raise ValueError(f"frames={frames}: {key}.path={scene.path} has {available} frames at {scene.fps:g} fps "
@@ -131,19 +154,28 @@ class MocapScene:
     """A CMU-style BVH clip drives the body, resampled at ``fps`` from ``start_s``.
 
     The body is turned about the vertical so that it faces ``yaw_deg`` (world xy angle from +x; -90 faces -y) at
-    the first frame, and with ``center`` its first-frame root stands over the world origin."""
+    the first frame. ``center`` says what stands over the world origin: the first frame's root, the middle of the
+    root's path over the clip (its bounding box on the ground: a walk stays in view of a camera on the origin), or
+    nothing (the clip's own place)."""
 
     path: str
     start_s: NonNegative = 0.0  # seconds after the clip's T-pose frame
     fps: Annotated[float, Range(1.0, 1000.0)] = 30.0  # resampled (slerp) to this rate
     yaw_deg: Finite = -90.0
-    center: bool = True
+    center: Literal["first_frame", "path", "none"] = "first_frame"
+    true_fps: Positive | None = None  # the clip's capture rate when its header's Frame Time is wrong
+    # Stand the clip on the floor: moved up or down once so that its feet's lowest vertex is at z = 0 in the median
+    # frame (a clip's height comes from its T-pose frame: 69_20 floats 2.4 cm, DAZ-friendly clips 14-18 cm).
+    on_floor: bool = True
     _cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)  # the poses of one body
 
     def poses(self, body: BodyMesh, frames: int | None = None) -> np.ndarray:
         """``(frames, POSE_SIZE)`` the scene's pose vectors (all the clip holds from ``start_s`` when None)."""
-        poses = clip_poses(read_bvh(self.path), body, ClipSelection(self.start_s, frames, self.fps))
-        return face(poses, self.yaw_deg, self.center)
+        poses = clip_poses(read_clip(self.path, self.true_fps), body, ClipSelection(self.start_s, frames, self.fps))
+        poses = face(poses, self.yaw_deg, self.center)
+        if self.on_floor:
+            poses[:, 2] -= np.median(body.feet_heights(poses))
+        return poses
 
     def params(self, body: BodyMesh, frame: int) -> np.ndarray:
         poses = self._poses(body)
@@ -159,16 +191,18 @@ class MocapScene:
         return self._cache["poses"]
 
 
-def face(poses: np.ndarray, yaw_deg: float, center: bool) -> np.ndarray:
+def face(poses: np.ndarray, yaw_deg: float, center: str = "first_frame") -> np.ndarray:
     """``poses`` turned about the vertical through the first root position so that the body faces ``yaw_deg``
-    at the first frame (its facing: the root's -y axis projected on the ground); ``center`` moves the first
-    root over the origin."""
+    at the first frame (its facing: the root's -y axis projected on the ground), then moved on the ground so
+    that ``center`` (`MocapScene.center`) stands over the origin."""
     poses = np.array(poses, dtype=np.float64)
     root = Rotation.from_rotvec(poses[:, 3:6])
     facing = root[0].apply([0.0, -1.0, 0.0])
     turn = Rotation.from_euler("z", math.radians(yaw_deg) - math.atan2(facing[1], facing[0]))
     origin = poses[0, :3].copy()
-    target = np.array([0.0, 0.0, origin[2]]) if center else origin
-    poses[:, :3] = turn.apply(poses[:, :3] - origin) + target
+    poses[:, :3] = turn.apply(poses[:, :3] - origin)  # the first root on the origin, at the ground
     poses[:, 3:6] = (turn * root).as_rotvec()
+    if center == "path":
+        poses[:, :2] -= (poses[:, :2].min(axis=0) + poses[:, :2].max(axis=0)) / 2
+    poses[:, :3] += origin if center == "none" else np.array([0.0, 0.0, origin[2]])
     return poses
