@@ -31,6 +31,7 @@ from tracker.render.labels import LabelRenderer
 from tracker.render.mesh import SurfaceMesh
 from tracker.render.offscreen import SceneRenderer
 from tracker.tbf import sample_build
+from tracker.tbf.sample_spec import sample_poses
 
 log = logging.getLogger(__name__)
 
@@ -110,7 +111,7 @@ def bench_build(overrides: list[str]) -> dict[str, float]:
     with tempfile.TemporaryDirectory() as cache:
         run = build(compose([*overrides, f"tracker.cache_dir={cache}"]))
         settings, started = run.tracker.settings, time.perf_counter()
-        poses = run.tracker.sample_poses(run.model)
+        poses, _ = sample_poses(run.tracker.settings.samples, run.model)
         times = {"poses_s": time.perf_counter() - started}
         started = time.perf_counter()
         samples = sample_build.load_or_build(run.model, run.cameras[0], poses, f"{cache}/samples", build=settings.build)
@@ -131,7 +132,7 @@ def run(poses_count: int, build_too: bool, overrides: list[str]) -> None:
     overrides = overrides or ["experiment=tbf_paper_scale"]
     composed = build(compose(overrides))
     tracker = composed.tracker
-    poses = tracker.sample_poses(composed.model)
+    poses, _ = sample_poses(tracker.settings.samples, composed.model)
     chosen = poses[np.linspace(0, len(poses) - 1, poses_count).astype(int)]
     camera = composed.cameras[0]
     layout = sample_build._layout(Path(tempfile.mkdtemp()), composed.model, camera, poses, [slice(0, len(poses))], 4,

@@ -13,7 +13,7 @@ from tracker.motion.arm_capture import ArmRanges, right_arm_track
 from tracker.motion.body_swing import _SWING_SPREAD, SWINGS_PER_BLOCK, BodySwing
 from tracker.motion.posture import NATURAL_SPREAD, ONE_SIDED, RANGE_SIGMAS, Drifts, Posture, arms_pose, standing_pose
 from tracker.tbf.pose_sets import remove_near_duplicates
-from tracker.tbf.tracker import CaptureSpec
+from tracker.tbf.sample_spec import CaptureSpec
 
 
 @pytest.fixture(scope="module")

@@ -13,7 +13,7 @@ from typing import ClassVar
 import numpy as np
 
 from tracker.geometry.rotations import matrices_to_rotation_vectors, rotation_vectors_to_matrices
-from tracker.models.body_skeleton import JOINT_INDEX, JOINT_NAMES, PART_COLORS, PART_NAMES, POSE_SIZE
+from tracker.models.body_skeleton import FOOT_BONES, JOINT_INDEX, JOINT_NAMES, PART_COLORS, PART_NAMES, POSE_SIZE
 from tracker.render.mesh import SurfaceMesh, vertex_normals
 
 
@@ -103,21 +103,36 @@ class BodyMesh:
         """``(J, 3)`` posed joint positions (``(n, J, 3)`` for ``n`` poses)."""
         return self.bone_transforms(pose)[1]
 
-    def posed_vertices(self, poses: np.ndarray) -> np.ndarray:
+    def posed_vertices(self, poses: np.ndarray, subset: np.ndarray | None = None) -> np.ndarray:
         """``(V, 3)`` vertices by linear-blend skinning, ``v' = sum_j w_j (R_j (v - h_j) + h'_j)``; ``(n, V, 3)``
-        for ``(n, POSE_SIZE)`` poses."""
+        for ``(n, POSE_SIZE)`` poses; only the vertices ``subset`` (indices) when given."""
         poses = np.asarray(poses, dtype=np.float64)
         rotations, heads = self.bone_transforms(poses.reshape(-1, POSE_SIZE))  # (n, J, 3, 3), (n, J, 3)
         count, joints = rotations.shape[:2]
         offsets = heads - np.einsum("njab,jb->nja", rotations, self.rest_heads)
         bones = np.concatenate([rotations, offsets[..., None]], axis=3)  # (n, J, 3, 4): x' = R x + o per bone
         # Each vertex's blend of its few bones, for every pose in one sparse product: (V, J) @ (J, n * 12).
-        blended = (self._sparse_weights @ bones.transpose(1, 0, 2, 3).reshape(joints, -1)).reshape(-1, count, 3, 4)
-        rest = self.rest_vertices[:, None, None, :]
+        weights = self._sparse_weights if subset is None else self._sparse_weights[subset]
+        blended = (weights @ bones.transpose(1, 0, 2, 3).reshape(joints, -1)).reshape(-1, count, 3, 4)
+        rest = (self.rest_vertices if subset is None else self.rest_vertices[subset])[:, None, None, :]
         vertices = blended[..., 3] + blended[..., 0] * rest[..., 0] + blended[..., 1] * rest[..., 1] \
             + blended[..., 2] * rest[..., 2]  # fmt: skip
         vertices = vertices.transpose(1, 0, 2)  # (n, V, 3)
         return vertices[0] if poses.ndim == 1 else vertices
+
+    def feet_heights(self, poses: np.ndarray) -> np.ndarray:
+        """``(n,)`` the height (z, m) of the lowest vertex of the feet (those the foot and toe bones move most) at
+        each of ``(n, POSE_SIZE)`` poses."""
+        poses = np.asarray(poses, dtype=np.float64).reshape(-1, POSE_SIZE)
+        heights = np.empty(len(poses))
+        for first in range(0, len(poses), 1024):  # in blocks: every foot vertex of every pose at once is large
+            heights[first : first + 1024] = self.posed_vertices(poses[first : first + 1024], self._feet)[..., 2].min(1)
+        return heights
+
+    @cached_property
+    def _feet(self) -> np.ndarray:
+        bones = [JOINT_INDEX[name] for name in FOOT_BONES]
+        return np.flatnonzero(np.isin(np.argmax(self.weights, axis=1), bones))
 
     @cached_property
     def _sparse_weights(self):

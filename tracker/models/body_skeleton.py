@@ -17,6 +17,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 # The CMU BVH joints in file order (parents first); the rig says LeftHandFinger1 where the BVH says LeftHandIndex1.
 JOINT_NAMES = (
@@ -27,6 +28,20 @@ JOINT_NAMES = (
 )  # fmt: skip
 JOINT_INDEX = {name: k for k, name in enumerate(JOINT_NAMES)}
 POSE_SIZE = 3 + 3 * len(JOINT_NAMES)
+
+_SIDES = (("Left", "Right"), ("LHip", "RHip"), ("LThumb", "RThumb"))
+
+
+def _twin(name: str) -> str:
+    """A joint's mirror twin's name: left <-> right; the spine, head and root are their own."""
+    for left, right in _SIDES:
+        for this, other in ((left, right), (right, left)):
+            if name.startswith(this):
+                return other + name[len(this) :]
+    return name
+
+
+MIRROR_JOINTS = tuple(JOINT_INDEX[_twin(name)] for name in JOINT_NAMES)  # each joint's twin across x = 0
 
 # Body parts of the label image (value = index + 1) and the bones whose faces they take.
 PART_BONES = {
@@ -47,6 +62,7 @@ PART_BONES = {
     "right_foot": ("RightFoot", "RightToeBase"),
 }
 PART_NAMES = tuple(PART_BONES)
+FOOT_BONES = ("LeftFoot", "LeftToeBase", "RightFoot", "RightToeBase")  # whose vertices stand on the floor
 # Label-image colours (recordings): left parts warm, right parts cool, trunk grey.
 PART_COLORS = ((230, 200, 170), (160, 160, 160), (120, 120, 120), (240, 130, 60), (60, 140, 240), (250, 170, 40),
                (40, 190, 230), (250, 210, 0), (0, 220, 200), (200, 80, 80), (80, 80, 200), (230, 110, 110),
@@ -70,3 +86,17 @@ def missing_joints(names: Iterable[str]) -> list[str]:
     """The CMU joints of `JOINT_NAMES` that a skeleton with joint ``names`` lacks (none: a CMU-style skeleton)."""
     present = set(names)
     return [name for name in JOINT_NAMES if name not in present]
+
+
+def joint_angle_differences(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(..., J)`` degrees between the joint rotations of pose vectors ``a`` and ``b`` (broadcast)."""
+    qa, qb = joint_quaternions(a), joint_quaternions(b)
+    cosine = np.abs(np.einsum("...jk,...jk->...j", qa, qb))
+    return np.degrees(2 * np.arccos(np.clip(cosine, 0.0, 1.0)))
+
+
+def joint_quaternions(poses: np.ndarray) -> np.ndarray:
+    """``(..., J, 4)`` each joint rotation of pose vectors ``poses`` as a quaternion (x, y, z, w)."""
+    poses = np.asarray(poses, dtype=np.float64)
+    rotvecs = poses[..., 3:].reshape(*poses.shape[:-1], len(JOINT_NAMES), 3)
+    return Rotation.from_rotvec(rotvecs.reshape(-1, 3)).as_quat().reshape(*rotvecs.shape[:-1], 4)

@@ -96,10 +96,13 @@ def _identity(cost: Cost) -> str:
 
 
 class TreeFilter:
+    """Paper 2's filter over ``samples`` and their ``tree`` (``transitions``: for `LearnedTransitions`)."""
+
     def __init__(self, samples: PoseSampleSet, tree: PoseTree, cost: Cost, motion: RandomWalk,
-                 settings: FilterSettings = FilterSettings()) -> None:  # fmt: skip
+                 settings: FilterSettings = FilterSettings(),
+                 transitions: np.ndarray | None = None) -> None:  # fmt: skip
         self.samples, self.tree, self.cost, self.motion, self.settings = samples, tree, cost, motion, settings
-        self._prior = PosePrior(samples.poses, motion)
+        self._prior = PosePrior(samples.poses, motion, transitions=transitions)
         self._stacks = [samples.silhouettes(level.resolution) for level in tree.levels]
         # Each level's representatives' runs in node order (a level scored whole reads them straight through).
         self.level_runs = [stack.runs.subset(level.representatives)
@@ -120,7 +123,8 @@ class TreeFilter:
         posterior = np.exp(log_prior - log_prior.max())
         posterior[posterior < NEGLIGIBLE_PRIOR] = 0.0
         self._posterior = posterior / posterior.sum()
-        self._previous_flags = self._occluded[int(np.argmax(posterior))]
+        self.initial_sample = int(np.argmax(posterior))  # the prior's most likely sample
+        self._previous_flags = self._occluded[self.initial_sample]
         self._first = True
 
     def step(self, observed: np.ndarray) -> FilterResult:

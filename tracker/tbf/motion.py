@@ -4,6 +4,14 @@ DM1 (`RandomWalk`, ``motion=dm1``): ``p(x_t | x_{t-1}) = N(x_{t-1}, Sigma)``, ``
 walk with ``sigma`` (radians) on every joint rotation component and ``sigma_root_m`` on the root position.
 DM2 (`OccludedWiderWalk`, ``motion=dm2``): the same with ``sigma_j * m`` for the joints of the parts flagged occluded
 (eq 3: area below T_A) in the previous estimate.
+Learned (`LearnedTransitions`, ``motion=learned``; paper 2's reference [19], Thayananthan, Stenger, Torr and
+Cipolla, BMVC 2003): the transitions are learned from the training motion instead of assumed. The clips the samples
+come from say, for each sample, which samples followed it one frame later (`tracker.tbf.pose_sets
+.learned_transitions`, counted over every clip and variation); the prior from sample i is the mixture
+``(1 - w) N(x_i, Sigma) + w sum_b c_ib / c_i N(x_b, Sigma_l)``: DM2's walk, and a narrower Gaussian
+(``learned_sigma``, widened by m for occluded parts as DM2's) about each learned successor b weighted by how often
+the clips made that move. Each kernel is normalised over the sample set, so the mixture's weights are its shares
+of the prior mass. A sample no clip frame stands for (from a grid) keeps the walk alone.
 
 The prior of eq 14, ``p(x^n | z_1:t-1) = sum_i N(x^n; x^i, Sigma) p(x^i | z_1:t-1)``, is a dense N x N sum at N
 samples. `PosePrior.prior` keeps the terms that matter: from the previous posterior's support (its
@@ -24,7 +32,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from tracker.models.body_skeleton import JOINT_INDEX, PART_BONES, POSE_SIZE
-from tracker.ranges import NonNegative, Positive, Range
+from tracker.ranges import Fraction, NonNegative, Positive, Range
 from tracker.registry import MOTION_MODELS
 from tracker.settings import validate
 
@@ -70,17 +78,41 @@ class OccludedWiderWalk(RandomWalk):
         return sigmas
 
 
+@MOTION_MODELS.register("learned")
+@dataclass(frozen=True)
+class LearnedTransitions(OccludedWiderWalk):
+    """Transitions learned from the training clips' consecutive frames, over DM2's walk (see the module docstring).
+    The clips are taken at ``tracker.samples.clip_fps``: set it to the tracking rate."""
+
+    learned_share: Fraction = 0.7  # w: the share of each sample's prior that follows its learned successors
+    learned_sigma: Positive = 0.05  # radians: the spread about a learned successor (metres: sigma_root_m's share)
+
+    def learned_sigmas(self, occluded_parts: np.ndarray) -> np.ndarray:
+        """``(POSE_SIZE,)`` the learned kernel's standard deviations: DM2's, scaled by learned_sigma / sigma."""
+        return self.sigmas(occluded_parts) * (self.learned_sigma / self.sigma)
+
+
 class PosePrior:
-    """Eq 14 over a fixed sample set, sparse (see the module docstring)."""
+    """Eq 14 over a fixed sample set, sparse (see the module docstring); with `LearnedTransitions`, its mixture
+    over the learned ``transitions`` (``(m, 3)`` rows ``from, to, count``)."""
 
     def __init__(self, poses: np.ndarray, motion: RandomWalk, reach: float = 4.0, support_fraction: float = 1e-4,
-                 max_support: int = 256):  # fmt: skip
+                 max_support: int = 256, transitions: np.ndarray | None = None):  # fmt: skip
         self.poses = np.asarray(poses, dtype=np.float64)
         self.motion, self.reach = motion, reach
         self.support_fraction, self.max_support = support_fraction, max_support
         self._trees: dict[bytes, cKDTree] = {}
         self.last_mass_used = 1.0
         self._tree(motion.base_sigmas())  # the no-occlusion tree up front (~0.1 s at 57k samples), not in a frame
+        self.learned = isinstance(motion, LearnedTransitions)
+        if self.learned:
+            if transitions is None or not len(transitions):
+                raise ValueError("motion=learned learns from the clips the samples come from: tracker.samples.clips "
+                                 "names none")  # fmt: skip
+            order = np.argsort(transitions[:, 0], kind="stable")
+            self._to, self._count = transitions[order, 1], transitions[order, 2].astype(np.float64)
+            self._rows = np.searchsorted(transitions[order, 0], np.arange(len(self.poses) + 1))
+            self._tree(motion.learned_sigmas(np.zeros(len(PART_BONES), bool)))
 
     def _tree(self, sigmas: np.ndarray) -> cKDTree:
         key = sigmas.tobytes()
@@ -96,10 +128,37 @@ class PosePrior:
         if len(support) > self.max_support:
             support = support[np.argsort(posterior[support])[-self.max_support :]]
         self.last_mass_used = float(posterior[support].sum() / posterior.sum())
+        if self.learned:
+            return self._learned_prior(support, posterior[support], occluded_parts)
         pairs = self._tree(sigmas).sparse_distance_matrix(cKDTree(self.poses[support] / sigmas), self.reach,
                                                         output_type="ndarray")  # fmt: skip
         weights = posterior[support][pairs["j"]] * np.exp(-0.5 * pairs["v"] ** 2)
         return np.bincount(pairs["i"], weights=weights, minlength=len(self.poses)), len(pairs)
+
+    def _learned_prior(self, support: np.ndarray, mass: np.ndarray,
+                       occluded_parts: np.ndarray) -> tuple[np.ndarray, int]:  # fmt: skip
+        """`LearnedTransitions`' mixture from the ``support`` samples holding ``mass``."""
+        starts, stops = self._rows[support], self._rows[support + 1]
+        share = np.where(stops > starts, self.motion.learned_share, 0.0)
+        rows = np.repeat(np.arange(len(support)), stops - starts)
+        moves = np.concatenate([np.arange(a, b) for a, b in zip(starts, stops, strict=True)] or [np.zeros(0, int)])
+        totals = np.bincount(rows, weights=self._count[moves], minlength=len(support))
+        move_mass = (mass * share)[rows] * self._count[moves] / totals[rows]
+        walk, walk_terms = self._kernels(support, mass * (1 - share), self.motion.sigmas(occluded_parts))
+        learned, learned_terms = self._kernels(self._to[moves], move_mass, self.motion.learned_sigmas(occluded_parts))
+        return walk + learned, walk_terms + learned_terms
+
+    def _kernels(self, centres: np.ndarray, mass: np.ndarray, sigmas: np.ndarray) -> tuple[np.ndarray, int]:
+        """``sum_c mass_c N(x; x_c, diag(sigmas^2))`` at every sample, each kernel normalised over the set (terms
+        within ``reach``), and the number of terms."""
+        if not len(centres):
+            return np.zeros(len(self.poses)), 0
+        pairs = self._tree(sigmas).sparse_distance_matrix(cKDTree(self.poses[centres] / sigmas), self.reach,
+                                                        output_type="ndarray")  # fmt: skip
+        kernel = np.exp(-0.5 * pairs["v"] ** 2)
+        totals = np.bincount(pairs["j"], weights=kernel, minlength=len(centres))  # >= 1: a centre is a sample
+        return np.bincount(pairs["i"], weights=mass[pairs["j"]] * kernel / totals[pairs["j"]],
+                           minlength=len(self.poses)), len(pairs)  # fmt: skip
 
     def dense_prior(self, posterior: np.ndarray, occluded_parts: np.ndarray) -> np.ndarray:
         """The same sum over every pair (the naive N x N reference; small sets only)."""

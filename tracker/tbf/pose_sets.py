@@ -2,9 +2,16 @@
 
 `arm_grid` walks both arms of the standing body over grids of angles (`tracker.motion.posture.arms_pose`);
 `tracker.motion.arm_capture` gives a capture session of the side-on person moving the right arm in various ways;
-`clip_samples` takes every frame of CMU-style BVH clips at a chosen rate, each clip turned to face ``yaw_deg`` at
-its first frame and centred over the origin. Either gives pose vectors; `remove_near_duplicates` then
-keeps no two within ``min_joint_deg`` in every joint (the paper's rule), for `tracker.tbf.samples.load_or_build`.
+`clip_samples` takes every frame of BVH clips of any known skeleton (`tracker.motion.retarget`) at a chosen rate,
+each clip turned to face ``yaw_deg`` at its first frame and centred over the origin; `varied` turns them about the
+vertical and jitters copies, `mirrored` swaps left and right. Either gives pose vectors; `remove_near_duplicates`
+then keeps no two within ``min_joint_deg`` in every joint (the paper's rule), for
+`tracker.tbf.samples.load_or_build`.
+
+Clip poses come in sequences (one per clip and per variation of it): `successors` links each pose to the next
+frame of its sequence, and `near_duplicate_representatives` says which kept pose stands for each dropped one, so
+that the clips' consecutive frames become transitions between kept samples (`learned_transitions`, for
+`tracker.tbf.motion.LearnedTransitions`).
 """
 
 from __future__ import annotations
@@ -18,7 +25,7 @@ from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 from tracker.models.body_mesh import BodyMesh
-from tracker.models.body_skeleton import JOINT_NAMES
+from tracker.models.body_skeleton import JOINT_NAMES, MIRROR_JOINTS, joint_quaternions
 from tracker.motion.mocap import MocapScene
 from tracker.motion.posture import arms_pose
 from tracker.tol import ZERO_LENGTH
@@ -39,9 +46,57 @@ def arm_grid(
                                yaw_deg=yaw_deg) for left, swing, abduction, elbow in combinations])  # fmt: skip
 
 
-def clip_samples(body: BodyMesh, paths: Iterable[str | Path], fps: float = 30.0, yaw_deg: float = -90.0) -> np.ndarray:
-    """``(n, POSE_SIZE)``: every frame of each clip at ``fps``."""
-    return np.concatenate([MocapScene(str(path), fps=fps, yaw_deg=yaw_deg).poses(body) for path in paths])
+def clip_samples(body: BodyMesh, paths: Iterable[str | Path], fps: float = 30.0, yaw_deg: float = -90.0,
+                 true_fps: Sequence[float | None] | None = None) -> np.ndarray:  # fmt: skip
+    """``(n, POSE_SIZE)``: every frame of each clip at ``fps`` (each file read at its ``true_fps`` when given)."""
+    return clip_sequences(body, paths, fps, yaw_deg, true_fps)[0]
+
+
+def clip_sequences(body: BodyMesh, paths: Iterable[str | Path], fps: float = 30.0, yaw_deg: float = -90.0,
+                   true_fps: Sequence[float | None] | None = None) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """`clip_samples` and ``(n,)`` each pose's sequence: the index of its clip."""
+    paths = list(paths)
+    rates = list(true_fps) if true_fps is not None else [None] * len(paths)
+    poses = [MocapScene(str(path), fps=fps, yaw_deg=yaw_deg, true_fps=rate).poses(body)
+             for path, rate in zip(paths, rates, strict=True)]  # fmt: skip
+    return np.concatenate(poses), np.repeat(np.arange(len(poses)), [len(p) for p in poses])
+
+
+def mirrored(poses: np.ndarray) -> np.ndarray:
+    """``poses`` reflected left for right through the body frame's x = 0 plane: each rotation ``R -> M R M``
+    (``M = diag(-1, 1, 1)``; a rotation vector's y and z change sign), the left and right joints swapped, and the
+    root's x negated."""
+    poses = np.array(poses, dtype=np.float64)
+    rotations = poses[:, 3:].reshape(len(poses), len(JOINT_NAMES), 3) * [1.0, -1.0, -1.0]
+    out = poses.copy()
+    out[:, 0] *= -1.0
+    out[:, 3:] = rotations[:, MIRROR_JOINTS].reshape(len(poses), -1)
+    return out
+
+
+def grounded(body: BodyMesh, poses: np.ndarray) -> np.ndarray:
+    """``poses`` raised or lowered so that the lowest vertex of their feet stands on the floor, z = 0, as at rest: a
+    posture in place stands on the floor. (The DAZ-friendly clips' T-pose frames stand 14-18 cm lower than their
+    motion, so their frames would float.)"""
+    poses = np.array(poses, dtype=np.float64)
+    poses[:, 2] -= body.feet_heights(poses)
+    return poses
+
+
+def successors(sequence: np.ndarray) -> np.ndarray:
+    """``(n,)`` the index of each pose's next frame in its sequence (poses in frame order), -1 at a sequence's end."""
+    sequence = np.asarray(sequence)
+    following = np.full(len(sequence), -1)
+    same = sequence[1:] == sequence[:-1]
+    following[:-1][same] = np.flatnonzero(same) + 1
+    return following
+
+
+def repeated_sequences(sequence: np.ndarray, blocks: int) -> np.ndarray:
+    """The sequences of ``blocks`` variations of poses laid end to end (as `varied` and `mirrored` give them): each
+    block's sequences are new ones."""
+    sequence = np.asarray(sequence)
+    return np.concatenate([sequence + block * (int(sequence.max()) + 1) for block in range(blocks)])
 
 
 def varied(poses: np.ndarray, turns_deg: Sequence[float], copies: int, jitter_deg: float,
@@ -64,32 +119,25 @@ def varied(poses: np.ndarray, turns_deg: Sequence[float], copies: int, jitter_de
     return np.concatenate(out)
 
 
-def joint_angle_differences(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``(..., J)`` degrees between the joint rotations of pose vectors ``a`` and ``b`` (broadcast)."""
-    qa, qb = _quaternions(a), _quaternions(b)
-    cosine = np.abs(np.einsum("...jk,...jk->...j", qa, qb))
-    return np.degrees(2 * np.arccos(np.clip(cosine, 0.0, 1.0)))
-
-
-def _quaternions(poses: np.ndarray) -> np.ndarray:
-    poses = np.asarray(poses, dtype=np.float64)
-    rotvecs = poses[..., 3:].reshape(*poses.shape[:-1], len(JOINT_NAMES), 3)
-    return Rotation.from_rotvec(rotvecs.reshape(-1, 3)).as_quat().reshape(*rotvecs.shape[:-1], 4)
-
-
 CANDIDATE_COMPONENTS = 8  # measured at 58,843 poses: 0.9 s for 8 (50k candidates), 15 s for all 124
 
 
 def remove_near_duplicates(poses: np.ndarray, min_joint_deg: float = 5.0) -> np.ndarray:
     """Indices of the poses kept, in order: a pose is dropped when a kept one is within ``min_joint_deg`` in
-    every joint (the paper's rule). Root positions are not compared.
+    every joint (the paper's rule). Root positions are not compared (`near_duplicate_representatives`)."""
+    return near_duplicate_representatives(poses, min_joint_deg)[0]
+
+
+def near_duplicate_representatives(poses: np.ndarray, min_joint_deg: float = 5.0) -> tuple[np.ndarray, np.ndarray]:
+    """The indices of the poses kept (`remove_near_duplicates`) and ``(n,)`` for every pose the position among
+    them of the kept pose that stands for it: itself, or the first kept pose within ``min_joint_deg`` of it.
 
     Two poses within ``angle`` in every joint have joint quaternions (signs made consistent) within
     ``2 sin(angle / 4)`` in every component, so also in any few of them: candidates come from a KD-tree over the
     `CANDIDATE_COMPONENTS` components that vary most (a KD-tree over all of them is slow in so many dimensions),
     each candidate pair is then checked exactly (all at once), and the greedy pass walks the close pairs in order:
     O(n log n) rather than O(n^2)."""
-    quaternions = _quaternions(poses)  # (n, J, 4)
+    quaternions = joint_quaternions(poses)  # (n, J, 4)
     quaternions *= np.where(quaternions[..., 3:4] < 0, -1.0, 1.0)  # same hemisphere: w >= 0
     flat = quaternions.reshape(len(quaternions), -1)
     radius = 2 * np.sin(np.radians(min_joint_deg) / 4) + ZERO_LENGTH
@@ -105,7 +153,24 @@ def remove_near_duplicates(poses: np.ndarray, min_joint_deg: float = 5.0) -> np.
     pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
     bounds = np.searchsorted(pairs[:, 0], np.arange(len(poses) + 1))
     dropped = np.zeros(len(poses), bool)
+    standing_for = np.arange(len(poses))
     for index in np.unique(pairs[:, 0]):  # in order: a pose still kept drops every later pose close to it
         if not dropped[index]:
-            dropped[pairs[bounds[index] : bounds[index + 1], 1]] = True
-    return np.flatnonzero(~dropped)
+            close_ones = pairs[bounds[index] : bounds[index + 1], 1]
+            fresh = close_ones[~dropped[close_ones]]
+            dropped[fresh] = True
+            standing_for[fresh] = index
+    kept = np.flatnonzero(~dropped)
+    position = np.full(len(poses), -1)
+    position[kept] = np.arange(len(kept))
+    return kept, position[standing_for]
+
+
+def learned_transitions(successor: np.ndarray, representative: np.ndarray) -> np.ndarray:
+    """``(m, 3)`` int: the distinct transitions ``(from, to, count)`` between kept samples that the sequences'
+    consecutive frames make (``successor``: `successors` of every pose before removal; ``representative``: its
+    kept sample, `near_duplicate_representatives`)."""
+    moves = np.flatnonzero(successor >= 0)
+    pairs = np.stack([representative[moves], representative[successor[moves]]], axis=1)
+    distinct, counts = np.unique(pairs, axis=0, return_counts=True)
+    return np.column_stack([distinct, counts]).astype(np.int64)

@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 
 from tracker.geometry.rigs import mono
+from tracker.models.body_skeleton import joint_angle_differences
 from tracker.motion.body_swing import BodySwing
-from tracker.tbf.pose_sets import joint_angle_differences, remove_near_duplicates
+from tracker.tbf.pose_sets import remove_near_duplicates
 from tracker.tbf.sample_build import BuildSettings, load_or_build
 from tracker.tbf.samples import RESOLUTIONS, cache_key, occlusion_flags, reduce_labels
 

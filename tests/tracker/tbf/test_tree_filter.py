@@ -7,7 +7,7 @@ from tracker.models.body_skeleton import JOINT_INDEX, PART_NAMES
 from tracker.registry import COSTS
 from tracker.tbf.distances import ObservationScorer, silhouette_distance
 from tracker.tbf.filter import FilterSettings, TreeFilter
-from tracker.tbf.motion import OccludedWiderWalk, PosePrior, RandomWalk
+from tracker.tbf.motion import LearnedTransitions, OccludedWiderWalk, PosePrior, RandomWalk
 from tracker.tbf.pose_sets import arm_grid
 from tracker.tbf.sample_build import load_or_build
 from tracker.tbf.tree import build_tree, thresholds_for_shares
@@ -156,3 +156,38 @@ def test_thresholds_for_shares_give_each_level_its_share_of_the_samples_at_the_b
         smaller = (*thresholds[:level], thresholds[level] * 0.97, *thresholds[level + 1 :])
         assert build_tree(samples, smaller).node_counts[level] > share * len(samples)  # ... at the boundary
     assert thresholds_for_shares(samples, shares) == thresholds  # kept with the set
+
+
+def test_the_learned_prior_is_the_normalised_mixture_of_walk_and_learned_moves(samples):
+    rng = np.random.default_rng(1)
+    n = len(samples)
+    posterior = np.zeros(n)
+    posterior[rng.choice(n - 3, 5, replace=False)] = rng.random(5)
+    support = np.flatnonzero(posterior)
+    # Learned moves from all but one support sample: one or two successors each, with counts.
+    transitions = np.array([(i, i + 1, 3) for i in support[1:]] + [(i, i + 3, 1) for i in support[2:]])
+    occluded = np.zeros(len(PART_NAMES), bool)
+    occluded[PART_NAMES.index("left_forearm")] = True
+    motion = LearnedTransitions(sigma=0.15, m=5.0, learned_share=0.6, learned_sigma=0.05)
+    sparse, _ = PosePrior(samples.poses, motion, reach=60.0, transitions=transitions).prior(posterior, occluded)
+
+    def kernel_row(centre, sigmas):  # N(x_j; x_centre, sigmas) over the set, normalised
+        z = (samples.poses - samples.poses[centre]) / sigmas
+        row = np.exp(-0.5 * np.sum(z * z, axis=1))
+        return row / row.sum()
+
+    walk_sigmas, learned_sigmas = motion.sigmas(occluded), motion.sigmas(occluded) / 3.0
+    dense = np.zeros(n)
+    for i in support:
+        moves = transitions[transitions[:, 0] == i]
+        share = 0.6 if len(moves) else 0.0
+        dense += posterior[i] * (1 - share) * kernel_row(i, walk_sigmas)
+        for _, to, count in moves:
+            dense += posterior[i] * share * count / moves[:, 2].sum() * kernel_row(to, learned_sigmas)
+    np.testing.assert_allclose(sparse, dense, rtol=1e-9, atol=1e-12)
+    assert sparse.sum() == pytest.approx(posterior.sum())  # a mixture of normalised kernels keeps the mass
+
+
+def test_learned_motion_needs_transitions(samples):
+    with pytest.raises(ValueError, match="motion=learned learns from the clips"):
+        PosePrior(samples.poses, LearnedTransitions(), transitions=np.zeros((0, 3), int))

@@ -1,0 +1,151 @@
+"""Where a tree filter's pose samples come from (`tracker.tbf.tracker.TbfSettings.samples`): a grid of right-arm
+poses, a capture session of the right arm moving, and/or BVH clips of any known skeleton with procedural variation
+(mirrored, turned, jittered), near-duplicates removed (`tracker.tbf.pose_sets`). `sample_poses` gives the poses
+and the transitions the clips' consecutive frames make between them (for ``motion=learned``).
+"""
+
+from __future__ import annotations
+
+import glob
+from dataclasses import dataclass, field
+from fnmatch import fnmatch
+from typing import Annotated
+
+import numpy as np
+
+from tracker.data import data_dir, data_files, data_path
+from tracker.models.body_mesh import BodyMesh
+from tracker.motion.arm_capture import ArmRanges, capture_poses
+from tracker.ranges import Finite, Fraction, NonNegative, Positive, Range, Rule, Seed
+from tracker.tbf.pose_sets import (
+    arm_grid,
+    clip_sequences,
+    grounded,
+    learned_transitions,
+    mirrored,
+    near_duplicate_representatives,
+    repeated_sequences,
+    successors,
+    varied,
+)
+
+_ORDERED = Rule(lambda span: span[0] <= span[1], "allowed [start, stop, step] with start <= stop")
+DegreeSpan = Annotated[tuple[Finite, Finite, Positive], _ORDERED]  # start, stop (included), step
+
+
+@dataclass(frozen=True)
+class GridSpec:
+    """The right-arm grid (`tracker.tbf.pose_sets.arm_grid`): ranges as ``[start, stop, step]`` degrees, stop
+    included; lists of values for the left arm's swing and the body's yaw."""
+
+    swing_deg: DegreeSpan = (-60.0, 120.0, 6.0)  # in front (+) / behind (-) the vertical
+    abduction_deg: DegreeSpan = (0.0, 40.0, 8.0)
+    elbow_deg: DegreeSpan = (0.0, 60.0, 30.0)
+    left_swing_deg: tuple[Finite, ...] = (0.0, 20.0)
+    yaw_deg: tuple[Finite, ...] = (-100.0, -90.0, -80.0)
+
+    def poses(self, body: BodyMesh) -> np.ndarray:
+        def values(start, stop, step):
+            return np.arange(start, stop + step / 2, step)
+
+        return np.concatenate([arm_grid(body, values(*self.swing_deg), values(*self.abduction_deg),
+                                        values(*self.elbow_deg), self.left_swing_deg, yaw_deg=yaw)
+                               for yaw in self.yaw_deg])  # fmt: skip
+
+
+@dataclass(frozen=True)
+class CaptureSpec:
+    """Samples as paper 2's capture gave them (`tracker.motion.arm_capture`): a continuous session of the side-on
+    person moving the right arm in various ways over the ranges (``[low, high]`` degrees) while standing naturally
+    (`tracker.motion.posture.NATURAL_SPREAD` times ``amplitude``), every frame at ``fps``; drawn from ``seed``."""
+
+    seconds: Annotated[float, Range(0.1, 36000.0)] = 120.0
+    fps: Positive = 30.0
+    swing_deg: tuple[Finite, Finite] = (-60.0, 120.0)
+    abduction_deg: tuple[Finite, Finite] = (0.0, 40.0)
+    elbow_deg: tuple[Finite, Finite] = (0.0, 90.0)
+    yaw_deg: Finite = -90.0
+    amplitude: Fraction = 1.0
+    seed: Seed = 0
+
+    def poses(self, body: BodyMesh) -> np.ndarray:
+        ranges = ArmRanges(self.swing_deg, self.abduction_deg, self.elbow_deg)
+        return capture_poses(body, ranges, self.seconds, self.fps, self.yaw_deg, self.amplitude,
+                             np.random.default_rng(self.seed))  # fmt: skip
+
+
+@dataclass(frozen=True)
+class TrueRate:
+    """The capture rate of the clips matching ``files`` (a data path with wildcards) whose header is wrong."""
+
+    files: str
+    fps: Positive
+
+
+@dataclass(frozen=True)
+class SampleSpec:
+    """Where the pose samples come from: a grid, a capture session of the right arm moving, and/or BVH clips
+    with procedural variation."""
+
+    grid: GridSpec | None = field(default_factory=GridSpec)
+    capture: CaptureSpec | None = None
+    # BVH files of any known skeleton (data paths, wildcards allowed): every frame at clip_fps, facing
+    # clip_yaw_deg at its start. With motion=learned, clip_fps is the tracking rate the transitions are learned at.
+    clips: tuple[str, ...] = ()
+    clip_true_fps: tuple[TrueRate, ...] = ()  # clips whose header states a wrong frame rate
+    clip_fps: Positive = 10.0
+    clip_yaw_deg: Finite = -90.0
+    # Postures only: every clip pose's root moved over the origin, its feet on the floor (`pose_sets.grounded`).
+    clip_in_place: bool = True
+    clip_mirror: bool = False  # procedural variation: each clip pose also mirrored left for right ...
+    clip_turns_deg: tuple[Finite, ...] = (0.0,)  # ... and each of those turned by these about the vertical ...
+    # ... and this many copies of each with every joint jittered by clip_jitter_deg per axis.
+    clip_copies: Annotated[int, Range(0, 1000)] = 0
+    clip_jitter_deg: NonNegative = 10.0
+    seed: Seed = 0  # of the jitter
+    min_joint_deg: NonNegative = 5.0  # near-duplicates (within this in every joint) are removed
+
+
+def clip_files(spec: SampleSpec, key: str = "tracker") -> list[tuple[int, str, float | None]]:
+    """Every clip file ``spec.clips`` names: the entry it comes from, the file (the entry itself when it holds no
+    wildcards) and its true rate (`SampleSpec.clip_true_fps`); ``ValueError`` names an entry that matches no file."""
+    files = []
+    for index, pattern in enumerate(spec.clips):
+        found = [pattern] if not glob.has_magic(pattern) else [str(path) for path in data_files(pattern)]
+        if not found:
+            raise ValueError(f"{key}.samples.clips[{index}]={pattern}: no file matches it in the data directory "
+                             f"{data_dir()}")  # fmt: skip
+        for path in found:
+            rates = [rate.fps for rate in spec.clip_true_fps
+                     if fnmatch(str(data_path(path)), str(data_path(rate.files)))]  # fmt: skip
+            files.append((index, path, rates[0] if rates else None))
+    return files
+
+
+def sample_poses(spec: SampleSpec, body: BodyMesh) -> tuple[np.ndarray, np.ndarray]:
+    """The pose samples ``spec`` names, near-duplicates removed (before rendering), and the clips' consecutive
+    frames as transitions between them (`learned_transitions`)."""
+    parts = []
+    if spec.grid is not None:
+        parts.append(spec.grid.poses(body))
+    if spec.capture is not None:
+        parts.append(spec.capture.poses(body))
+    following = [np.full(len(part), -1) for part in parts]  # no sequences learned from these
+    if spec.clips:
+        _, paths, rates = zip(*clip_files(spec), strict=True)
+        clips, sequence = clip_sequences(body, paths, spec.clip_fps, spec.clip_yaw_deg, rates)
+        if spec.clip_in_place:
+            clips[:, :2] = 0.0
+            clips = grounded(body, clips)
+        if spec.clip_mirror:
+            clips, sequence = np.concatenate([clips, mirrored(clips)]), repeated_sequences(sequence, 2)
+        clips = varied(clips, spec.clip_turns_deg, spec.clip_copies, spec.clip_jitter_deg,
+                       np.random.default_rng(spec.seed))  # fmt: skip
+        after = successors(repeated_sequences(sequence, len(clips) // len(sequence)))
+        following.append(np.where(after >= 0, after + sum(len(part) for part in parts), -1))
+        parts.append(clips)
+    if not parts:
+        raise ValueError("tracker.samples names no poses: set a grid, a capture or clips")
+    poses, following = np.concatenate(parts), np.concatenate(following)
+    kept, representative = near_duplicate_representatives(poses, spec.min_joint_deg)
+    return poses[kept], learned_transitions(following, representative)
