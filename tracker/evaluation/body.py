@@ -16,11 +16,16 @@ Each swing's frames, whether it was followed and its largest error go to ``metri
 (``swing_details``), so a reader can score the run at any other bound (`count_outcomes`).
 
 Columns per frame (`BodyEvaluation.columns`): ``truth_pose`` and ``est_pose`` (pose vectors, lists),
-``swing_truth_deg``, ``swing_est_deg``, ``joint_error_mm`` and ``joint_error_aligned_mm``.
+``swing_truth_deg``, ``swing_est_deg``, ``joint_error_mm``, ``joint_error_aligned_mm`` and ``joint_angle_error_deg``.
 
 MPJPE: the mean over frames of the mean distance (mm) between estimated and true positions of the 15
 HumanEva-style joints (`MPJPE_JOINTS`); the root-aligned MPJPE first moves the estimate's pelvis onto the
 truth's, so it measures the posture alone (the sample sets are postures in place).
+
+Joint-angle error (as silhouette-based pose regression reports it, e.g. Agarwal and Triggs, PAMI 2006): the mean
+over frames and over the posture joints that place the MPJPE joints (`ANGLE_JOINTS`: spine, neck, collars,
+shoulders, elbows, hips, knees; the root's orientation left out, as the root-aligned MPJPE leaves out its place)
+of the angle (degrees) between the estimated and the true rotation of the joint relative to its parent.
 """
 
 from __future__ import annotations
@@ -32,13 +37,16 @@ from typing import Any
 import numpy as np
 
 from tracker.models.body_mesh import BodyMesh
-from tracker.models.body_skeleton import JOINT_INDEX
+from tracker.models.body_skeleton import JOINT_INDEX, joint_angle_differences
 
 OUTCOMES = ("fail", "error", "success")
 _VERTICAL_TOLERANCE_DEG = 1e-6
 # Head, thorax (neck), pelvis, shoulders, elbows, wrists, hips, knees, ankles.
 MPJPE_JOINTS = ("Head", "Neck", "Hips", "LeftArm", "RightArm", "LeftForeArm", "RightForeArm", "LeftHand",
                 "RightHand", "LeftUpLeg", "RightUpLeg", "LeftLeg", "RightLeg", "LeftFoot", "RightFoot")  # fmt: skip
+ANGLE_JOINTS = ("LowerBack", "Spine", "Spine1", "Neck", "Neck1", "LeftShoulder", "LeftArm", "LeftForeArm",
+                "RightShoulder", "RightArm", "RightForeArm", "LeftUpLeg", "LeftLeg", "RightUpLeg",
+                "RightLeg")  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -117,6 +125,12 @@ def joint_error_mm(body: BodyMesh, truth: np.ndarray, estimate: np.ndarray, root
     return float(1e3 * np.linalg.norm(estimated - true, axis=1).mean())
 
 
+def joint_angle_error_deg(truth: np.ndarray, estimate: np.ndarray) -> np.ndarray:
+    """The mean angle (degrees) between estimated and true rotations of `ANGLE_JOINTS` per pose (broadcast)."""
+    joints = [JOINT_INDEX[name] for name in ANGLE_JOINTS]
+    return joint_angle_differences(np.asarray(truth, float), np.asarray(estimate, float))[..., joints].mean(axis=-1)
+
+
 def nearest_in_3d(body: BodyMesh, truths: np.ndarray, candidate_body: BodyMesh,
                   candidates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """For each truth pose ``(n, POSE_SIZE)`` of ``body``: the candidate pose (of ``candidate_body``) nearest in 3-D
@@ -139,14 +153,16 @@ def nearest_in_3d(body: BodyMesh, truths: np.ndarray, candidate_body: BodyMesh,
 @dataclass(frozen=True)
 class BodyEvaluation:
     rule: SwingRule = field(default_factory=SwingRule)
-    series: tuple[str, ...] = ("joint_error_mm", "joint_error_aligned_mm")  # columns the recording plots
+    # Columns the recording plots.
+    series: tuple[str, ...] = ("joint_error_mm", "joint_error_aligned_mm", "joint_angle_error_deg")
 
     def columns(self, body: BodyMesh, truth: np.ndarray, estimate: np.ndarray | None) -> tuple[dict, dict]:
         frame: dict[str, Any] = {"truth_pose": truth.tolist(), "swing_truth_deg": body.right_arm_swing_deg(truth)}
         if estimate is not None:
             frame.update(est_pose=estimate.tolist(), swing_est_deg=body.right_arm_swing_deg(estimate),
                          joint_error_mm=joint_error_mm(body, truth, estimate),
-                         joint_error_aligned_mm=joint_error_mm(body, truth, estimate, root_aligned=True))  # fmt: skip
+                         joint_error_aligned_mm=joint_error_mm(body, truth, estimate, root_aligned=True),
+                         joint_angle_error_deg=float(joint_angle_error_deg(truth, estimate)))  # fmt: skip
         return {}, frame
 
     def summarize(self, body: BodyMesh, table: Mapping[str, np.ndarray]) -> dict[str, Any]:
@@ -159,6 +175,7 @@ class BodyEvaluation:
         return {
             "mpjpe_mm": float(np.mean(table["joint_error_mm"][frame])),
             "mpjpe_root_aligned_mm": float(np.mean(table["joint_error_aligned_mm"][frame])),
+            "joint_angle_error_deg": float(np.mean(table["joint_angle_error_deg"][frame])),
             "swings": count_outcomes(details, self.rule.max_error_deg),
             "swing_details": details,
             "swing_error_deg_mean": float(np.mean(np.abs(estimate - truth))),

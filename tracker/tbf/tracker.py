@@ -21,93 +21,29 @@ from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
 
-from tracker.evaluation.body import nearest_in_3d, score_swings
+from tracker.evaluation.body import joint_angle_error_deg, nearest_in_3d, score_swings
 from tracker.geometry.cameras import Camera
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.body_shapes import standard_shape
 from tracker.models.makehuman import Triangles, body_measurements, build_body, nearest_standard_body
-from tracker.motion.arm_capture import ArmRanges, capture_poses
 from tracker.motion.mocap import read_cmu_clip
 from tracker.motion.posture import arms_pose
 from tracker.protocol import FrameInput, StepResult, Tracker
-from tracker.ranges import Finite, Fraction, NonNegative, Positive, Range, Rule, Seed
+from tracker.ranges import Finite, Positive, Range
 from tracker.registry import TRACKERS
-from tracker.tbf.alignment import feet_anchor, samples_anchor, shifted, world_offset
-from tracker.tbf.distances import Cost, EmptySilhouette
+from tracker.tbf.alignment import GroundPlacement, feet_anchor, samples_anchor, shifted, world_offset
+from tracker.tbf.distances import Cost, EmptySilhouette, ObservationScorer
 from tracker.tbf.filter import FilterResult, FilterSettings, TreeFilter
 from tracker.tbf.motion import RandomWalk
-from tracker.tbf.pose_sets import arm_grid, clip_samples, remove_near_duplicates, varied
 from tracker.tbf.sample_build import BuildSettings, load_or_build
+from tracker.tbf.sample_spec import SampleSpec, clip_files, sample_poses
 from tracker.tbf.samples import PoseSampleSet
 from tracker.tbf.tree import PoseTree, load_or_build_tree, thresholds_for_shares
 from tracker.timing import elapsed_ms
 
 log = logging.getLogger(__name__)
 
-_ORDERED = Rule(lambda span: span[0] <= span[1], "allowed [start, stop, step] with start <= stop")
 Share = Annotated[float, Range(0.0, 1.0, low_open=True)]
-DegreeSpan = Annotated[tuple[Finite, Finite, Positive], _ORDERED]  # start, stop (included), step
-
-
-@dataclass(frozen=True)
-class GridSpec:
-    """The right-arm grid (`tracker.tbf.pose_sets.arm_grid`): ranges as ``[start, stop, step]`` degrees, stop
-    included; lists of values for the left arm's swing and the body's yaw."""
-
-    swing_deg: DegreeSpan = (-60.0, 120.0, 6.0)  # in front (+) / behind (-) the vertical
-    abduction_deg: DegreeSpan = (0.0, 40.0, 8.0)
-    elbow_deg: DegreeSpan = (0.0, 60.0, 30.0)
-    left_swing_deg: tuple[Finite, ...] = (0.0, 20.0)
-    yaw_deg: tuple[Finite, ...] = (-100.0, -90.0, -80.0)
-
-    def poses(self, body: BodyMesh) -> np.ndarray:
-        def values(start, stop, step):
-            return np.arange(start, stop + step / 2, step)
-
-        return np.concatenate([arm_grid(body, values(*self.swing_deg), values(*self.abduction_deg),
-                                        values(*self.elbow_deg), self.left_swing_deg, yaw_deg=yaw)
-                               for yaw in self.yaw_deg])  # fmt: skip
-
-
-@dataclass(frozen=True)
-class CaptureSpec:
-    """Samples as paper 2's capture gave them (`tracker.motion.arm_capture`): a continuous session of the side-on
-    person moving the right arm in various ways over the ranges (``[low, high]`` degrees) while standing naturally
-    (`tracker.motion.posture.NATURAL_SPREAD` times ``amplitude``), every frame at ``fps``; drawn from ``seed``."""
-
-    seconds: Annotated[float, Range(0.1, 36000.0)] = 120.0
-    fps: Positive = 30.0
-    swing_deg: tuple[Finite, Finite] = (-60.0, 120.0)
-    abduction_deg: tuple[Finite, Finite] = (0.0, 40.0)
-    elbow_deg: tuple[Finite, Finite] = (0.0, 90.0)
-    yaw_deg: Finite = -90.0
-    amplitude: Fraction = 1.0
-    seed: Seed = 0
-
-    def poses(self, body: BodyMesh) -> np.ndarray:
-        ranges = ArmRanges(self.swing_deg, self.abduction_deg, self.elbow_deg)
-        return capture_poses(body, ranges, self.seconds, self.fps, self.yaw_deg, self.amplitude,
-                             np.random.default_rng(self.seed))  # fmt: skip
-
-
-@dataclass(frozen=True)
-class SampleSpec:
-    """Where the pose samples come from: a grid, a capture session of the right arm moving, and/or BVH clips
-    with procedural variation."""
-
-    grid: GridSpec | None = field(default_factory=GridSpec)
-    capture: CaptureSpec | None = None
-    clips: tuple[str, ...] = ()  # BVH files: every frame at clip_fps, facing clip_yaw_deg at its start
-    clip_fps: Positive = 10.0
-    clip_yaw_deg: Finite = -90.0
-    clip_in_place: bool = True  # postures only: every clip pose's root moved over the origin (height kept)
-    clip_turns_deg: tuple[Finite, ...] = (0.0,)  # procedural variation: each clip pose also turned by these
-    # ... and this many copies of each with every joint jittered by clip_jitter_deg per axis.
-    clip_copies: Annotated[int, Range(0, 1000)] = 0
-    clip_jitter_deg: NonNegative = 10.0
-    seed: Seed = 0  # of the jitter
-    min_joint_deg: NonNegative = 5.0  # near-duplicates (within this in every joint) are removed
-
 
 @dataclass(frozen=True)
 class TbfSettings:
@@ -131,8 +67,10 @@ class TbfSettings:
     # stature and chest girth, measured on the subject as a tailor would (paper 2, section 7).
     body: Literal["base", "nearest_standard"] = "base"
     # The observed silhouette as it is, or moved by whole pixels so that its feet stand where the samples' do,
-    # the estimate's root moved back by as much (`tracker.tbf.alignment`): a person who steps about.
-    align: Literal["none", "feet"] = "none"
+    # the estimate's root moved back by as much (`tracker.tbf.alignment`): a person who steps about. Or placed on
+    # the floor: scaled by its feet's depth and moved onto the samples' feet, the root estimated on the ground from
+    # where the feet stand (`tracker.tbf.alignment.GroundPlacement`): a person who walks about.
+    align: Literal["none", "feet", "ground"] = "none"
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -157,9 +95,10 @@ class TbfResult(StepResult):
 
 
 def check_clips(settings: TbfSettings, frames: int, key: str) -> None:
-    """Before a run: every clip the samples come from is a readable CMU-style clip."""
-    for index, path in enumerate(settings.samples.clips):
-        read_cmu_clip(path, f"{key}.samples.clips[{index}]")
+    """Before a run: every clip the samples come from is a readable clip of a known skeleton."""
+    for index, path, rate in clip_files(settings.samples, key):
+        pattern = settings.samples.clips[index]
+        read_cmu_clip(path, f"{key}.samples.clips[{index}]" + (f" ({pattern})" if path != pattern else ""), rate)
 
 
 @TRACKERS.register("tbf", settings=TbfSettings, needs={"cost": "nwxor", "motion": "dm2"}, models=("body_mesh",),
@@ -179,16 +118,20 @@ class TbfTracker(Tracker):
         settings = self.settings
         cache_dir = Path(settings.cache_dir)
         self.body = self.standard_body(model)
-        poses = self.sample_poses(self.body)
+        poses, self.transitions = sample_poses(settings.samples, self.body)
         self.samples = load_or_build(self.body, self.camera, poses, cache_dir / "samples", build=settings.build,
                                      check=settings.cache_check)  # fmt: skip
         self.thresholds = settings.thresholds
         if settings.node_shares is not None:
             self.thresholds = thresholds_for_shares(self.samples, settings.node_shares)
         self.tree = load_or_build_tree(self.samples, self.thresholds, cache_dir / "trees")
-        self.filter = TreeFilter(self.samples, self.tree, self.cost, self.motion, settings.filter)
+        self.filter = TreeFilter(self.samples, self.tree, self.cost, self.motion, settings.filter, self.transitions)
         self.anchor = samples_anchor(self.samples) if settings.align == "feet" else None
+        self._seen: dict[int, np.ndarray] = {}  # frame -> the silhouette the filter saw at the finest level, packed
         self.filter.start(arms_pose(self.body, (0.0, 8.0, 0.0), (0.0, 8.0, 0.0), yaw_deg=settings.initial_yaw_deg))
+        self.placement = None
+        if settings.align == "ground":  # the feet to place on at first: the initial prior's most likely sample
+            self.placement = GroundPlacement(self.camera, self.samples, self.filter.initial_sample)
         self._estimate = np.asarray(self.samples.poses[0]).copy()
         self.setup_s = time.perf_counter() - start
         log.info("tbf: %d samples, tree %s nodes per level, likelihood sigma per level %s (%.1f s)",
@@ -218,9 +161,11 @@ class TbfTracker(Tracker):
                 "tree_thresholds": [round(t, 6) for t in self.thresholds]}
 
     def summarize(self, table: Mapping[str, np.ndarray]) -> dict[str, Any]:
-        """The tree search's mean effort (nodes evaluated per level, and the fraction of them pruned) and what the
-        samples alone allow (`dictionary_floor`)."""
+        """The tree search's mean effort (nodes evaluated per level, and the fraction of them pruned), what the
+        samples alone allow (`dictionary_floor`) and where the silhouette could not tell (`ambiguity`)."""
         frame = table["part"] == self.part_names[0]  # one row per frame
+        floor = self.dictionary_floor(np.stack(table["truth_pose"][frame]))
+        floor.update(self.ambiguity(table["frame"][frame], table["est_sample"][frame]))
         levels = sorted(column for column in table if column.startswith("nodes_level"))
         evaluated = [table[column][frame] for column in levels]
         kept = [table[column.replace("nodes", "kept")][frame] for column in levels]
@@ -228,35 +173,37 @@ class TbfTracker(Tracker):
         return {"nodes_evaluated_mean": [float(np.nanmean(values)) for values in evaluated],
                 "pruned_fraction_mean": [float(1 - np.nansum(k) / np.nansum(e))
                                          for k, e in zip(kept, evaluated, strict=True)],
-                **self.dictionary_floor(np.stack(table["truth_pose"][frame]))}  # fmt: skip
+                **floor}  # fmt: skip
 
     def dictionary_floor(self, truths: np.ndarray) -> dict[str, Any]:
         """The best any filter could do with these samples: per frame the sample nearest the truth in 3-D
-        (root-aligned, the tracker's body against the subject's), as MPJPE (``mpjpe_floor_mm``) and as Fig 4(c)'s
-        swings had it been the estimate (``swings_floor``)."""
+        (root-aligned, the tracker's body against the subject's), as MPJPE (``mpjpe_floor_mm``), as joint-angle
+        error (``joint_angle_floor_deg``) and as Fig 4(c)'s swings had it been the estimate (``swings_floor``)."""
         nearest, distance_mm = nearest_in_3d(self.subject, truths, self.body, self.samples.poses)
         truth_deg = np.array([self.subject.right_arm_swing_deg(pose) for pose in truths])
         floor_deg = np.array([self.body.right_arm_swing_deg(self.samples.poses[k]) for k in nearest])
-        return {"mpjpe_floor_mm": float(distance_mm.mean()), "swings_floor": score_swings(truth_deg, floor_deg)}
+        self._floor_samples = nearest
+        return {"mpjpe_floor_mm": float(distance_mm.mean()), "floor_per_frame_mm": distance_mm.round(1).tolist(),
+                "joint_angle_floor_deg": float(joint_angle_error_deg(truths, self.samples.poses[nearest]).mean()),
+                "swings_floor": score_swings(truth_deg, floor_deg)}  # fmt: skip
 
-    def sample_poses(self, body: BodyMesh) -> np.ndarray:
-        """The pose samples the settings name, near-duplicates removed (before rendering)."""
-        spec = self.settings.samples
-        parts = []
-        if spec.grid is not None:
-            parts.append(spec.grid.poses(body))
-        if spec.capture is not None:
-            parts.append(spec.capture.poses(body))
-        if spec.clips:
-            clips = clip_samples(body, spec.clips, spec.clip_fps, spec.clip_yaw_deg)
-            if spec.clip_in_place:
-                clips[:, :2] = 0.0
-            parts.append(varied(clips, spec.clip_turns_deg, spec.clip_copies, spec.clip_jitter_deg,
-                                np.random.default_rng(spec.seed)))  # fmt: skip
-        if not parts:
-            raise ValueError("tracker.samples names no poses: set a grid, a capture or clips")
-        poses = np.concatenate(parts)
-        return poses[remove_near_duplicates(poses, spec.min_joint_deg)]
+    def ambiguity(self, frames: np.ndarray, estimates: np.ndarray) -> dict[str, Any]:
+        """Per frame, whether the silhouette the filter saw is at least as near (by the run's cost, at the finest
+        level) to the estimate's sample as to the sample nearest the truth in 3-D (`dictionary_floor`): then the
+        cost itself prefers a pose no nearer the truth, and no filter would have done better there. A frame whose
+        estimate is the floor's sample, or that failed, is not ambiguous."""
+        stack = self.samples.silhouettes(self.tree.levels[-1].resolution)
+        width, height = self.tree.levels[-1].resolution
+        flags = []
+        for frame, estimate, nearest in zip(frames, estimates, self._floor_samples, strict=True):
+            if frame not in self._seen or not np.isfinite(estimate) or int(estimate) == int(nearest):
+                flags.append(False)
+                continue
+            seen = np.unpackbits(self._seen[frame], count=width * height).reshape(height, width) > 0
+            rows = np.array([int(estimate), int(nearest)])
+            distances = ObservationScorer(self.cost, seen, stack.window).scores_of_runs(stack.runs.subset(rows))
+            flags.append(bool(distances[0] <= distances[1]))
+        return {"ambiguous_frames": int(sum(flags)), "ambiguous_per_frame": flags}
 
     def step(self, frame: FrameInput) -> TbfResult:
         silhouettes = frame.silhouettes
@@ -264,20 +211,30 @@ class TbfTracker(Tracker):
             raise ValueError("tracker=tbf needs the frame's silhouette (the capture stage of a body scene)")
         observed = silhouettes[self.camera.name]
         start = time.perf_counter()
-        shift = self._alignment(observed)
+        shift, placed = self._alignment(observed), None
+        if self.placement is not None:
+            observed = self.filter.observation_at(len(self.tree.levels) - 1, observed)
+            placed = self.placement.place(observed)  # None: no feet below the horizon, taken as it is
+        seen = placed.silhouette if placed else shifted(observed, *shift) if any(shift) else observed
+        self.last_observation = seen  # what the filter sees (benchmarks score it again)
         try:
-            found = self.filter.step(shifted(observed, *shift) if any(shift) else observed)
+            found = self.filter.step(seen)
         except EmptySilhouette as error:  # nobody in view: keep the last estimate, say why
             return TbfResult.of(self.part_names, None, frame=frame.frame, estimate=self._estimate.copy(),
                                 timings_ms={"filter": elapsed_ms(start)}, failure=f"{error}")  # fmt: skip
+        self._seen[frame.frame] = np.packbits(self.filter.observation_at(len(self.tree.levels) - 1, seen))
         estimate = found.pose.copy()
         if any(shift):  # the subject stands away from the samples' spot: so does the estimate
             estimate[:3] += world_offset(self.camera, estimate[:3], -shift[0], -shift[1])
+        if placed is not None:
+            estimate = self.placement.pose(found.sample, placed)
         self._estimate = estimate
         result = TbfResult.of(self.part_names, found, frame=frame.frame, estimate=estimate,
                               timings_ms={**found.timings_ms, "filter": elapsed_ms(start)})  # fmt: skip
         if self.anchor is not None:
             result.frame_columns.update(align_du_px=shift[0], align_dv_px=shift[1])
+        if self.placement is not None:
+            result.frame_columns.update(placement_scale=placed.scale if placed else float("nan"))
         return result
 
     def _alignment(self, observed: np.ndarray) -> tuple[int, int]:

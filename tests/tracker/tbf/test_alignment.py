@@ -1,10 +1,14 @@
-"""Moving the observed silhouette onto the samples' feet, and the estimate's root back by as much."""
+"""Moving the observed silhouette onto the samples' feet, and the estimate's root back by as much; placing the
+person on the floor."""
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from tracker.geometry.cameras import look_at
-from tracker.tbf.alignment import feet_anchor, shifted, world_offset
+from tracker.motion.posture import arms_pose
+from tracker.tbf.alignment import GroundPlacement, feet_anchor, ground_point, shifted, world_offset
+from tracker.tbf.sample_build import load_or_build
 
 
 def test_the_feet_are_the_middle_of_the_silhouettes_bottom_rows():
@@ -40,3 +44,55 @@ def test_the_world_offset_moves_the_projection_by_the_pixels_asked():
     np.testing.assert_allclose(after[0] - before[0], [7.0, -3.0], atol=1e-9)
     depths = camera.world_to_camera(np.array([point, point + offset]))[:, 2]
     assert depths[1] == pytest.approx(depths[0])  # parallel to the image plane
+
+
+def test_a_ground_point_projects_back_onto_its_pixel_and_lies_on_the_floor():
+    camera = look_at("main", np.array([0.0, -4.5, 0.9]), np.array([0.0, 0.0, 0.9]), np.array([0.0, 0.0, 1.0]),
+                     width=320, height=240, focal_px=420.0)  # fmt: skip
+    for u, v in [(160.0, 200.0), (20.5, 239.0), (300.0, 130.0)]:
+        point = ground_point(camera, u, v)
+        assert point[2] == pytest.approx(0.0, abs=1e-12)
+        np.testing.assert_allclose(camera.project(point[None])[0][0], [u, v], atol=1e-9)
+    assert ground_point(camera, 160.0, 100.0) is None  # above the horizon (v < cy)
+
+
+def test_ground_placement_finds_where_a_walking_person_stands(body, tmp_path):
+    camera = look_at("main", np.array([0.0, -4.5, 0.9]), np.array([0.0, 0.0, 0.9]), np.array([0.0, 0.0, 1.0]),
+                     width=320, height=240, focal_px=420.0)  # fmt: skip
+    postures = np.array([arms_pose(body, (swing, 10.0, elbow), (0.0, 8.0, 0.0), yaw_deg=-90.0)
+                         for swing in (-30.0, 0.0, 40.0, 90.0) for elbow in (0.0, 60.0)])  # fmt: skip
+    samples = load_or_build(body, camera, postures, tmp_path / "samples", progress=False)
+    for index, step in ((2, (0.4, -0.7)), (7, (-0.6, 1.0)), (4, (0.0, 0.0))):
+        # He walked nearer the camera and sideways, or away, and turned to it as much as he went off its axis: the
+        # camera sees him as it sees the sample.
+        person = postures[index].copy()
+        bearing = np.arctan2(step[1] + 4.5, step[0]) - np.pi / 2
+        person[3:6] = (Rotation.from_euler("z", bearing) * Rotation.from_rotvec(person[3:6])).as_rotvec()
+        person[:2] += step
+        seen = _silhouette(body, camera, person, tmp_path / f"seen{index}")
+        placement = GroundPlacement(camera, samples, reference=index)  # the last estimate: the same posture
+        placed = placement.place(seen)
+        estimate = placement.pose(index, placed)
+        # On the floor within what one and a half pixel rows of the feet span there (a row: depth^2 / (camera
+        # height * focal), 3.6 cm at 3.8 m, 8 cm at 5.5 m); the height is the sample's.
+        depth = 4.5 + step[1]
+        np.testing.assert_allclose(estimate[:3], person[:3], atol=1.5 * depth**2 / (0.9 * 420.0))
+        np.testing.assert_allclose(estimate[3:6], person[3:6], atol=2e-3)  # turned as he is (the feet's bearing)
+        np.testing.assert_array_equal(estimate[6:], postures[index][6:])
+        cut = shifted(seen, 0, int(240 - feet_anchor(seen)[1]))  # the feet below the image's bottom edge
+        assert placement.place(cut) is None
+        sample = np.zeros_like(seen)
+        u0, v0, u1, v1 = samples.silhouettes((320, 240)).window
+        sample[v0:v1, u0:u1] = samples.silhouettes((320, 240)).mask(index)
+        iou = np.count_nonzero(placed.silhouette & sample) / np.count_nonzero(placed.silhouette | sample)
+        assert iou > 0.85, iou  # scaled and moved onto the sample's spot, the silhouettes agree
+
+
+def _silhouette(body, camera, pose, folder):
+    """The body's silhouette at ``pose`` in the whole image, rendered as the samples are."""
+    rendered = load_or_build(body, camera, pose[None], folder, progress=False)
+    stack = rendered.silhouettes((camera.width, camera.height))
+    full = np.zeros((camera.height, camera.width), bool)
+    u0, v0, u1, v1 = stack.window
+    full[v0:v1, u0:u1] = stack.mask(0)
+    return full
