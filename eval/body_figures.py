@@ -54,9 +54,18 @@ def swing_traces(runs: Mapping[str, Path], out: Path, bound_deg: float = SwingRu
     return save_png(plt, figure, out)
 
 
-def posture_strip(run_dir: Path, frames: Sequence[int], out: Path) -> Path:
-    """Paper 2's Fig 4(b): the input frames with the estimated posture's skeleton drawn over them (the tracker's
-    standard body, projected by the run's camera; bones in their part's colour)."""
+def swing_caption(frame: int, row: pd.Series) -> str:
+    return f"frame {frame}: truth {row['swing_truth_deg']:.0f}°, estimate {row['swing_est_deg']:.0f}°"
+
+
+def error_caption(frame: int, row: pd.Series) -> str:
+    return f"frame {frame}: {row['joint_error_mm']:.0f} mm ({row['joint_error_aligned_mm']:.0f} aligned)"
+
+
+def posture_strip(run_dir: Path, frames: Sequence[int], out: Path, caption=swing_caption) -> Path:
+    """Paper 2's Fig 4(b) and Fig 5: the input frames with the estimated posture's skeleton drawn over them (the
+    tracker's standard body, projected by the run's camera; bones in their part's colour), each titled by
+    ``caption(frame, its frames.parquet row)``."""
     plt = pyplot()
     metrics = json.loads((run_dir / "metrics.json").read_text())
     config = metrics["config"]
@@ -83,8 +92,7 @@ def posture_strip(run_dir: Path, frames: Sequence[int], out: Path) -> Path:
                     continue
                 (u0, v0), (u1, v1) = pixels[parent], pixels[JOINT_INDEX[name]]
                 axis.plot([u0, u1], [v0, v1], color=np.array(PART_COLORS[part_of[name]]) / 255, linewidth=2)
-        axis.set_title(f"frame {frame}: truth {table.loc[frame, 'swing_truth_deg']:.0f}°, "
-                       f"estimate {table.loc[frame, 'swing_est_deg']:.0f}°", fontsize=7)  # fmt: skip
+        axis.set_title(caption(frame, table.loc[frame]), fontsize=7)
         axis.set_xticks([]), axis.set_yticks([])
     return save_png(plt, figure, out)
 

@@ -20,7 +20,7 @@ STRIP_FRAMES = (200, 206, 212, 218, 224, 230, 236)  # Fig 4(b): one swing of fra
 
 def paper_2_markdown(runs: pd.DataFrame, seconds: float, figures: dict[str, Path], reports: Path) -> str:
     """Paper 2's part of report.md: Fig 4(c) under the paper's conditions and its control, the counts at other
-    bounds, the figures, Fig 6(d), the paper-scale run, the recordings (named relative to ``reports``)."""
+    bounds, the figures, Fig 6(d), the recordings (named relative to ``reports``)."""
     four_c, bounds, six_d = table_4c(runs), table_4c_bounds(runs), table_6d(runs)
     experiment = runs[runs["experiment"] == "tbf_table4c"]
     first = json.loads((Path(experiment["run"].iloc[0]) / "metrics.json").read_text())
@@ -38,10 +38,6 @@ def paper_2_markdown(runs: pd.DataFrame, seconds: float, figures: dict[str, Path
             "(Success or Error):\n\n" + markdown(bounds) + "\n\n"
             + "".join(f"![{name}]({path.name})\n\n" for name, path in figures.items())
             + "### Fig 6(d): ms per frame\n\n" + markdown(six_d.round(2)) + "\n")  # fmt: skip
-    scale = runs[runs.get("experiment", pd.Series(dtype=str)) == "tbf_paper_scale"]
-    for run in scale.itertuples():
-        text += (f"\nPaper scale: {int(run.samples):,} samples; the held-out clip tracked at MPJPE "
-                 f"{run.mpjpe_mm:.1f} mm (`{Path(run.run).relative_to(reports) / 'run.rrd'}`).\n")  # fmt: skip
     named = [f"`{Path(r.run).relative_to(reports) / 'run.rrd'}` ({r.experiment}: {r.cost} + {r.motion})"
              for r in runs.itertuples()]  # fmt: skip
     text += "\nRecordings: " + ", ".join(named) + "\n"

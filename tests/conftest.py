@@ -98,3 +98,15 @@ def tbf_run(tmp_path_factory):
                     "frames=6", f"tracker.cache_dir={cache}", "tracker.samples.grid.swing_deg=[-30,60,6]",
                     "tracker.samples.grid.abduction_deg=[0,16,8]", "tracker.samples.grid.elbow_deg=[0,0,30]",
                     "tracker.samples.grid.left_swing_deg=[0]", "tracker.samples.grid.yaw_deg=[-90]")  # fmt: skip
+
+
+@pytest.fixture(scope="session")
+def real_motion_run(tmp_path_factory):
+    """4 frames of the walking clip 69_20 tracked by the paper-scale preset on a small dictionary that holds the clip
+    itself (so that the posture is right and the placement is what is tested) and a DAZ-friendly clip, mirrored,
+    at 15 fps; learned motion, placed on the floor."""
+    cache = tmp_path_factory.mktemp("real_motion_cache")
+    return _cli_run(tmp_path_factory, "real_motion", "experiment=tbf_paper_scale", "frames=4",
+                    "scene.path=mocap/69_20.bvh", "scene.center=path", f"tracker.cache_dir={cache}",
+                    "tracker.samples.clips=[mocap/69_20.bvh,mocap_daz/martial_04.bvh]",
+                    "tracker.samples.clip_turns_deg=[0.0]", "tracker.thresholds=[0.05,0.03,0.02]")  # fmt: skip
