@@ -14,8 +14,6 @@ Parts (`PART_NAMES`): label k + 1 in label images is part k; each takes the face
 
 from __future__ import annotations
 
-from collections.abc import Iterable
-
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -80,12 +78,6 @@ T_POSE_DIRECTIONS = {
 # The CMU BVH frame (y up, facing +z) in the body frame: x stays, y -> z, z -> -y.
 BVH_TO_BODY = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
 
-
-
-def missing_joints(names: Iterable[str]) -> list[str]:
-    """The CMU joints of `JOINT_NAMES` that a skeleton with joint ``names`` lacks (none: a CMU-style skeleton)."""
-    present = set(names)
-    return [name for name in JOINT_NAMES if name not in present]
 
 
 def joint_angle_differences(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -139,7 +139,7 @@ def read_cmu_clip(path: str, key: str, true_fps: float | None = None) -> BvhClip
 
 
 def check_clip(scene: MocapScene, frames: int, key: str) -> None:
-    """Before a run: the scene's file is a readable CMU-style clip holding ``frames`` frames from its start.
+    """Before a run: the scene's file is a readable clip of a known skeleton holding ``frames`` frames from its start.
     Raises ``ValueError`` naming the config keys (``key``: the scene's, e.g. ``scene``)."""
     clip = read_cmu_clip(scene.path, f"{key}.path", scene.true_fps)
     available = available_frames(clip, scene.start_s, scene.fps)
@@ -151,7 +151,8 @@ def check_clip(scene: MocapScene, frames: int, key: str) -> None:
 @SCENES.register("bvh", models=("body_mesh",), check=check_clip)
 @dataclass(frozen=True)
 class MocapScene:
-    """A CMU-style BVH clip drives the body, resampled at ``fps`` from ``start_s``.
+    """A BVH clip of a known skeleton (`tracker.motion.retarget`) drives the body, resampled at ``fps`` from
+    ``start_s``.
 
     The body is turned about the vertical so that it faces ``yaw_deg`` (world xy angle from +x; -90 faces -y) at
     the first frame. ``center`` says what stands over the world origin: the first frame's root, the middle of the

@@ -5,9 +5,10 @@ stature and chest girth, measured on the subject as a tailor would), builds (or 
 sample set of that body seen by the camera and its tree (``thresholds``, or ``node_shares``), then sets the initial
 prior around the configured initial pose (upright, arms down, facing ``initial_yaw_deg``); `step` takes the
 frame's observed silhouette (background subtraction, done by the run's capture stage: ``frame.silhouettes``),
-moves it onto the samples' feet when ``align`` says so (`tracker.tbf.alignment`), and runs
-`tracker.tbf.filter.TreeFilter`. The tracker never sees the truth after `start`; measuring the subject's size
-there stands for the paper's measuring of the person.
+moves it onto the samples' feet or places the person on the floor when ``align`` says so
+(`tracker.tbf.alignment`), and runs `tracker.tbf.filter.TreeFilter`. The tracker never sees the truth after
+`start`; measuring the subject's size there stands for the paper's measuring of the person. `summarize` (after
+the run) measures the dictionary's floor against the truth and where the silhouette could not tell.
 """
 
 from __future__ import annotations
