@@ -7,7 +7,7 @@ from scipy.spatial.transform import Rotation
 from tracker.data import data_dir
 from tracker.models.body_skeleton import BVH_TO_BODY, JOINT_INDEX
 from tracker.motion.bvh import BvhError
-from tracker.motion.mocap import ClipSelection, MocapScene, clip_poses, read_clip, read_cmu_clip
+from tracker.motion.mocap import ClipSelection, MocapScene, clip_poses, read_body_clip, read_clip
 from tracker.motion.retarget import CMU, DAZ, skeleton_of, smallest_rotation
 
 DAZ_DIR = data_dir() / "mocap_daz"
@@ -64,7 +64,7 @@ def test_an_unknown_skeleton_gives_one_line_naming_the_known_ones(tmp_path):
     with pytest.raises(ValueError, match=r"^scene.path=.*robot.bvh: no retargeting table fits its skeleton "
                                          r"\(2 joints rooted at 'base'\): the nearest, daz, needs joints abdomen, "
                                          r".*; known skeletons: cmu, daz") as caught:
-        read_cmu_clip(str(path), "scene.path")
+        read_body_clip(str(path), "scene.path")
     assert "\n" not in str(caught.value)
     with pytest.raises(BvhError, match="no retargeting table"):
         clip_poses(read_clip(path), None)

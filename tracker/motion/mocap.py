@@ -124,7 +124,7 @@ def read_clip(path: str, true_fps: float | None = None) -> BvhClip:
     return clip if true_fps is None else replace(clip, frame_time=1.0 / true_fps)
 
 
-def read_cmu_clip(path: str, key: str, true_fps: float | None = None) -> BvhClip:
+def read_body_clip(path: str, key: str, true_fps: float | None = None) -> BvhClip:
     """The clip at ``path`` with a skeleton the body can be driven by, or ``ValueError`` naming the config key
     ``key`` (its value is ``path``)."""
     try:
@@ -141,7 +141,7 @@ def read_cmu_clip(path: str, key: str, true_fps: float | None = None) -> BvhClip
 def check_clip(scene: MocapScene, frames: int, key: str) -> None:
     """Before a run: the scene's file is a readable clip of a known skeleton holding ``frames`` frames from its start.
     Raises ``ValueError`` naming the config keys (``key``: the scene's, e.g. ``scene``)."""
-    clip = read_cmu_clip(scene.path, f"{key}.path", scene.true_fps)
+    clip = read_body_clip(scene.path, f"{key}.path", scene.true_fps)
     available = available_frames(clip, scene.start_s, scene.fps)
     if frames > available:
         raise ValueError(f"frames={frames}: {key}.path={scene.path} has {available} frames at {scene.fps:g} fps "

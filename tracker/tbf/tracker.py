@@ -27,7 +27,7 @@ from tracker.geometry.cameras import Camera
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.body_shapes import standard_shape
 from tracker.models.makehuman import Triangles, body_measurements, build_body, nearest_standard_body
-from tracker.motion.mocap import read_cmu_clip
+from tracker.motion.mocap import read_body_clip
 from tracker.motion.posture import arms_pose
 from tracker.protocol import FrameInput, StepResult, Tracker
 from tracker.ranges import Finite, Positive, Range
@@ -99,7 +99,7 @@ def check_clips(settings: TbfSettings, frames: int, key: str) -> None:
     """Before a run: every clip the samples come from is a readable clip of a known skeleton."""
     for index, path, rate in clip_files(settings.samples, key):
         pattern = settings.samples.clips[index]
-        read_cmu_clip(path, f"{key}.samples.clips[{index}]" + (f" ({pattern})" if path != pattern else ""), rate)
+        read_body_clip(path, f"{key}.samples.clips[{index}]" + (f" ({pattern})" if path != pattern else ""), rate)
 
 
 @TRACKERS.register("tbf", settings=TbfSettings, needs={"cost": "nwxor", "motion": "dm2"}, models=("body_mesh",),
