@@ -52,7 +52,7 @@ def test_a_mirrored_pose_is_the_pose_reflected_with_left_and_right_swapped(body)
     # The rig's two sides differ by a few millimetres at rest (the T-pose shoulders by 2 degrees).
     rest = body.joint_positions(body.rest_pose())
     asymmetry = np.abs(rest[list(MIRROR_JOINTS)] * reflect - rest).max()
-    assert np.abs(mine - theirs).max() < asymmetry + 0.03
+    assert np.abs(mine - theirs).max() < asymmetry + 0.005  # measured: 19.5 mm against 19.2 mm at rest
     np.testing.assert_allclose(mirrored(mirrored(poses)), poses, atol=1e-12)
 
 
