@@ -30,7 +30,7 @@ POSE_SIZE = 3 + 3 * len(JOINT_NAMES)
 _SIDES = (("Left", "Right"), ("LHip", "RHip"), ("LThumb", "RThumb"))
 
 
-def _twin(name: str) -> str:
+def mirror_name(name: str) -> str:
     """A joint's mirror twin's name: left <-> right; the spine, head and root are their own."""
     for left, right in _SIDES:
         for this, other in ((left, right), (right, left)):
@@ -39,7 +39,7 @@ def _twin(name: str) -> str:
     return name
 
 
-MIRROR_JOINTS = tuple(JOINT_INDEX[_twin(name)] for name in JOINT_NAMES)  # each joint's twin across x = 0
+MIRROR_JOINTS = tuple(JOINT_INDEX[mirror_name(name)] for name in JOINT_NAMES)  # each joint's twin across x = 0
 
 # Body parts of the label image (value = index + 1) and the bones whose faces they take.
 PART_BONES = {

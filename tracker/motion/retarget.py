@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from tracker.models.body_skeleton import JOINT_INDEX, JOINT_NAMES
+from tracker.models.body_skeleton import JOINT_INDEX, JOINT_NAMES, mirror_name
 from tracker.tol import ZERO_LENGTH
 
 
@@ -72,10 +72,10 @@ CMU = Skeleton("cmu", {name: name for name in JOINT_NAMES}, ("LeftUpLeg", "LeftL
 
 
 def _right(name: str) -> str:
-    """A left joint's right twin: CMU ``Left*`` / ``LHipJoint`` / ``LThumb``, DAZ ``l*``."""
-    for left, right in (("Left", "Right"), ("LHip", "RHip"), ("LThumb", "RThumb")):
-        if name.startswith(left):
-            return right + name[len(left) :]
+    """A left joint's right twin: a CMU joint's by the rig's own naming (`mirror_name`), a DAZ ``l*`` joint's
+    ``r*``."""
+    if mirror_name(name) != name:
+        return mirror_name(name)
     return "r" + name[1:] if name[:1] == "l" and name[1:2].isupper() else name
 
 
