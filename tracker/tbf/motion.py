@@ -87,9 +87,10 @@ class LearnedTransitions(OccludedWiderWalk):
     learned_share: Fraction = 0.7  # w: the share of each sample's prior that follows its learned successors
     learned_sigma: Positive = 0.05  # radians: the spread about a learned successor (metres: sigma_root_m's share)
 
-    def learned_sigmas(self, occluded_parts: np.ndarray) -> np.ndarray:
-        """``(POSE_SIZE,)`` the learned kernel's standard deviations: DM2's, scaled by learned_sigma / sigma."""
-        return self.sigmas(occluded_parts) * (self.learned_sigma / self.sigma)
+    def learned_sigmas(self, walk_sigmas: np.ndarray) -> np.ndarray:
+        """``(POSE_SIZE,)`` the learned kernel's standard deviations: DM2's (``walk_sigmas``, `sigmas`), scaled by
+        learned_sigma / sigma."""
+        return walk_sigmas * (self.learned_sigma / self.sigma)
 
 
 class PosePrior:
@@ -112,7 +113,7 @@ class PosePrior:
             order = np.argsort(transitions[:, 0], kind="stable")
             self._to, self._count = transitions[order, 1], transitions[order, 2].astype(np.float64)
             self._rows = np.searchsorted(transitions[order, 0], np.arange(len(self.poses) + 1))
-            self._tree(motion.learned_sigmas(np.zeros(len(PART_BONES), bool)))
+            self._tree(motion.learned_sigmas(motion.base_sigmas()))
 
     def _tree(self, sigmas: np.ndarray) -> cKDTree:
         key = sigmas.tobytes()
@@ -129,23 +130,22 @@ class PosePrior:
             support = support[np.argsort(posterior[support])[-self.max_support :]]
         self.last_mass_used = float(posterior[support].sum() / posterior.sum())
         if self.learned:
-            return self._learned_prior(support, posterior[support], occluded_parts)
+            return self._learned_prior(support, posterior[support], sigmas)
         pairs = self._tree(sigmas).sparse_distance_matrix(cKDTree(self.poses[support] / sigmas), self.reach,
                                                         output_type="ndarray")  # fmt: skip
         weights = posterior[support][pairs["j"]] * np.exp(-0.5 * pairs["v"] ** 2)
         return np.bincount(pairs["i"], weights=weights, minlength=len(self.poses)), len(pairs)
 
-    def _learned_prior(self, support: np.ndarray, mass: np.ndarray,
-                       occluded_parts: np.ndarray) -> tuple[np.ndarray, int]:  # fmt: skip
-        """`LearnedTransitions`' mixture from the ``support`` samples holding ``mass``."""
-        starts, stops = self._rows[support], self._rows[support + 1]
-        share = np.where(stops > starts, self.motion.learned_share, 0.0)
-        rows = np.repeat(np.arange(len(support)), stops - starts)
-        moves = np.concatenate([np.arange(a, b) for a, b in zip(starts, stops, strict=True)] or [np.zeros(0, int)])
+    def _learned_prior(self, support: np.ndarray, mass: np.ndarray, sigmas: np.ndarray) -> tuple[np.ndarray, int]:
+        """`LearnedTransitions`' mixture from the ``support`` samples holding ``mass``; ``sigmas``: the frame's walk."""
+        starts, counts = self._rows[support], self._rows[support + 1] - self._rows[support]
+        share = np.where(counts > 0, self.motion.learned_share, 0.0)
+        rows = np.repeat(np.arange(len(support)), counts)  # each learned move's support sample, and its index:
+        moves = np.repeat(starts - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())
         totals = np.bincount(rows, weights=self._count[moves], minlength=len(support))
         move_mass = (mass * share)[rows] * self._count[moves] / totals[rows]
-        walk, walk_terms = self._kernels(support, mass * (1 - share), self.motion.sigmas(occluded_parts))
-        learned, learned_terms = self._kernels(self._to[moves], move_mass, self.motion.learned_sigmas(occluded_parts))
+        walk, walk_terms = self._kernels(support, mass * (1 - share), sigmas)
+        learned, learned_terms = self._kernels(self._to[moves], move_mass, self.motion.learned_sigmas(sigmas))
         return walk + learned, walk_terms + learned_terms
 
     def _kernels(self, centres: np.ndarray, mass: np.ndarray, sigmas: np.ndarray) -> tuple[np.ndarray, int]:
