@@ -165,8 +165,10 @@ class TbfTracker(Tracker):
         """The tree search's mean effort (nodes evaluated per level, and the fraction of them pruned), what the
         samples alone allow (`dictionary_floor`) and where the silhouette could not tell (`ambiguity`)."""
         frame = table["part"] == self.part_names[0]  # one row per frame
-        floor = self.dictionary_floor(np.stack(table["truth_pose"][frame]))
-        floor.update(self.ambiguity(table["frame"][frame], table["est_sample"][frame]))
+        truths = np.stack(table["truth_pose"][frame])
+        nearest, distance_mm = nearest_in_3d(self.subject, truths, self.body, self.samples.poses)
+        floor = self.dictionary_floor(truths, nearest, distance_mm)
+        floor.update(self.ambiguity(table["frame"][frame], table["est_sample"][frame], nearest))
         levels = sorted(column for column in table if column.startswith("nodes_level"))
         evaluated = [table[column][frame] for column in levels]
         kept = [table[column.replace("nodes", "kept")][frame] for column in levels]
@@ -176,32 +178,31 @@ class TbfTracker(Tracker):
                                          for k, e in zip(kept, evaluated, strict=True)],
                 **floor}  # fmt: skip
 
-    def dictionary_floor(self, truths: np.ndarray) -> dict[str, Any]:
+    def dictionary_floor(self, truths: np.ndarray, nearest: np.ndarray, distance_mm: np.ndarray) -> dict[str, Any]:
         """The best any filter could do with these samples: per frame the sample nearest the truth in 3-D
-        (root-aligned, the tracker's body against the subject's), as MPJPE (``mpjpe_floor_mm``), as joint-angle
-        error (``joint_angle_floor_deg``) and as Fig 4(c)'s swings had it been the estimate (``swings_floor``)."""
-        nearest, distance_mm = nearest_in_3d(self.subject, truths, self.body, self.samples.poses)
+        (root-aligned, the tracker's body against the subject's: ``nearest``, ``distance_mm`` from `nearest_in_3d`),
+        as MPJPE (``mpjpe_floor_mm``), as joint-angle error (``joint_angle_floor_deg``) and as Fig 4(c)'s swings had
+        it been the estimate (``swings_floor``)."""
         truth_deg = np.array([self.subject.right_arm_swing_deg(pose) for pose in truths])
         floor_deg = np.array([self.body.right_arm_swing_deg(self.samples.poses[k]) for k in nearest])
-        self._floor_samples = nearest
         return {"mpjpe_floor_mm": float(distance_mm.mean()), "floor_per_frame_mm": distance_mm.round(1).tolist(),
                 "joint_angle_floor_deg": float(joint_angle_error_deg(truths, self.samples.poses[nearest]).mean()),
                 "swings_floor": score_swings(truth_deg, floor_deg)}  # fmt: skip
 
-    def ambiguity(self, frames: np.ndarray, estimates: np.ndarray) -> dict[str, Any]:
+    def ambiguity(self, frames: np.ndarray, estimates: np.ndarray, nearest: np.ndarray) -> dict[str, Any]:
         """Per frame, whether the silhouette the filter saw is at least as near (by the run's cost, at the finest
-        level) to the estimate's sample as to the sample nearest the truth in 3-D (`dictionary_floor`): then the
+        level) to the estimate's sample as to ``nearest``, the sample nearest the truth in 3-D: then the
         cost itself prefers a pose no nearer the truth, and no filter would have done better there. A frame whose
         estimate is the floor's sample, or that failed, is not ambiguous."""
         stack = self.samples.silhouettes(self.tree.levels[-1].resolution)
         width, height = self.tree.levels[-1].resolution
         flags = []
-        for frame, estimate, nearest in zip(frames, estimates, self._floor_samples, strict=True):
-            if frame not in self._seen or not np.isfinite(estimate) or int(estimate) == int(nearest):
+        for frame, estimate, floor_sample in zip(frames, estimates, nearest, strict=True):
+            if frame not in self._seen or not np.isfinite(estimate) or int(estimate) == int(floor_sample):
                 flags.append(False)
                 continue
             seen = np.unpackbits(self._seen[frame], count=width * height).reshape(height, width) > 0
-            rows = np.array([int(estimate), int(nearest)])
+            rows = np.array([int(estimate), int(floor_sample)])
             distances = ObservationScorer(self.cost, seen, stack.window).scores_of_runs(stack.runs.subset(rows))
             flags.append(bool(distances[0] <= distances[1]))
         return {"ambiguous_frames": int(sum(flags)), "ambiguous_per_frame": flags}
