@@ -2,7 +2,7 @@
 ablation of each part of the build, and the pictures (Fig 5's strip, the error against the floor per frame).
 
 Runs are laid out ``<root>/<clip>/<variant>/`` (`experiments.real_motion`); every number comes from the run's
-``metrics.json`` and ``timings.json``.
+``metrics.json`` and ``timings.json``, as `eval.tables.collect` reads them.
 """
 
 from __future__ import annotations
@@ -15,29 +15,27 @@ import pandas as pd
 
 from eval.body_figures import error_caption, posture_strip
 from eval.figures import pyplot, save_png
+from eval.tables import collect
 
 
 def real_motion_table(root: Path, variants: dict[str, str]) -> pd.DataFrame:
     """One row per clip and variant (``variants``: folder -> what the row says), in the variants' order."""
+    runs = collect([root])
+    runs["clip"] = [Path(run).parent.name for run in runs["run"]]
+    runs["folder"] = [Path(run).name for run in runs["run"]]
     rows = []
-    for clip_dir in sorted(path for path in root.iterdir() if path.is_dir()):
+    for clip in sorted(runs["clip"].unique()):
         for folder, label in variants.items():
-            path = clip_dir / folder / "metrics.json"
-            if not path.exists():
-                continue
-            metrics = json.loads(path.read_text())
-            timings_path = path.parent / "timings.json"
-            timings = json.loads(timings_path.read_text()) if timings_path.exists() else {}
-            floor = metrics["mpjpe_floor_mm"]
-            rows.append({"clip": clip_dir.name, "build": label, "frames": metrics["frames_done"],
-                         "samples": metrics["samples"], "MPJPE mm": round(metrics["mpjpe_mm"], 1),
-                         "root-aligned mm": round(metrics["mpjpe_root_aligned_mm"], 1),
-                         "floor mm": round(floor, 1),
-                         "aligned / floor": round(metrics["mpjpe_root_aligned_mm"] / floor, 2),
-                         "joint angle °": round(metrics["joint_angle_error_deg"], 1),
-                         "floor joint angle °": round(metrics["joint_angle_floor_deg"], 1),
-                         "ambiguous frames": f"{metrics['ambiguous_frames']} of {metrics['frames_done']}",
-                         "estimation ms (median)": round(timings.get("estimate_ms_median", np.nan), 1)})  # fmt: skip
+            for run in runs[(runs["clip"] == clip) & (runs["folder"] == folder)].itertuples():
+                rows.append({"clip": clip, "build": label, "frames": run.frames, "samples": run.samples,
+                             "MPJPE mm": round(run.mpjpe_mm, 1), "root-aligned mm": round(run.mpjpe_root_aligned_mm, 1),
+                             "floor mm": round(run.mpjpe_floor_mm, 1),
+                             "aligned / floor": round(run.mpjpe_root_aligned_mm / run.mpjpe_floor_mm, 2),
+                             "joint angle °": round(run.joint_angle_error_deg, 1),
+                             "floor joint angle °": round(run.joint_angle_floor_deg, 1),
+                             "ambiguous frames": f"{run.ambiguous_frames} of {run.frames}",
+                             "estimation ms (median)": round(getattr(run, "estimate_ms_median", np.nan), 1),
+                             })  # fmt: skip
     return pd.DataFrame(rows)
 
 
