@@ -2,7 +2,7 @@
 
 `arm_grid` walks both arms of the standing body over grids of angles (`tracker.motion.posture.arms_pose`);
 `tracker.motion.arm_capture` gives a capture session of the side-on person moving the right arm in various ways;
-`clip_samples` takes every frame of BVH clips of any known skeleton (`tracker.motion.retarget`) at a chosen rate,
+`clip_sequences` takes every frame of BVH clips of any known skeleton (`tracker.motion.retarget`) at a chosen rate,
 each clip turned to face ``yaw_deg`` at its first frame and centred over the origin; `varied` turns them about the
 vertical and jitters copies, `mirrored` swaps left and right. Either gives pose vectors; `remove_near_duplicates`
 then keeps no two within ``min_joint_deg`` in every joint (the paper's rule), for
@@ -46,15 +46,10 @@ def arm_grid(
                                yaw_deg=yaw_deg) for left, swing, abduction, elbow in combinations])  # fmt: skip
 
 
-def clip_samples(body: BodyMesh, paths: Iterable[str | Path], fps: float = 30.0, yaw_deg: float = -90.0,
-                 true_fps: Sequence[float | None] | None = None) -> np.ndarray:  # fmt: skip
-    """``(n, POSE_SIZE)``: every frame of each clip at ``fps`` (each file read at its ``true_fps`` when given)."""
-    return clip_sequences(body, paths, fps, yaw_deg, true_fps)[0]
-
-
 def clip_sequences(body: BodyMesh, paths: Iterable[str | Path], fps: float = 30.0, yaw_deg: float = -90.0,
                    true_fps: Sequence[float | None] | None = None) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-    """`clip_samples` and ``(n,)`` each pose's sequence: the index of its clip."""
+    """``(n, POSE_SIZE)``: every frame of each clip at ``fps`` (each file read at its ``true_fps`` when given), and
+    ``(n,)`` each pose's sequence: the index of its clip."""
     paths = list(paths)
     rates = list(true_fps) if true_fps is not None else [None] * len(paths)
     poses = [MocapScene(str(path), fps=fps, yaw_deg=yaw_deg, true_fps=rate).poses(body)
@@ -66,11 +61,10 @@ def mirrored(poses: np.ndarray) -> np.ndarray:
     """``poses`` reflected left for right through the body frame's x = 0 plane: each rotation ``R -> M R M``
     (``M = diag(-1, 1, 1)``; a rotation vector's y and z change sign), the left and right joints swapped, and the
     root's x negated."""
-    poses = np.array(poses, dtype=np.float64)
-    rotations = poses[:, 3:].reshape(len(poses), len(JOINT_NAMES), 3) * [1.0, -1.0, -1.0]
-    out = poses.copy()
+    out = np.array(poses, dtype=np.float64)
+    rotations = out[:, 3:].reshape(len(out), len(JOINT_NAMES), 3) * [1.0, -1.0, -1.0]  # a new array
     out[:, 0] *= -1.0
-    out[:, 3:] = rotations[:, MIRROR_JOINTS].reshape(len(poses), -1)
+    out[:, 3:] = rotations[:, MIRROR_JOINTS].reshape(len(out), -1)
     return out
 
 

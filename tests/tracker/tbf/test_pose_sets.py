@@ -7,7 +7,7 @@ from tracker.models.body_skeleton import JOINT_INDEX, MIRROR_JOINTS, joint_angle
 from tracker.motion.mocap import MocapScene
 from tracker.tbf.pose_sets import (
     arm_grid,
-    clip_samples,
+    clip_sequences,
     learned_transitions,
     mirrored,
     near_duplicate_representatives,
@@ -34,11 +34,12 @@ def test_the_arm_grid_sweeps_the_right_arm_and_keeps_the_rest(body):
     np.testing.assert_array_equal(poses[:, :3], np.broadcast_to(body.rest_heads[0], (24, 3)))
 
 
-def test_clip_samples_take_every_frame_of_each_clip(body):
+def test_clip_sequences_take_every_frame_of_each_clip(body):
     paths = [MOCAP_DIR / "143_33.bvh", MOCAP_DIR / "69_20.bvh"]
-    poses = clip_samples(body, paths, fps=10.0)
+    poses, sequence = clip_sequences(body, paths, fps=10.0)
     lengths = [len(MocapScene(str(path), fps=10.0).poses(body)) for path in paths]
     assert len(poses) == sum(lengths) and lengths[0] == 30  # 360 x .0083333 s = 2.99999 s: 29 steps of 0.1 s
+    np.testing.assert_array_equal(sequence, np.repeat([0, 1], lengths))
     facing = Rotation.from_rotvec(poses[lengths[0], 3:6]).apply([0.0, -1.0, 0.0])  # the second clip's start
     assert np.degrees(np.arctan2(facing[1], facing[0])) == pytest.approx(-90.0)
 
