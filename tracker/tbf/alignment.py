@@ -112,16 +112,15 @@ class GroundPlacement:
         self.camera, self.samples, self.reference = camera, samples, reference
         self.stack = samples.silhouettes(LEVEL_RESOLUTIONS[-1])
         self.pixel = camera.width / LEVEL_RESOLUTIONS[-1][0]  # camera pixels per pixel of the finest level
-        self.anchor = samples_anchor(samples)  # for a sample without feet in view
         self._feet: dict[int, tuple[tuple[float, float], np.ndarray | None]] = {}
 
     def feet(self, sample: int) -> tuple[tuple[float, float], np.ndarray | None]:
         """A sample's feet: their pixel ``(u, v)`` at the finest level and where they meet the ground (None: above
-        the horizon)."""
+        the horizon). Every sample is in view (the window holds them all), so every one has feet."""
         if sample not in self._feet:
             u0, v0 = self.stack.window[:2]
-            found = feet_anchor(self.stack.mask(sample))
-            pixel = (found[0] + u0, found[1] + v0) if found is not None else self.anchor
+            u, v = feet_anchor(self.stack.mask(sample))
+            pixel = (u + u0, v + v0)
             self._feet[sample] = pixel, ground_point(self.camera, *(self.pixel * np.asarray(pixel)))
         return self._feet[sample]
 
