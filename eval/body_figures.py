@@ -124,11 +124,11 @@ def competing_samples(runs: Mapping[str, Path], out: Path) -> Path:
     for row, (label, run_dir) in enumerate(runs.items()):
         tracker, table = _restarted_tracker(run_dir)
         frame = int((table["swing_est_deg"] - table["swing_truth_deg"]).abs().idxmax())
-        observed = read_images(run_dir / "run.rrd", f"/world/cameras/{tracker.camera.name}/image/silhouette")[frame]
+        observed = read_images(run_dir / "run.rrd", f"/world/cameras/{tracker.cameras[0].name}/image/silhouette")[frame]
         du, dv = (int(table.loc[frame, c]) if c in table and pd.notna(table.loc[frame, c]) else 0
                   for c in ("align_du_px", "align_dv_px"))  # fmt: skip
         observed = shifted(observed.astype(bool), du, dv)
-        stack = tracker.samples.silhouettes(LEVEL_RESOLUTIONS[-1])
+        stack = tracker.samples.sets[0].silhouettes(LEVEL_RESOLUTIONS[-1])  # experiment A: one camera
         scores = ObservationScorer(tracker.cost, observed, stack.window).scores(stack)
         chosen = int(table.loc[frame, "est_sample"])
         nearest = int(nearest_in_3d(tracker.subject, np.asarray(table.loc[frame, "truth_pose"])[None], tracker.body,

@@ -1,7 +1,8 @@
 """What composition cannot check, before a run: allowed values, which options go together, components' own checks.
 
 Every rule comes from the registries (`tracker.registry`): a setting's allowed values from its type, a component's
-models, the tracker's needs and camera views from its registration. Each failure is a `ConfigError` whose message
+models and the tracker's needs from its registration, which tracker tracks which model from how many views
+from `tracker.compatibility`. Each failure is a `ConfigError` whose message
 is one line naming the key, the value and what is allowed.
 """
 
@@ -13,6 +14,7 @@ from typing import Any
 from omegaconf import DictConfig, ListConfig, OmegaConf, open_dict
 
 from experiments.schemas import GROUPS, RUN_SETTINGS
+from tracker.compatibility import fit_of
 from tracker.registry import REGISTRIES, Entry
 from tracker.settings import check_values
 
@@ -31,10 +33,11 @@ def check_config(cfg: DictConfig, choices: dict[str, str]) -> None:
         entries = chosen_entries(plain)
         for group, entry in entries.items():
             check_values(entry.fields, plain[group], f"{group}.")
-        check_combination(entries, choices)
         for group, entry in entries.items():
             if entry.check is not None:
-                entry.check(entry.settings_of(plain[group]), frames=plain["frames"], key=group)
+                entry.check(entry.settings_of(plain[group]), frames=plain["frames"], key=group,
+                            model=entries["model"].name)  # fmt: skip
+        check_combination(entries, choices, plain)
     except ValueError as error:
         raise ConfigError(str(error).splitlines()[0]) from None
 
@@ -62,14 +65,23 @@ def chosen_entries(plain: dict[str, Any]) -> dict[str, Entry]:
     return entries
 
 
-def check_combination(entries: dict[str, Entry], choices: dict[str, str]) -> None:
-    """The chosen options go together: each works with the model, the tracker has what it needs and nothing it
-    does not, and the rig has as many views as the tracker uses."""
+def check_combination(entries: dict[str, Entry], choices: dict[str, str], plain: dict[str, Any]) -> None:
+    """The chosen options go together: each works with the model, the tracker tracks it from the rig's number
+    of views (`tracker.compatibility`), and it has what it needs and nothing it does not."""
     model, tracker = entries["model"].name, entries["tracker"]
     for group, entry in entries.items():
         if entry.models is not None and model not in entry.models:
             raise ValueError(f"{group}={choices[group]} needs model={'|'.join(entry.models)}, "
                              f"not model={choices['model']}")  # fmt: skip
+    fit = fit_of(tracker.name, model)
+    try:
+        views = len(entries["rig"].build(plain["rig"]))
+    except ValueError as error:  # a camera that cannot be built
+        raise ValueError(f"rig={choices['rig']}: {error}") from None
+    if fit is not None and not fit.allows(views):
+        advice = f"; add rig={fit.rig}" if fit.rig else ""
+        raise ValueError(f"tracker={choices['tracker']} tracks model={choices['model']} from {fit.says}: "
+                         f"rig={choices['rig']} has {views}{advice}")  # fmt: skip
     missing = [group for group in tracker.needs if group not in entries]
     if missing:
         allowed = ", ".join(f"{group}={'|'.join(REGISTRIES[group].names())}" for group in missing)
@@ -79,11 +91,6 @@ def check_combination(entries: dict[str, Entry], choices: dict[str, str]) -> Non
         users = [e.name for e in REGISTRIES["tracker"] if group in e.needs]
         raise ValueError(f"{group}={choices[group]} serves {' and '.join(f'tracker={u}' for u in users)} only, "
                          f"not tracker={choices['tracker']}: add tracker={users[0]}")  # fmt: skip
-    views, rig = tracker.views, entries["rig"].views
-    if views is not None and rig is not None and not views[0] <= rig[0] <= views[1]:
-        span = f"{views[0]}" if views[0] == views[1] else f"{views[0]} to {views[1]}"
-        raise ValueError(f"tracker={choices['tracker']} uses {span} camera view(s): rig={choices['rig']} has "
-                         f"{rig[0]}")  # fmt: skip
 
 
 def unknown_key(key: str, schema: type) -> str:

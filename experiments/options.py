@@ -2,7 +2,8 @@
 ``python -m experiments.options`` prints it; ``--write`` puts it into README.md between its markers.
 
 One row per option file ``conf/<group>/<option>.yaml``: the component it builds (`tracker.registry`), what that
-component is (the first line of its docstring), its settings, and what it goes with (models, needs, views).
+component is (the first line of its docstring), its settings, and what it goes with (models, needs). Then which
+tracker tracks which model from how many camera views (`tracker.compatibility`).
 """
 
 from __future__ import annotations
@@ -12,7 +13,8 @@ import argparse
 from omegaconf import OmegaConf
 
 from experiments.schemas import CONFIG_DIR, GROUPS, SCHEMA_PREFIX
-from tracker.registry import REGISTRIES, Entry
+from tracker.compatibility import FITS
+from tracker.registry import MODELS, REGISTRIES, Entry
 
 README = CONFIG_DIR.parent / "README.md"
 BEGIN, END = "<!-- options: made by python -m experiments.options --write -->", "<!-- options: end -->"
@@ -33,11 +35,22 @@ def goes_with(entry: Entry) -> str:
     parts = []
     if entry.models:
         parts.append("model=" + "\\|".join(entry.models))
+    if entry.kind == "tracker" and entry.name in FITS:
+        parts.append("model=" + "\\|".join(FITS[entry.name]))
     parts += [f"{group}=…" for group in entry.needs]
-    if entry.views and entry.kind == "tracker":
-        low, high = entry.views
-        parts.append(f"{low} view" if low == high == 1 else f"{low}–{high} views")
     return ", ".join(parts)
+
+
+def compatibility_table() -> str:
+    """Trackers by models: the camera views each combination uses, and the rig it picks; — where it makes no
+    sense."""
+    models = MODELS.names()
+    lines = ["| tracker | " + " | ".join(f"`model={m}`" for m in models) + " |", "|---" * (len(models) + 1) + "|"]
+    for tracker, fits in FITS.items():
+        cells = [fits[m].says.replace(" camera", "") + (f", picks `rig={fits[m].rig}`" if fits[m].rig else "")
+                 if m in fits else "—" for m in models]  # fmt: skip
+        lines.append(f"| `tracker={tracker}` | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
 
 
 def table() -> str:
@@ -50,7 +63,9 @@ def table() -> str:
 
 def readme_with_table(text: str) -> str:
     head, rest = text.split(BEGIN, 1)
-    return f"{head}{BEGIN}\n{table()}\n{END}{rest.split(END, 1)[1]}"
+    made = (f"{table()}\n\nWhich tracker tracks which model, from how many camera views (a rig with another number "
+            f"fails at start, in one line; `tracker/compatibility.py`):\n\n{compatibility_table()}")
+    return f"{head}{BEGIN}\n{made}\n{END}{rest.split(END, 1)[1]}"
 
 
 def main() -> None:
@@ -60,7 +75,7 @@ def main() -> None:
         README.write_text(readme_with_table(README.read_text()))
         print(f"wrote the option table into {README}")
     else:
-        print(table())
+        print(table(), compatibility_table(), sep="\n\n")
 
 
 if __name__ == "__main__":

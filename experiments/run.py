@@ -24,7 +24,7 @@ from experiments.checks import ConfigError
 from experiments.components import import_plugins
 from experiments.job import finished_metrics, run_job
 from experiments.schemas import CONFIG_DIR, CONFIG_NAME
-from experiments.validate import plugins_named, validate_command_line
+from experiments.validate import plugins_named, validate_command_line, with_picked_rig
 
 log = logging.getLogger(__name__)
 
@@ -48,6 +48,11 @@ def main(argv: list[str] | None = None) -> None:
     argv = sys.argv[1:] if argv is None else argv
     try:
         import_plugins(plugins_named(argv))  # their components and schemas, before anything is composed
+        picked = with_picked_rig(argv, CONFIG_DIR, CONFIG_NAME)
+        if picked != argv:
+            print(f"{picked[-1]}: the tracker's rig for this model (name another rig to override)", file=sys.stderr)
+            argv = picked
+            sys.argv[1:] = picked  # what hydra.main reads
         validate_command_line(argv, CONFIG_DIR, CONFIG_NAME)
     except ConfigError as error:
         print(f"error: {error}", file=sys.stderr)

@@ -14,6 +14,7 @@ from pathlib import Path
 from hydra import compose, initialize_config_dir
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.errors import HydraException, MissingConfigException, OverrideParseException
+from omegaconf import OmegaConf
 from omegaconf.errors import (
     ConfigAttributeError,
     ConfigKeyError,
@@ -22,8 +23,9 @@ from omegaconf.errors import (
     ValidationError,
 )
 
-from experiments.checks import ConfigError, check_config, unknown_key
+from experiments.checks import ConfigError, check_config, chosen_entries, unknown_key, without_hydra
 from experiments.schemas import SCHEMA_PREFIX
+from tracker.compatibility import fit_of
 
 # Flags after which Hydra runs nothing (help, printing the config, shell completion): nothing to validate.
 _INFORMATIONAL_FLAGS = {"--help", "-h", "--hydra-help", "--cfg", "-c", "--info", "-i", "--version",
@@ -53,6 +55,35 @@ def validate_command_line(argv: list[str], config_dir: Path, config_name: str) -
             raise ConfigError(_describe(error)) from None
 
 
+def with_picked_rig(argv: list[str], config_dir: Path, config_name: str) -> list[str]:
+    """``argv`` with ``rig=<option>`` added when it names no rig and the composed rig does not fit the tracker on
+    the model while their fit names one (`tracker.compatibility.Fit.rig`; e.g. ``tracker=abis model=body_mesh``:
+    ``rig=body_multi``). A sweep gets it when every job that needs a rig needs that one."""
+    flags = {arg.split("=", 1)[0] for arg in argv if arg.startswith("-")}
+    overrides = [arg for arg in argv if not arg.startswith("-")]
+    if flags & _INFORMATIONAL_FLAGS or flags - _MULTIRUN_FLAGS or any(_key(arg) == "rig" for arg in overrides):
+        return argv
+    picked = set()
+    for combination in sweep_combinations(overrides):
+        cfg = _compose(config_dir, config_name, combination)
+        choices = cfg.hydra.runtime.choices
+        entries = chosen_entries(OmegaConf.to_container(without_hydra(cfg), resolve=True))
+        try:
+            fit = fit_of(entries["tracker"].name, entries["model"].name)
+            if fit is None or not fit.rig or fit.rig == choices["rig"]:
+                continue
+            views = len(entries["rig"].build(OmegaConf.to_container(cfg.rig, resolve=True)))
+        except (ValueError, TypeError):
+            continue  # the check says why, in one line
+        if not fit.allows(views):
+            picked.add(fit.rig)
+    return [*argv, f"rig={picked.pop()}"] if len(picked) == 1 else argv
+
+
+def _key(override: str) -> str:
+    return override.split("=", 1)[0].lstrip("+~")
+
+
 def check_output_dir(key: str, value: str) -> None:
     """The run's output folder can be made: its nearest existing ancestor is a writable folder."""
     path = Path(value).absolute()
@@ -67,7 +98,7 @@ def check_output_dir(key: str, value: str) -> None:
 
 def plugins_named(argv: list[str]) -> list[str]:
     """The modules a ``plugins=[a.b,c]`` override names (none without one)."""
-    overrides = [arg for arg in argv if not arg.startswith("-") and arg.split("=", 1)[0].lstrip("+~") == "plugins"]
+    overrides = [arg for arg in argv if not arg.startswith("-") and _key(arg) == "plugins"]
     if not overrides:
         return []
     try:

@@ -90,14 +90,18 @@ def experiment_a_run(tmp_path_factory):
                     "tracker.samples.capture.seconds=15", f"tracker.cache_dir={cache}")  # fmt: skip
 
 
+# A 6-frame TBF run (nwXOR, DM2) of the body's arm swing on a small pose grid, seen by rig=body_side's camera.
+TBF_RUN = ("model=body_mesh", "tracker=tbf", "cost=nwxor", "motion=dm2", "frames=6",
+           "tracker.samples.grid.swing_deg=[-30,60,6]", "tracker.samples.grid.abduction_deg=[0,16,8]",
+           "tracker.samples.grid.elbow_deg=[0,0,30]", "tracker.samples.grid.left_swing_deg=[0]",
+           "tracker.samples.grid.yaw_deg=[-90]")  # fmt: skip
+
+
 @pytest.fixture(scope="session")
 def tbf_run(tmp_path_factory):
-    """A 6-frame TBF run (nwXOR, DM2) of the body's arm swing on a small pose grid, through the real CLI."""
+    """`TBF_RUN` through the real CLI."""
     cache = tmp_path_factory.mktemp("tbf_cache")
-    return _cli_run(tmp_path_factory, "tbf", "model=body_mesh", "tracker=tbf", "cost=nwxor", "motion=dm2",
-                    "frames=6", f"tracker.cache_dir={cache}", "tracker.samples.grid.swing_deg=[-30,60,6]",
-                    "tracker.samples.grid.abduction_deg=[0,16,8]", "tracker.samples.grid.elbow_deg=[0,0,30]",
-                    "tracker.samples.grid.left_swing_deg=[0]", "tracker.samples.grid.yaw_deg=[-90]")  # fmt: skip
+    return _cli_run(tmp_path_factory, "tbf", *TBF_RUN, f"tracker.cache_dir={cache}")
 
 
 @pytest.fixture(scope="session")

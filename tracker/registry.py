@@ -8,13 +8,16 @@ registers its own the same way (``plugins=[my.module]`` on the command line impo
 
 A registration states what the layer above derives everything from: the component's settings (`tracker.settings`:
 its config schema, defaults and allowed values), the other kinds it needs (a tracker's cost and motion model), the
-models it works with, the camera views it can use, what it observes (``silhouettes``), and a start-time check.
+models it works with (a tracker's, and from how many views, are in `tracker.compatibility`), what it observes
+(``silhouettes``), and a start-time check.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 from typing import Any
 
 from tracker.settings import Setting, from_plain, settings_of
@@ -34,11 +37,10 @@ class Entry:
     factory: Callable[..., Any]
     settings: type | None = None
     needs: Mapping[str, str] = field(default_factory=dict)  # kind -> the option suggested when it is missing
-    models: tuple[str, ...] | None = None  # the models it works with (None: any)
-    views: tuple[int, int] | None = None  # camera views: (fewest, most) a tracker uses; a rig's (n, n)
+    models: tuple[str, ...] | None = None  # the models it works with (None: any; trackers: `tracker.compatibility`)
     observes: tuple[str, ...] = ()  # what the run must capture for it, e.g. "silhouettes"
-    # Before the run: check(settings, frames=..., key=...) raises ValueError naming the key (settings: the settings
-    # dataclass, or the component itself where it is its own settings; key: its config group).
+    # Before the run: check(settings, frames=..., key=..., model=...) raises ValueError naming the key (settings: the
+    # settings dataclass, or the component's settings as attributes; key: its config group; model: the model's name).
     check: Callable[..., None] | None = None
     evaluation: Any = None  # models: how an estimate is judged (`tracker.evaluation`)
 
@@ -58,8 +60,12 @@ class Entry:
         return " ".join(text.strip().split("\n\n")[0].split())
 
     def settings_of(self, values: Mapping[str, Any]) -> Any:
-        """What `check` is given: the settings dataclass built from plain ``values``."""
-        return from_plain(self.settings or self.factory, {k: v for k, v in values.items() if k != "_target_"})
+        """What `check` is given: the settings dataclass built from plain ``values``; for a factory function, its
+        settings as attributes (missing ones at their defaults)."""
+        values = {k: v for k, v in values.items() if k != "_target_"}
+        if self.settings is None and not dataclasses.is_dataclass(self.factory):
+            return SimpleNamespace(**{s.name: from_plain(s.hint, values.get(s.name, s.default)) for s in self.fields})
+        return from_plain(self.settings or self.factory, values)
 
     def build(self, values: Mapping[str, Any], configure: bool = False, **needed: Any) -> Any:
         """The component from plain setting ``values`` (missing ones take their defaults; ``_target_``, which

@@ -71,11 +71,19 @@ AT_START = [
      r"allowed at most 90$"),  # 360 steps of .0083333 s = 2.99999 s: 89 steps of 1/30 s
     (["model=body_mesh", "model.triangles=10"], r"^model\.triangles=10 is out of range"),
     (["cost=nwxor"], r"^cost=nwxor serves tracker=tbf only, not tracker=render_only: add tracker=tbf"),
-    (["tracker=tbf"], r"^tracker=tbf needs model=body_mesh, not model=dsq_arm$"),
+    (["tracker=tbf"], r"^tracker=tbf needs cost and motion: add cost=nwxor motion=dm2 \(allowed cost=xor\|wxor\|nwxor, "
+                      r"motion=dm1\|dm2\|learned\)$"),
+    (["tracker=abis", "model=body_mesh"], r"^tracker=abis does not track model=body_mesh: allowed model=dsq_arm$"),
+    (["model=dsq_arm", "tracker=tbf", "cost=nwxor", "motion=dm2", "tracker.align=feet"],
+     r"^tracker\.align=feet: the arm stands on no floor, allowed none$"),
     (["model=body_mesh", "tracker=tbf", "motion=dm1"],
      r"^tracker=tbf needs cost: add cost=nwxor \(allowed cost=xor\|wxor\|nwxor\)$"),
-    (["model=body_mesh", "tracker=tbf", "cost=xor", "motion=dm2", "rig=orthogonal3"],
-     r"^tracker=tbf uses 1 camera view\(s\): rig=orthogonal3 has 3$"),
+    ([*BODY_TBF, "rig=body_multi", "rig.views=[" + ",".join(f"{{name:v{k},position:[{k},-4.5,0.9]}}" for k in range(5))
+      + "]"],
+     r"^tracker=tbf tracks model=body_mesh from 1 to 4 camera views: rig=body_multi has 5$"),
+    (["rig=body_multi", "rig.views=[{name:a,position:[0,-4.5,0.9]},{name:a,position:[4.5,0,0.9]}]"],
+     r"^rig\.views: names \['a', 'a'\] repeat; allowed distinct names$"),
+    (["rig=body_multi", "rig.views=[]"], r"^rig\.views=\[\]: allowed one camera or more$"),
     (["model=body_mesh", "cost=wxor", "cost.w=-1"], r"^cost\.w=-1\.0 is out of range: allowed >= 0$"),
     (["model=body_mesh", "cost=xor", "cost.w=1"], r"^cost\.w: unknown key, allowed keys here: none$"),  # xor has no w
     (["motion=dm1", "motion.m=5"], r"^motion\.m: unknown key, allowed keys here: sigma, sigma_root_m, occlusion_area"),
@@ -92,8 +100,11 @@ AT_START = [
     (["tracker=abis", "tracker.features.max_features=0"], r"max_features=0 is out of range: allowed >= 1"),
     (["model=schema_dsq_arm"], r"^model=schema_dsq_arm is a schema, not an option"),
     (["frames=["], r"^cannot parse the overrides"),
+    (["rig=mono", "rig.position=[0.55,0,-0.2]"],
+     r"^rig=mono: camera 'main': position and target coincide \(\[0\.55, 0\.0, -0\.2\]\)$"),
     (["experiment=nope"],
-     r"^experiment=nope: no such option, allowed abis_fig8_fig9, abis_occlusion, arm_scene, tbf_paper_scale, "
+     r"^experiment=nope: no such option, allowed abis_fig8_fig9, abis_occlusion, arm_scene, tbf_multi_view, "
+     r"tbf_paper_scale, "
      r"tbf_table4c, tbf_table4c_clean$"),
     (["tracker=kalman"], r"^tracker=kalman: no such option, allowed abis, render_only, tbf$"),
     ([*BODY_TBF, "tracker.thresholds=[0.01,0.002]"], r"^tracker\.thresholds=.* has 2 values: allowed exactly 3$"),

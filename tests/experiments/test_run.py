@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 from rerun.chunk import RrdReader
 
-from tests.conftest import run_cli
+from tests.conftest import TBF_RUN, run_cli
 from tracker.models.dsq import PARAM_NAMES
 
 VIEWS = ("front", "left", "top")
@@ -130,11 +130,12 @@ def test_the_same_seed_gives_the_same_metrics_bytes_and_another_seed_differs(tmp
 
 
 def test_a_failing_run_records_why_and_keeps_its_outputs_readable(tmp_path):
-    # A camera placed on its own target cannot be built: the run fails after Hydra started it.
-    result = run_cli(tmp_path / "out", "rig=mono", "rig.position=[0.55,0,-0.2]", "frames=2", cwd=tmp_path)
+    # The tracker's samples fall outside a camera looking away: the run fails after Hydra started it.
+    result = run_cli(tmp_path / "out", *TBF_RUN, "rig.target=[0,9,0.9]", f"tracker.cache_dir={tmp_path}/c",
+                     cwd=tmp_path)  # fmt: skip
     assert result.returncode == 1
     metrics = json.loads((tmp_path / "out" / "metrics.json").read_text())
-    assert metrics["status"] == "failed: ValueError: camera 'main': position and target coincide ([0.55, 0.0, -0.2])"
+    assert metrics["status"] == "failed: ValueError: the pose samples are not in the camera's view"
     assert metrics["frames_done"] == 0
     assert pd.read_parquet(tmp_path / "out" / "frames.parquet").empty
     assert not [p for p in (tmp_path / "out").iterdir() if p.name.endswith(".tmp")]

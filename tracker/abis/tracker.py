@@ -176,7 +176,7 @@ class AbisResult(StepResult):
         return cls(part_columns=columns, series=series, points=points, **fields)
 
 
-@TRACKERS.register("abis", settings=AbisSettings, models=("dsq_arm",))
+@TRACKERS.register("abis", settings=AbisSettings)
 class AbisTracker(Tracker):
     """`start` with the model, the cameras and the frame-0 truth; then `step` once per frame; `close`."""
 

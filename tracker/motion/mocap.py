@@ -138,7 +138,7 @@ def read_body_clip(path: str, key: str, true_fps: float | None = None) -> BvhCli
         raise ValueError(f"{key}={path}: {message}") from None
 
 
-def check_clip(scene: MocapScene, frames: int, key: str) -> None:
+def check_clip(scene: MocapScene, frames: int, key: str, model: str) -> None:
     """Before a run: the scene's file is a readable clip of a known skeleton holding ``frames`` frames from its start.
     Raises ``ValueError`` naming the config keys (``key``: the scene's, e.g. ``scene``)."""
     clip = read_body_clip(scene.path, f"{key}.path", scene.true_fps)

@@ -25,6 +25,7 @@ on the held-out walk 69_20; scaling by the silhouettes' areas instead did worse,
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import cv2
@@ -32,7 +33,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from tracker.geometry.cameras import Camera
-from tracker.tbf.samples import LEVEL_RESOLUTIONS, PoseSampleSet
+from tracker.tbf.samples import LEVEL_RESOLUTIONS, PoseSampleSet, SampleViews
 
 FEET_BAND = 0.06  # the bottom this fraction of a silhouette's height holds the feet
 ANCHOR_SAMPLES = 200  # samples whose feet give the set's anchor, picked evenly through it
@@ -167,3 +168,67 @@ class GroundPlacement:
         """The direction (radians about the vertical) from the camera to a point."""
         offset = point - self.camera.position
         return float(np.arctan2(offset[1], offset[0]))
+
+
+def nearest_to_rays(origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """The point nearest (least squares) to every ray ``origins[k] + t directions[k]``: ``sum_k (I - d_k d_k^T)``
+    solved against ``sum_k (I - d_k d_k^T) o_k``. Needs two rays that are not parallel."""
+    directions = directions / np.linalg.norm(directions, axis=1, keepdims=True)
+    projectors = np.eye(3)[None] - directions[:, :, None] * directions[:, None, :]
+    return np.linalg.solve(projectors.sum(axis=0), np.einsum("kij,kj->i", projectors, origins))
+
+
+class ViewsPlacement:
+    """``align="ground"`` from two or more calibrated views (see the module docstring). ``reference``: the sample
+    whose centroids' rays give the samples' spot (the last estimate's; at first the initial prior's)."""
+
+    def __init__(self, cameras: Sequence[Camera], samples: SampleViews, reference: int) -> None:
+        self.cameras, self.samples, self.reference = tuple(cameras), samples, reference
+        self.stacks = samples.silhouettes(LEVEL_RESOLUTIONS[-1])
+        self.pixels = [camera.width / LEVEL_RESOLUTIONS[-1][0] for camera in self.cameras]
+        self._spots: dict[int, np.ndarray] = {}
+
+    def spot(self, sample: int) -> np.ndarray:
+        """Where the rays through a sample's silhouette centroids cross."""
+        if sample not in self._spots:
+            centroids = []
+            for stack in self.stacks:
+                v, u = np.nonzero(stack.mask(sample))
+                centroids.append(np.array([u.mean() + stack.window[0], v.mean() + stack.window[1]]))
+            self._spots[sample] = nearest_to_rays(*self._rays(centroids))
+        return self._spots[sample]
+
+    def _rays(self, centroids: Sequence[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """Each view's ray through its centroid (finest-level pixels): origins and directions."""
+        directions = [camera.rotation @ np.array([(pixel * u - camera.cx) / camera.fx,
+                                                  (pixel * v - camera.cy) / camera.fy, 1.0])
+                      for camera, pixel, (u, v) in zip(self.cameras, self.pixels, centroids, strict=True)]  # fmt: skip
+        return np.array([camera.position for camera in self.cameras]), np.array(directions)
+
+    def place(self, observed: Sequence[np.ndarray]) -> tuple[list[np.ndarray], np.ndarray] | None:
+        """Each view's silhouette (finest level) as if the person stood on the samples' spot, and his offset from
+        it across the floor (None: someone is out of a view)."""
+        centroids = []
+        for mask in observed:
+            v, u = np.nonzero(mask)
+            if not len(u):
+                return None
+            centroids.append(np.array([u.mean(), v.mean()]))
+        spot = self.spot(self.reference)
+        offset = np.array([*(nearest_to_rays(*self._rays(centroids)) - spot)[:2], 0.0])  # his height: the samples'
+        placed = []
+        for camera, pixel, mask in zip(self.cameras, self.pixels, observed, strict=True):
+            (there, here), depths = camera.project(np.array([spot + offset, spot]))
+            scale = float(depths[0] / depths[1])
+            (a, b), (u, v) = here / pixel, there / pixel
+            warp = np.array([[scale, 0.0, a - scale * u], [0.0, scale, b - scale * v]])
+            moved = cv2.warpAffine(mask.astype(np.float32), warp, mask.shape[::-1], flags=cv2.INTER_LINEAR)
+            placed.append(moved >= 0.5)
+        return placed, offset
+
+    def pose(self, sample: int, offset: np.ndarray) -> np.ndarray:
+        """The estimate: sample ``sample`` moved across the floor by ``offset``; it becomes the next reference."""
+        self.reference = sample
+        pose = np.asarray(self.samples.poses[sample], dtype=np.float64).copy()
+        pose[:3] += offset
+        return pose

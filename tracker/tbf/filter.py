@@ -1,6 +1,7 @@
 """Silhouette tree-based filtering (paper 2, sections 5.3 and 6).
 
-Per frame, given the observed silhouette P_o:
+Per frame, given the observed silhouette P_o (one per view with several cameras: a node's likelihood is the
+product of its views' likelihoods, its log-likelihood the sum of theirs, each view with its own sigma):
     prior     eq 14 at every sample from the previous posterior (`PosePrior`, sparse), occlusion flags of the
               previous estimate widening the occluded parts' sigmas (DM2);
     levels    from the top: the nodes under the surviving nodes of the level above are scored by their
@@ -32,8 +33,8 @@ from tracker.observe.silhouettes import resize_silhouette
 from tracker.ranges import Positive, Range
 from tracker.settings import validate
 from tracker.tbf.distances import Cost, ObservationScorer
-from tracker.tbf.motion import PosePrior, RandomWalk
-from tracker.tbf.samples import PoseSampleSet
+from tracker.tbf.motion import BODY_SPACE, PosePrior, PoseSpace, RandomWalk
+from tracker.tbf.samples import PoseSampleSet, SampleViews
 from tracker.tbf.tree import PoseTree
 from tracker.timing import elapsed_ms
 from tracker.tol import NEGLIGIBLE_PRIOR, TINY
@@ -43,12 +44,17 @@ CALIBRATION_SAMPLES = 200
 
 @dataclass(frozen=True)
 class FilterSettings:
-    """Eq 10's sigma, the pruning threshold and frame 0's prior."""
+    """Eq 10's sigma, the pruning threshold, frame 0's prior and the prior's share spread over every sample."""
 
     likelihood_sigma: Positive = 1.0  # eq 10's sigma, in units of the cost's neighbour step at each level
-    # Keep a node whose posterior is at least this fraction of its level's best.
+    # Keep a node whose posterior is at least this fraction of its level's best (per view: with V views, this to
+    # the power V, as the views' likelihoods multiply).
     prune_fraction: Annotated[float, Range(0.0, 1.0, high_open=True)] = 0.01
     initial_sigma: Positive = 0.3  # frame 0's prior: N(initial pose, this sigma on every joint component)
+    # The share of each frame's prior spread evenly over every sample (0: eq 14 alone, the paper's). In a pose
+    # space of many joints the motion model's steps reach only the samples next to the last posterior; this share
+    # lets the likelihood find the pose anywhere in the tree, as a detector would, when the views can tell.
+    jump_share: Annotated[float, Range(0.0, 1.0, high_open=True)] = 0.0
 
     def __post_init__(self) -> None:
         validate(self)
@@ -57,7 +63,7 @@ class FilterSettings:
 def neighbour_scale(samples: PoseSampleSet, cost: Cost, resolution: tuple[int, int],
                     count: int = CALIBRATION_SAMPLES) -> float:  # fmt: skip
     """The median distance (with ``cost``, at ``resolution``) from a sample's silhouette, taken as the
-    observation, to the nearest other sample's; over ``count`` samples picked evenly through the set."""
+    observation, to the nearest other sample's; over ``count`` samples picked evenly through the set (one view's)."""
     stack = samples.silhouettes(resolution)
     u0, v0, u1, v1 = stack.window
     full = np.zeros((v1, u1), bool)
@@ -74,6 +80,14 @@ def neighbour_scale(samples: PoseSampleSet, cost: Cost, resolution: tuple[int, i
     if not nearest:
         raise ValueError("no two samples' silhouettes differ: the sample set cannot be told apart")
     return float(np.median(nearest))
+
+
+def summed(terms) -> np.ndarray:
+    """The views' terms added up, in the views' order (one view: its term as it is)."""
+    total = None
+    for term in terms:
+        total = term if total is None else total + term
+    return total
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,28 +110,37 @@ def _identity(cost: Cost) -> str:
 
 
 class TreeFilter:
-    """Paper 2's filter over ``samples`` and their ``tree`` (``transitions``: for `LearnedTransitions`)."""
+    """Paper 2's filter over ``samples`` (one view's set, or several views') and their ``tree`` (``transitions``:
+    for `LearnedTransitions`; ``space``: what the pose vectors hold, the body's or the arm's)."""
 
-    def __init__(self, samples: PoseSampleSet, tree: PoseTree, cost: Cost, motion: RandomWalk,
+    def __init__(self, samples: PoseSampleSet | SampleViews, tree: PoseTree, cost: Cost, motion: RandomWalk,
                  settings: FilterSettings = FilterSettings(),
-                 transitions: np.ndarray | None = None) -> None:  # fmt: skip
+                 transitions: np.ndarray | None = None, space: PoseSpace = BODY_SPACE) -> None:  # fmt: skip
+        samples = SampleViews.of(samples)
         self.samples, self.tree, self.cost, self.motion, self.settings = samples, tree, cost, motion, settings
-        self._prior = PosePrior(samples.poses, motion, transitions=transitions)
+        self.space = space
+        self._prior = PosePrior(samples.poses, motion, transitions=transitions, space=space)
         self._stacks = [samples.silhouettes(level.resolution) for level in tree.levels]
-        # Each level's representatives' runs in node order (a level scored whole reads them straight through).
-        self.level_runs = [stack.runs.subset(level.representatives)
-                            for stack, level in zip(self._stacks, tree.levels, strict=True)]  # fmt: skip
+        # Per level and view, the representatives' runs in node order (a level scored whole reads them straight
+        # through).
+        self.level_runs = [tuple(stack.runs.subset(level.representatives) for stack in stacks)
+                           for stacks, level in zip(self._stacks, tree.levels, strict=True)]  # fmt: skip
         self._occluded = samples.occluded(motion.occlusion_area_px)
-        self.level_sigmas = [settings.likelihood_sigma * samples.derived(
+        # Per level, each view's sigma (eq 10): its own neighbour step.
+        self.level_sigmas = [tuple(settings.likelihood_sigma * view.derived(
             f"neighbour_scale {_identity(cost)} {level.resolution[0]}x{level.resolution[1]} {CALIBRATION_SAMPLES}",
-            lambda resolution=level.resolution: neighbour_scale(samples, cost, resolution)) for level in tree.levels]
+            lambda resolution=level.resolution, view=view: neighbour_scale(view, cost, resolution))
+            for view in samples.sets) for level in tree.levels]  # fmt: skip
+        # Pruning keeps nodes within this of the level's best log-posterior: prune_fraction per view, as each view
+        # adds its own log-likelihood (one view: the paper's).
+        self.prune_log = len(samples.sets) * np.log(max(settings.prune_fraction, TINY))
         self._posterior: np.ndarray | None = None
         self._previous_flags: np.ndarray | None = None
         self.last_evaluated: list[np.ndarray] = []  # per level, the nodes the last step scored
 
     def start(self, initial_pose: np.ndarray) -> None:
         """Frame 0's prior: a Gaussian around ``initial_pose`` (the paper: upright, facing the camera)."""
-        sigmas = self.motion.base_sigmas() / self.motion.sigma * self.settings.initial_sigma
+        sigmas = self.motion.base_sigmas(self.space) / self.motion.sigma * self.settings.initial_sigma
         z = (np.asarray(self.samples.poses) - initial_pose) / sigmas
         log_prior = -0.5 * np.einsum("nk,nk->n", z, z)
         posterior = np.exp(log_prior - log_prior.max())
@@ -127,8 +150,10 @@ class TreeFilter:
         self._previous_flags = self._occluded[self.initial_sample]
         self._first = True
 
-    def step(self, observed: np.ndarray) -> FilterResult:
-        """One frame: ``observed`` is the ``(h, w)`` bool silhouette at the finest level's resolution."""
+    def step(self, observed: np.ndarray | tuple[np.ndarray, ...]) -> FilterResult:
+        """One frame: ``observed`` is the ``(h, w)`` bool silhouette at the finest level's resolution, or one per
+        view in the views' order."""
+        observed = (observed,) if isinstance(observed, np.ndarray) else tuple(observed)
         timings: dict[str, float] = {}
         start = time.perf_counter()
         if self._first:  # frame 0's prior is the initial Gaussian itself
@@ -136,6 +161,8 @@ class TreeFilter:
             self._first = False
         else:
             prior, terms = self._prior.prior(self._posterior, self._previous_flags)
+            if self.settings.jump_share > 0:
+                prior = (1 - self.settings.jump_share) * prior / prior.sum() + self.settings.jump_share / len(prior)
         timings["prior"] = elapsed_ms(start)
         leaves, leaf_likelihood, evaluated, kept = self._descend(prior, observed, timings)
         start = time.perf_counter()
@@ -158,7 +185,7 @@ class TreeFilter:
                             prior_terms=terms, entropy=float(-(nonzero * np.log(nonzero)).sum()),
                             timings_ms=timings)  # fmt: skip
 
-    def _descend(self, prior: np.ndarray, observed: np.ndarray,
+    def _descend(self, prior: np.ndarray, observed: tuple[np.ndarray, ...],
                  timings: dict[str, float]) -> tuple[np.ndarray, np.ndarray, list[int], list[int]]:  # fmt: skip
         """Level by level from the top, the nodes under the survivors scored and pruned: the surviving leaves, their
         log-likelihoods, and per level the nodes evaluated and kept."""
@@ -172,12 +199,12 @@ class TreeFilter:
             nodes, mass = nodes[mass > 0], mass[mass > 0]
             if len(nodes) == 0:
                 raise RuntimeError("the prior gives no sample any weight")
-            observation = self.observation_at(k, observed)
-            distances = self.score_level(k, observation, None if len(nodes) == len(level) else nodes)
+            observations = tuple(self.observation_at(k, view) for view in observed)
+            distances = self.score_level(k, observations, None if len(nodes) == len(level) else nodes)
             self.last_evaluated.append(nodes)
-            log_likelihood = -0.5 * (distances / self.level_sigmas[k]) ** 2
+            log_likelihood = self.log_likelihood(k, distances)
             log_posterior = log_likelihood + np.log(mass)
-            keep = log_posterior >= log_posterior.max() + np.log(max(self.settings.prune_fraction, TINY))
+            keep = log_posterior >= log_posterior.max() + self.prune_log
             evaluated.append(len(nodes))
             kept.append(int(keep.sum()))
             survivors, node_likelihood = nodes[keep], log_likelihood[keep]
@@ -189,8 +216,16 @@ class TreeFilter:
         resolution = tuple(self.tree.levels[level].resolution)
         return observed if observed.shape[::-1] == resolution else resize_silhouette(observed, *resolution)
 
-    def score_level(self, level: int, observation: np.ndarray, nodes: np.ndarray | None = None) -> np.ndarray:
-        """Distances to the representatives of ``nodes`` of ``level`` (all of them for None)."""
-        scorer = ObservationScorer(self.cost, observation, self._stacks[level].window)
-        return scorer.scores_of_runs(self.level_runs[level], nodes)
+    def score_level(self, level: int, observations: tuple[np.ndarray, ...],
+                    nodes: np.ndarray | None = None) -> list[np.ndarray]:  # fmt: skip
+        """Per view, the distances of its observation (at ``level``'s resolution) to the representatives of
+        ``nodes`` of ``level`` (all of them for None)."""
+        return [ObservationScorer(self.cost, observation, stack.window).scores_of_runs(runs, nodes)
+                for observation, stack, runs in zip(observations, self._stacks[level], self.level_runs[level],
+                                                    strict=True)]  # fmt: skip
+
+    def log_likelihood(self, level: int, distances: list[np.ndarray]) -> np.ndarray:
+        """Eq 10 at ``level`` from each view's distances: the sum over views of ``-d^2 / 2 sigma^2``, the log of the
+        product of the views' likelihoods."""
+        return summed(-0.5 * (d / sigma) ** 2 for d, sigma in zip(distances, self.level_sigmas[level], strict=True))
 

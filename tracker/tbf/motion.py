@@ -1,7 +1,8 @@
 """Paper 2's motion models over pose samples (section 4, eq 3-5) and the prior they give (eq 14).
 
 DM1 (`RandomWalk`, ``motion=dm1``): ``p(x_t | x_{t-1}) = N(x_{t-1}, Sigma)``, ``Sigma = diag(sigma_j^2)``: a random
-walk with ``sigma`` (radians) on every joint rotation component and ``sigma_root_m`` on the root position.
+walk with ``sigma`` (radians) on every angle of the pose vector and ``sigma_root_m`` on every length (the root's
+position; a DSQ part's bend). What a pose vector holds is its model's `PoseSpace` (the body's: `BODY_SPACE`).
 DM2 (`OccludedWiderWalk`, ``motion=dm2``): the same with ``sigma_j * m`` for the joints of the parts flagged occluded
 (eq 3: area below T_A) in the previous estimate.
 Learned (`LearnedTransitions`, ``motion=learned``; paper 2's reference [19], Thayananthan, Stenger, Torr and
@@ -25,7 +26,7 @@ support is reported per frame (`PosePrior.last_mass_used`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Annotated
 
 import numpy as np
@@ -35,6 +36,22 @@ from tracker.models.body_skeleton import JOINT_INDEX, PART_BONES, POSE_SIZE
 from tracker.ranges import Fraction, NonNegative, Positive, Range
 from tracker.registry import MOTION_MODELS
 from tracker.settings import validate
+
+
+@dataclass(frozen=True)
+class PoseSpace:
+    """What a model's pose vector holds, as the motion models need it: its size, which components are lengths
+    (metres; the others are angles, radians) and which components move each part (DM2 widens those of an
+    occluded part)."""
+
+    size: int
+    lengths: tuple[int, ...]
+    part_components: tuple[tuple[int, ...], ...] = field(default=())
+
+
+# The body's pose vector (`tracker.models.body_skeleton`): the root's position, then each joint's rotation vector.
+BODY_SPACE = PoseSpace(POSE_SIZE, (0, 1, 2), tuple(
+    tuple(3 + 3 * JOINT_INDEX[bone] + axis for bone in bones for axis in range(3)) for bones in PART_BONES.values()))
 
 
 @MOTION_MODELS.register("dm1")
@@ -49,16 +66,16 @@ class RandomWalk:
     def __post_init__(self) -> None:
         validate(self)
 
-    def base_sigmas(self) -> np.ndarray:
-        """``(POSE_SIZE,)`` the DM1 standard deviation of each pose component."""
-        sigmas = np.full(POSE_SIZE, self.sigma)
-        sigmas[:3] = self.sigma_root_m
+    def base_sigmas(self, space: PoseSpace = BODY_SPACE) -> np.ndarray:
+        """``(space.size,)`` the DM1 standard deviation of each pose component."""
+        sigmas = np.full(space.size, self.sigma)
+        sigmas[list(space.lengths)] = self.sigma_root_m
         return sigmas
 
-    def sigmas(self, occluded_parts: np.ndarray) -> np.ndarray:
-        """``(POSE_SIZE,)`` eq 5's sigma' given the previous estimate's occlusion flags ``(parts,)`` (DM1: none
+    def sigmas(self, occluded_parts: np.ndarray, space: PoseSpace = BODY_SPACE) -> np.ndarray:
+        """``(space.size,)`` eq 5's sigma' given the previous estimate's occlusion flags ``(parts,)`` (DM1: none
         widened)."""
-        return self.base_sigmas()
+        return self.base_sigmas(space)
 
 
 @MOTION_MODELS.register("dm2")
@@ -68,13 +85,11 @@ class OccludedWiderWalk(RandomWalk):
 
     m: Annotated[float, Range(1.0, math.inf)] = 5.0  # the paper's factor
 
-    def sigmas(self, occluded_parts: np.ndarray) -> np.ndarray:
-        sigmas = self.base_sigmas()
-        for part, bones in enumerate(PART_BONES.values()):
+    def sigmas(self, occluded_parts: np.ndarray, space: PoseSpace = BODY_SPACE) -> np.ndarray:
+        sigmas = self.base_sigmas(space)
+        for part, components in enumerate(space.part_components):
             if occluded_parts[part]:
-                for bone in bones:
-                    start = 3 + 3 * JOINT_INDEX[bone]
-                    sigmas[start : start + 3] *= self.m
+                sigmas[list(components)] *= self.m
         return sigmas
 
 
@@ -88,23 +103,24 @@ class LearnedTransitions(OccludedWiderWalk):
     learned_sigma: Positive = 0.05  # radians: the spread about a learned successor (metres: sigma_root_m's share)
 
     def learned_sigmas(self, walk_sigmas: np.ndarray) -> np.ndarray:
-        """``(POSE_SIZE,)`` the learned kernel's standard deviations: DM2's (``walk_sigmas``, `sigmas`), scaled by
+        """``(size,)`` the learned kernel's standard deviations: DM2's (``walk_sigmas``, `sigmas`), scaled by
         learned_sigma / sigma."""
         return walk_sigmas * (self.learned_sigma / self.sigma)
 
 
 class PosePrior:
     """Eq 14 over a fixed sample set, sparse (see the module docstring); with `LearnedTransitions`, its mixture
-    over the learned ``transitions`` (``(m, 3)`` rows ``from, to, count``)."""
+    over the learned ``transitions`` (``(m, 3)`` rows ``from, to, count``). ``space``: what the poses hold."""
 
     def __init__(self, poses: np.ndarray, motion: RandomWalk, reach: float = 4.0, support_fraction: float = 1e-4,
-                 max_support: int = 256, transitions: np.ndarray | None = None):  # fmt: skip
+                 max_support: int = 256, transitions: np.ndarray | None = None,
+                 space: PoseSpace = BODY_SPACE):  # fmt: skip
         self.poses = np.asarray(poses, dtype=np.float64)
-        self.motion, self.reach = motion, reach
+        self.motion, self.reach, self.space = motion, reach, space
         self.support_fraction, self.max_support = support_fraction, max_support
         self._trees: dict[bytes, cKDTree] = {}
         self.last_mass_used = 1.0
-        self._tree(motion.base_sigmas())  # the no-occlusion tree up front (~0.1 s at 57k samples), not in a frame
+        self._tree(motion.base_sigmas(space))  # the no-occlusion tree up front (~0.1 s at 57k samples), not in a frame
         self.learned = isinstance(motion, LearnedTransitions)
         if self.learned:
             if transitions is None or not len(transitions):
@@ -113,7 +129,7 @@ class PosePrior:
             order = np.argsort(transitions[:, 0], kind="stable")
             self._to, self._count = transitions[order, 1], transitions[order, 2].astype(np.float64)
             self._rows = np.searchsorted(transitions[order, 0], np.arange(len(self.poses) + 1))
-            self._tree(motion.learned_sigmas(motion.base_sigmas()))
+            self._tree(motion.learned_sigmas(motion.base_sigmas(space)))
 
     def _tree(self, sigmas: np.ndarray) -> cKDTree:
         key = sigmas.tobytes()
@@ -124,7 +140,7 @@ class PosePrior:
     def prior(self, posterior: np.ndarray, occluded_parts: np.ndarray) -> tuple[np.ndarray, int]:
         """``(N,)`` unnormalised eq 14 at every sample (0 where beyond reach) and the number of kernel terms
         evaluated."""
-        sigmas = self.motion.sigmas(occluded_parts)
+        sigmas = self.motion.sigmas(occluded_parts, self.space)
         support = np.flatnonzero(posterior >= self.support_fraction * posterior.max())
         if len(support) > self.max_support:
             support = support[np.argsort(posterior[support])[-self.max_support :]]
@@ -162,5 +178,5 @@ class PosePrior:
 
     def dense_prior(self, posterior: np.ndarray, occluded_parts: np.ndarray) -> np.ndarray:
         """The same sum over every pair (the naive N x N reference; small sets only)."""
-        z = (self.poses[:, None] - self.poses[None]) / self.motion.sigmas(occluded_parts)
+        z = (self.poses[:, None] - self.poses[None]) / self.motion.sigmas(occluded_parts, self.space)
         return np.exp(-0.5 * np.einsum("nik,nik->ni", z, z)) @ posterior

@@ -1,8 +1,9 @@
 """Building a pose sample set (`tracker.tbf.samples`): in shards, over processes, resumable; and `load_or_build`.
 
-1. Layout: every pose is skinned and projected (in batches, `BodyMesh.posed_vertices`) to find the window W (all
-   vertices, 1 px margin, aligned to whole coarsest pixels, kept inside the image) and the tile rendered (W widened
-   to hold every vertex, so that no pose spills into a neighbour's tile where the window was cut by the image).
+1. Layout: every pose is posed and projected (in batches, `Posable.posed_vertices`: the body's or the arm's) to
+   find the window W (all vertices, 1 px margin, aligned to whole coarsest pixels, kept inside the image) and the
+   tile rendered (W widened to hold every vertex, so that no pose spills into a neighbour's tile where the window
+   was cut by the image).
 2. Shards of ``shard_size`` poses are rendered by `tracker.render.labels.LabelRenderer` (many poses per draw call)
    on joblib's processes (``backend="loky"``) or on Ray (``backend="ray"``), each shard's labels reduced to every
    resolution, its areas counted and its runs found. The parent writes each finished shard into the set's arrays
@@ -30,14 +31,20 @@ from tqdm import tqdm
 
 from tracker.atomic import atomic_path, exclusive
 from tracker.geometry.cameras import Camera, resized
-from tracker.models.body_mesh import BodyMesh
-from tracker.models.body_skeleton import PART_NAMES
 from tracker.ranges import Range
 from tracker.sequence import label_areas
 from tracker.settings import validate
 from tracker.tbf import sample_store
 from tracker.tbf.distances import SilhouetteRuns, Window
-from tracker.tbf.samples import RESOLUTIONS, PoseSampleSet, cache_key, labels_name, reduce_labels, resolution_factor
+from tracker.tbf.samples import (
+    RESOLUTIONS,
+    Posable,
+    PoseSampleSet,
+    cache_key,
+    labels_name,
+    reduce_labels,
+    resolution_factor,
+)
 from tracker.tol import MIN_DEPTH_M
 
 log = logging.getLogger(__name__)
@@ -72,7 +79,7 @@ class Layout:
     near: float
 
 
-def load_or_build(body: BodyMesh, camera: Camera, poses: np.ndarray, cache_dir: str | Path, resolutions=RESOLUTIONS,
+def load_or_build(body: Posable, camera: Camera, poses: np.ndarray, cache_dir: str | Path, resolutions=RESOLUTIONS,
                   progress: bool | None = None, build: BuildSettings | None = None,
                   check: Literal["sampled", "full"] = "sampled") -> PoseSampleSet:  # fmt: skip
     """The sample set of ``poses`` (already de-duplicated) seen by ``camera``: from the cache when it is intact
@@ -93,7 +100,7 @@ def load_or_build(body: BodyMesh, camera: Camera, poses: np.ndarray, cache_dir: 
         return sample_store.load(folder, key, resolutions, check)
 
 
-def build_set(body: BodyMesh, camera: Camera, poses: np.ndarray, folder: Path, resolutions,
+def build_set(body: Posable, camera: Camera, poses: np.ndarray, folder: Path, resolutions,
               settings: BuildSettings, progress: bool | None = None) -> None:  # fmt: skip
     """Render ``poses`` into the set at ``folder`` (its name: the set's key), resuming a killed build."""
     building = folder.parent / f".{folder.name}.building"
@@ -107,7 +114,7 @@ def build_set(body: BodyMesh, camera: Camera, poses: np.ndarray, folder: Path, r
                for res, factor in zip(resolutions, factors, strict=True)}  # fmt: skip
     labels = {res: _array(building, labels_name(res), (len(poses), w[3] - w[1], w[2] - w[0]), np.uint8)
               for res, w in windows.items()}  # fmt: skip
-    areas = _array(building, "areas", (len(poses), len(PART_NAMES)), np.int64)
+    areas = _array(building, "areas", (len(poses), len(body.part_names)), np.int64)
     todo = [k for k in range(len(shards)) if not (building / f"shard{k}.done").exists()]
     if len(todo) < len(shards):
         log.info("resuming the build of %s: %d of %d shards done", folder.name, len(shards) - len(todo), len(shards))
@@ -128,7 +135,7 @@ def build_set(body: BodyMesh, camera: Camera, poses: np.ndarray, folder: Path, r
     _finish(building, folder, poses, shards, resolutions, windows)
 
 
-def render_shard(body: BodyMesh, camera: Camera, poses: np.ndarray, layout: Layout, factors: list[int],
+def render_shard(body: Posable, camera: Camera, poses: np.ndarray, layout: Layout, factors: list[int],
                  shard: int = 0) -> dict:  # fmt: skip
     """One shard's label images cropped to the window at every resolution (finest first, by ``factors``), each
     part's area at the finest, and the runs of inside pixels at every resolution."""
@@ -140,12 +147,12 @@ def render_shard(body: BodyMesh, camera: Camera, poses: np.ndarray, layout: Layo
         pixels, depth = project(camera, body.posed_vertices(poses[first : first + SKIN_BATCH]))
         images = renderer.render(pixels - [t0, s0], depth, layout.near)[:, v0 - s0 : v1 - s0, u0 - t0 : u1 - t0]
         crops.append(images)
-        areas.append(label_areas(images, len(PART_NAMES)))
+        areas.append(label_areas(images, len(body.part_names)))
     finest = np.concatenate(crops)
     labels, runs = {}, {}
     for factor in factors:
         resolution = (camera.width // factor, camera.height // factor)
-        labels[resolution] = reduce_labels(finest, factor, len(PART_NAMES))
+        labels[resolution] = reduce_labels(finest, factor, len(body.part_names))
         found = SilhouetteRuns.from_masks(labels[resolution])
         runs[resolution] = {"starts": found.starts, "ends": found.ends, "counts": np.diff(found.ptr)}
     return {"shard": shard, "labels": labels, "areas": np.concatenate(areas), "runs": runs}
@@ -157,7 +164,7 @@ def project(camera: Camera, vertices: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return uv.reshape(*vertices.shape[:-1], 2), depth.reshape(vertices.shape[:-1])
 
 
-def shard_bounds(body: BodyMesh, camera: Camera, poses: np.ndarray) -> list[float]:
+def shard_bounds(body: Posable, camera: Camera, poses: np.ndarray) -> list[float]:
     """The projected vertices' bounding box ``[u_min, v_min, u_max, v_max]`` and their smallest depth."""
     low, high, nearest = np.full(2, np.inf), np.full(2, -np.inf), np.inf
     for first in range(0, len(poses), SKIN_BATCH):
@@ -168,7 +175,7 @@ def shard_bounds(body: BodyMesh, camera: Camera, poses: np.ndarray) -> list[floa
     return [*map(float, low), *map(float, high), nearest]
 
 
-def _layout(building: Path, body: BodyMesh, camera: Camera, poses: np.ndarray, shards: list[slice], align: int,
+def _layout(building: Path, body: Posable, camera: Camera, poses: np.ndarray, shards: list[slice], align: int,
             settings: BuildSettings) -> Layout:  # fmt: skip
     """The build's layout: computed once (in shards) and kept in the building folder, so a resumed build keeps
     the window its finished shards were cropped to."""
@@ -241,7 +248,7 @@ def _run(tasks, settings: BuildSettings) -> Iterator:
 _RENDERERS: dict[tuple, object] = {}
 
 
-def _renderer(body: BodyMesh, width: int, height: int):
+def _renderer(body: Posable, width: int, height: int):
     """A label renderer of ``body``'s topology for tiles of ``width`` x ``height``, one per process and kind."""
     from tracker.render.labels import LabelRenderer
 

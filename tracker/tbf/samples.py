@@ -10,6 +10,9 @@ posed vertices, 1 px margin, widened to whole coarsest pixels), which is also th
 distances (`tracker.tbf.distances`). Each part's projected area A_j (eq 3) is counted at the finest resolution, and
 each silhouette's runs of inside pixels (`tracker.tbf.distances.SilhouetteRuns`) are kept at every resolution.
 
+Several cameras see the same poses as several sets, one per view (`SampleViews`): the tree and the filter work on
+the views together.
+
 `tracker.tbf.sample_build.load_or_build` gives a set: from the cache (`tracker.tbf.sample_store`:
 ``<cache_dir>/<key>/``, the key a hash of everything that affects the content; loaded without reading every byte,
 a stale or corrupt set rebuilt, never used) or built (batched rendering, in shards over processes, resumable).
@@ -17,18 +20,36 @@ a stale or corrupt set rebuilt, never used) or built (batched rendering, in shar
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 
 from tracker.atomic import exclusive, write_json
 from tracker.geometry.cameras import Camera
-from tracker.models.body_mesh import BodyMesh
 from tracker.tbf.distances import SilhouetteRuns, SilhouetteStack, Window
+
+
+class Posable(Protocol):
+    """A model whose pose samples can be rendered: the body (`tracker.models.body_mesh.BodyMesh`) or the DSQ arm
+    (`tracker.tbf.arm_dictionary.ArmDictionary`). One mesh of every part's faces, each face labelled by its part."""
+
+    faces: np.ndarray  # (F, 3)
+    face_parts: np.ndarray  # (F,) part index
+    rest_vertices: np.ndarray  # (V, 3): its length is the vertex count of every pose
+    source_key: str  # names the model in caches
+    closed: bool  # every edge borders two faces: back faces need not be drawn
+
+    @property
+    def part_names(self) -> tuple[str, ...]: ...
+
+    def posed_vertices(self, poses: np.ndarray) -> np.ndarray: ...  # (n, V, 3) world points
+
 
 LEVEL_RESOLUTIONS = ((80, 60), (160, 120), (320, 240))  # (width, height) of the tree's levels, top to bottom
 RESOLUTIONS = LEVEL_RESOLUTIONS[::-1]  # as rendered: the finest first, the others reduced from it
@@ -69,6 +90,55 @@ class PoseSampleSet:
         return known[name]
 
 
+@dataclass(frozen=True, eq=False)
+class SampleViews:
+    """The same poses seen by each camera of a rig: one `PoseSampleSet` per view, in the rig's order. A view's
+    silhouette distance is its set's; the views' distances add up (the likelihood is the product over views).
+    One view is exactly that view's set: same key, same derived values."""
+
+    sets: tuple[PoseSampleSet, ...]
+
+    def __post_init__(self) -> None:
+        if not self.sets or any(len(s) != len(self.sets[0]) for s in self.sets):
+            raise ValueError("the views of a sample set must hold the same poses, one set per view")
+
+    @classmethod
+    def of(cls, samples: PoseSampleSet | SampleViews | Sequence[PoseSampleSet]) -> SampleViews:
+        if isinstance(samples, SampleViews):
+            return samples
+        return cls((samples,) if isinstance(samples, PoseSampleSet) else tuple(samples))
+
+    def __len__(self) -> int:
+        return len(self.sets[0])
+
+    @property
+    def poses(self) -> np.ndarray:
+        return self.sets[0].poses
+
+    @functools.cached_property
+    def key(self) -> str:
+        if len(self.sets) == 1:
+            return self.sets[0].key
+        return hashlib.sha256(" ".join(s.key for s in self.sets).encode()).hexdigest()[:20]
+
+    @functools.cached_property
+    def areas(self) -> np.ndarray:
+        """``(n, parts)``: each part's area in the view where it is most visible (finest resolution)."""
+        return functools.reduce(np.maximum, (s.areas for s in self.sets[1:]), self.sets[0].areas)
+
+    def silhouettes(self, resolution: tuple[int, int]) -> tuple[SilhouetteStack, ...]:
+        """Each view's silhouettes at ``resolution``."""
+        return tuple(s.silhouettes(resolution) for s in self.sets)
+
+    def occluded(self, area_threshold_px: float) -> np.ndarray:
+        """``(n, parts)`` bool: eq 3's flags, a part occluded when below ``area_threshold_px`` in every view."""
+        return occlusion_flags(self.areas, area_threshold_px)
+
+    def derived(self, name: str, compute: Callable[[], float]) -> float:
+        """A number derived from the views together, computed once and kept with the first view's set."""
+        return self.sets[0].derived(name if len(self.sets) == 1 else f"{name} views={self.key}", compute)
+
+
 def occlusion_flags(areas: np.ndarray, area_threshold_px: float) -> np.ndarray:
     """Eq 3: part j is occluded when its projected area A_j is below T_A."""
     if area_threshold_px < 0:
@@ -76,7 +146,7 @@ def occlusion_flags(areas: np.ndarray, area_threshold_px: float) -> np.ndarray:
     return np.asarray(areas) < area_threshold_px
 
 
-def cache_key(body: BodyMesh, camera: Camera, poses: np.ndarray, resolutions=RESOLUTIONS) -> str:
+def cache_key(body: Posable, camera: Camera, poses: np.ndarray, resolutions=RESOLUTIONS) -> str:
     digest = hashlib.sha256()
     for part in (f"v{FORMAT_VERSION}", body.source_key, repr(tuple(map(tuple, resolutions))),
                  repr((camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy))):  # fmt: skip

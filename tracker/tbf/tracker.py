@@ -2,13 +2,15 @@
 
 `start` picks the tracker's own body (``body``: MakeHuman's base mesh, or the standard body nearest the subject's
 stature and chest girth, measured on the subject as a tailor would), builds (or loads from ``cache_dir``) the pose
-sample set of that body seen by the camera and its tree (``thresholds``, or ``node_shares``), then sets the initial
-prior around the configured initial pose (upright, arms down, facing ``initial_yaw_deg``); `step` takes the
-frame's observed silhouette (background subtraction, done by the run's capture stage: ``frame.silhouettes``),
-moves it onto the samples' feet or places the person on the floor when ``align`` says so
-(`tracker.tbf.alignment`), and runs `tracker.tbf.filter.TreeFilter`. The tracker never sees the truth after
-`start`; measuring the subject's size there stands for the paper's measuring of the person. `summarize` (after
-the run) measures the dictionary's floor against the truth and where the silhouette could not tell.
+sample set of that body seen by each camera of the rig and their tree (``thresholds``, or ``node_shares``), then
+sets the initial prior around the configured initial pose (upright, arms down, facing ``initial_yaw_deg``); `step`
+takes the frame's observed silhouettes (background subtraction, done by the run's capture stage:
+``frame.silhouettes``), moves each onto its view's samples' feet or places the person on the floor when ``align``
+says so (`tracker.tbf.alignment`), and runs `tracker.tbf.filter.TreeFilter` on the views together (their
+distances summed). The estimate's root is the mean of what the views' alignments say, its turn their mean turn.
+The tracker never sees the truth after `start`; measuring the subject's size there stands for the paper's
+measuring of the person. `summarize` (after the run) measures the dictionary's floor against the truth and where
+the silhouette could not tell.
 """
 
 from __future__ import annotations
@@ -26,19 +28,29 @@ from tracker.evaluation.body import joint_angle_error_deg, nearest_in_3d, score_
 from tracker.geometry.cameras import Camera
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.body_shapes import standard_shape
+from tracker.models.dsq_arm import DSQArm
 from tracker.models.makehuman import Triangles, body_measurements, build_body, nearest_standard_body
 from tracker.motion.mocap import read_body_clip
 from tracker.motion.posture import arms_pose
 from tracker.protocol import FrameInput, StepResult, Tracker
 from tracker.ranges import Finite, Positive, Range
 from tracker.registry import TRACKERS
-from tracker.tbf.alignment import GroundPlacement, feet_anchor, samples_anchor, shifted, world_offset
+from tracker.tbf.alignment import (
+    GroundPlacement,
+    Placement,
+    ViewsPlacement,
+    feet_anchor,
+    samples_anchor,
+    shifted,
+    world_offset,
+)
+from tracker.tbf.arm_dictionary import ArmDictionary, ArmGridSpec, arm_floor
 from tracker.tbf.distances import Cost, EmptySilhouette, ObservationScorer
 from tracker.tbf.filter import FilterResult, FilterSettings, TreeFilter
-from tracker.tbf.motion import RandomWalk
+from tracker.tbf.motion import BODY_SPACE, RandomWalk
 from tracker.tbf.sample_build import BuildSettings, load_or_build
 from tracker.tbf.sample_spec import SampleSpec, clip_files, sample_poses
-from tracker.tbf.samples import PoseSampleSet
+from tracker.tbf.samples import SampleViews
 from tracker.tbf.tree import PoseTree, load_or_build_tree, thresholds_for_shares
 from tracker.timing import elapsed_ms
 
@@ -72,6 +84,8 @@ class TbfSettings:
     # the floor: scaled by its feet's depth and moved onto the samples' feet, the root estimated on the ground from
     # where the feet stand (`tracker.tbf.alignment.GroundPlacement`): a person who walks about.
     align: Literal["none", "feet", "ground"] = "none"
+    # The DSQ arm's pose samples (model=dsq_arm; `tracker.tbf.arm_dictionary`): a grid of its parameters.
+    arm_samples: ArmGridSpec = field(default_factory=ArmGridSpec)
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -95,49 +109,64 @@ class TbfResult(StepResult):
                    series=series, **fields)  # fmt: skip
 
 
-def check_clips(settings: TbfSettings, frames: int, key: str) -> None:
-    """Before a run: every clip the samples come from is a readable clip of a known skeleton."""
+def check_settings(settings: TbfSettings, frames: int, key: str, model: str) -> None:
+    """Before a run: every clip the samples come from is a readable clip of a known skeleton; the arm is not placed
+    on a floor."""
+    if model == "dsq_arm" and settings.align != "none":
+        raise ValueError(f"{key}.align={settings.align}: the arm stands on no floor, allowed none")
     for index, path, rate in clip_files(settings.samples, key):
         pattern = settings.samples.clips[index]
         read_body_clip(path, f"{key}.samples.clips[{index}]" + (f" ({pattern})" if path != pattern else ""), rate)
 
 
-@TRACKERS.register("tbf", settings=TbfSettings, needs={"cost": "nwxor", "motion": "dm2"}, models=("body_mesh",),
-                   views=(1, 1), observes=("silhouettes",), check=check_clips)  # fmt: skip
+@TRACKERS.register("tbf", settings=TbfSettings, needs={"cost": "nwxor", "motion": "dm2"}, observes=("silhouettes",),
+                   check=check_settings)  # fmt: skip
 class TbfTracker(Tracker):
     name: ClassVar[str] = "tbf"
 
     def __init__(self, settings: TbfSettings, cost: Cost, motion: RandomWalk) -> None:
         self.settings, self.cost, self.motion = settings, cost, motion
-        self.samples: PoseSampleSet | None = None
+        self.samples: SampleViews | None = None
         self.tree: PoseTree | None = None
 
-    def start(self, model: BodyMesh, cameras: Sequence[Camera], truth: np.ndarray, rng: np.random.Generator) -> None:
-        self.camera = cameras[0]
+    def start(self, model: BodyMesh | DSQArm, cameras: Sequence[Camera], truth: np.ndarray,
+              rng: np.random.Generator) -> None:  # fmt: skip
+        self.cameras = tuple(cameras)
         self.subject, self.part_names = model, model.part_names
         start = time.perf_counter()
         settings = self.settings
         cache_dir = Path(settings.cache_dir)
-        self.body = self.standard_body(model)
-        poses, self.transitions = sample_poses(settings.samples, self.body)
-        self.samples = load_or_build(self.body, self.camera, poses, cache_dir / "samples", build=settings.build,
-                                     check=settings.cache_check)  # fmt: skip
+        self.dictionary = self.body = None
+        if isinstance(model, DSQArm):  # its own grid of poses, started where paper 1 starts: at the truth
+            self.dictionary = ArmDictionary(model, settings.arm_samples)
+            posable, space, self.transitions = self.dictionary, self.dictionary.space, None
+            poses, initial = self.dictionary.poses(), self.dictionary.pose_of(truth)
+        else:
+            self.body = posable = self.standard_body(model)
+            space, (poses, self.transitions) = BODY_SPACE, sample_poses(settings.samples, self.body)
+            initial = arms_pose(self.body, (0.0, 8.0, 0.0), (0.0, 8.0, 0.0), yaw_deg=settings.initial_yaw_deg)
+        self.samples = SampleViews(tuple(load_or_build(posable, camera, poses, cache_dir / "samples",
+                                                       build=settings.build, check=settings.cache_check)
+                                         for camera in self.cameras))  # fmt: skip
         self.thresholds = settings.thresholds
         if settings.node_shares is not None:
             self.thresholds = thresholds_for_shares(self.samples, settings.node_shares)
         self.tree = load_or_build_tree(self.samples, self.thresholds, cache_dir / "trees")
-        self.filter = TreeFilter(self.samples, self.tree, self.cost, self.motion, settings.filter, self.transitions)
-        self.anchor = samples_anchor(self.samples) if settings.align == "feet" else None
-        self._seen: dict[int, np.ndarray] = {}  # frame -> the silhouette the filter saw at the finest level, packed
-        self.filter.start(arms_pose(self.body, (0.0, 8.0, 0.0), (0.0, 8.0, 0.0), yaw_deg=settings.initial_yaw_deg))
-        self.placement = None
-        if settings.align == "ground":  # the feet to place on at first: the initial prior's most likely sample
-            self.placement = GroundPlacement(self.camera, self.samples, self.filter.initial_sample)
-        self._estimate = np.asarray(self.samples.poses[0]).copy()
+        self.filter = TreeFilter(self.samples, self.tree, self.cost, self.motion, settings.filter, self.transitions,
+                                 space)  # fmt: skip
+        self.anchors = [samples_anchor(view) for view in self.samples.sets] if settings.align == "feet" else None
+        self._seen: dict[int, list[np.ndarray]] = {}  # frame -> the silhouettes the filter saw (finest level), packed
+        self.filter.start(initial)
+        self.placement = self.views_placement = None
+        if settings.align == "ground" and len(self.cameras) == 1:  # the feet to place on at first: the initial
+            self.placement = GroundPlacement(self.cameras[0], self.samples.sets[0], self.filter.initial_sample)
+        if settings.align == "ground" and len(self.cameras) > 1:  # the rays of the views cross where he stands
+            self.views_placement = ViewsPlacement(self.cameras, self.samples, self.filter.initial_sample)
+        self._estimate = self.estimate_of(np.asarray(self.samples.poses[0]))
         self.setup_s = time.perf_counter() - start
+        sigmas = ["/".join(f"{sigma:.3g}" for sigma in views) for views in self.filter.level_sigmas]
         log.info("tbf: %d samples, tree %s nodes per level, likelihood sigma per level %s (%.1f s)",
-                 len(self.samples), self.tree.node_counts, [f"{s:.3g}" for s in self.filter.level_sigmas],
-                 self.setup_s)  # fmt: skip
+                 len(self.samples), self.tree.node_counts, sigmas, self.setup_s)  # fmt: skip
 
     def standard_body(self, subject: BodyMesh) -> BodyMesh:
         """The tracker's own model: MakeHuman's base mesh or the standard body nearest the subject
@@ -154,20 +183,28 @@ class TbfTracker(Tracker):
                             "subject_chest_girth_m": round(measured.chest_girth_m, 4)}  # fmt: skip
         return body
 
+    def estimate_of(self, pose: np.ndarray) -> np.ndarray:
+        """A sample's pose vector as the run's estimate: the body's pose vector itself, the arm's parameters."""
+        return self.dictionary.params(pose) if self.dictionary is not None else pose.copy()
+
     def describe(self) -> dict[str, Any]:
         """What `start` built: the standard body chosen, the number of pose samples and the tree's nodes per level."""
         if self.samples is None or self.tree is None:
             return {}
-        return {"body": self.body_choice, "samples": len(self.samples), "tree_nodes": self.tree.node_counts,
+        chosen = {"body": self.body_choice} if self.body is not None else {}
+        return {**chosen, "samples": len(self.samples), "tree_nodes": self.tree.node_counts,
                 "tree_thresholds": [round(t, 6) for t in self.thresholds]}
 
     def summarize(self, table: Mapping[str, np.ndarray]) -> dict[str, Any]:
         """The tree search's mean effort (nodes evaluated per level, and the fraction of them pruned), what the
         samples alone allow (`dictionary_floor`) and where the silhouette could not tell (`ambiguity`)."""
         frame = table["part"] == self.part_names[0]  # one row per frame
-        truths = np.stack(table["truth_pose"][frame])
-        nearest, distance_mm = nearest_in_3d(self.subject, truths, self.body, self.samples.poses)
-        floor = self.dictionary_floor(truths, nearest, distance_mm)
+        if self.dictionary is not None:
+            floor, nearest = arm_floor(self.dictionary, self.motion, table)
+        else:
+            truths = np.stack(table["truth_pose"][frame])
+            nearest, distance_mm = nearest_in_3d(self.subject, truths, self.body, self.samples.poses)
+            floor = self.dictionary_floor(truths, nearest, distance_mm)
         floor.update(self.ambiguity(table["frame"][frame], table["est_sample"][frame], nearest))
         levels = sorted(column for column in table if column.startswith("nodes_level"))
         evaluated = [table[column][frame] for column in levels]
@@ -190,58 +227,84 @@ class TbfTracker(Tracker):
                 "swings_floor": score_swings(truth_deg, floor_deg)}  # fmt: skip
 
     def ambiguity(self, frames: np.ndarray, estimates: np.ndarray, nearest: np.ndarray) -> dict[str, Any]:
-        """Per frame, whether the silhouette the filter saw is at least as near (by the run's cost, at the finest
-        level) to the estimate's sample as to ``nearest``, the sample nearest the truth in 3-D: then the
-        cost itself prefers a pose no nearer the truth, and no filter would have done better there. A frame whose
-        estimate is the floor's sample, or that failed, is not ambiguous."""
-        stack = self.samples.silhouettes(self.tree.levels[-1].resolution)
+        """Per frame, whether the silhouettes the filter saw are at least as likely (by the run's cost at the finest
+        level; with several views, the product of their likelihoods) under the estimate's sample as under
+        ``nearest``, the sample nearest the truth in 3-D: then the cost itself prefers a pose no nearer the truth,
+        and no filter would have done better there. A frame whose estimate is the floor's sample, or that failed,
+        is not ambiguous."""
+        stacks = self.samples.silhouettes(self.tree.levels[-1].resolution)
         width, height = self.tree.levels[-1].resolution
         flags = []
         for frame, estimate, floor_sample in zip(frames, estimates, nearest, strict=True):
             if frame not in self._seen or not np.isfinite(estimate) or int(estimate) == int(floor_sample):
                 flags.append(False)
                 continue
-            seen = np.unpackbits(self._seen[frame], count=width * height).reshape(height, width) > 0
             rows = np.array([int(estimate), int(floor_sample)])
-            distances = ObservationScorer(self.cost, seen, stack.window).scores_of_runs(stack.runs.subset(rows))
-            flags.append(bool(distances[0] <= distances[1]))
+            distances = [ObservationScorer(self.cost, np.unpackbits(packed, count=width * height).reshape(height, width)
+                                           > 0, stack.window).scores_of_runs(stack.runs.subset(rows))
+                         for packed, stack in zip(self._seen[frame], stacks, strict=True)]  # fmt: skip
+            likelihood = self.filter.log_likelihood(len(self.tree.levels) - 1, distances)
+            flags.append(bool(likelihood[0] >= likelihood[1]))
         return {"ambiguous_frames": int(sum(flags)), "ambiguous_per_frame": flags}
 
     def step(self, frame: FrameInput) -> TbfResult:
         silhouettes = frame.silhouettes
         if not silhouettes:
             raise ValueError("tracker=tbf needs the frame's silhouette (the capture stage of a body scene)")
-        observed = silhouettes[self.camera.name]
         start = time.perf_counter()
-        shift, placed = self._alignment(observed), None
-        if self.placement is not None:
-            observed = self.filter.observation_at(len(self.tree.levels) - 1, observed)
-            placed = self.placement.place(observed)  # None: no feet below the horizon, taken as it is
-        seen = placed.silhouette if placed else shifted(observed, *shift) if any(shift) else observed
+        finest = len(self.tree.levels) - 1
+        observed = [silhouettes[camera.name] for camera in self.cameras]
+        shifts = [self._alignment(view, silhouette) for view, silhouette in enumerate(observed)]
+        placed, offset = None, None
+        if self.placement is not None or self.views_placement is not None:
+            observed = [self.filter.observation_at(finest, silhouette) for silhouette in observed]
+        if self.placement is not None:  # one view; None: no feet below the horizon, taken as it is
+            placed = self.placement.place(observed[0])
+            observed[0] = placed.silhouette if placed else observed[0]
+        if self.views_placement is not None and (views_placed := self.views_placement.place(observed)) is not None:
+            observed, offset = views_placed
+        seen = tuple(shifted(silhouette, *shift) if any(shift) else silhouette
+                     for silhouette, shift in zip(observed, shifts, strict=True))  # fmt: skip
         self.last_observation = seen  # what the filter sees (benchmarks score it again)
         try:
             found = self.filter.step(seen)
         except EmptySilhouette as error:  # nobody in view: keep the last estimate, say why
             return TbfResult.of(self.part_names, None, frame=frame.frame, estimate=self._estimate.copy(),
                                 timings_ms={"filter": elapsed_ms(start)}, failure=f"{error}")  # fmt: skip
-        self._seen[frame.frame] = np.packbits(self.filter.observation_at(len(self.tree.levels) - 1, seen))
-        estimate = found.pose.copy()
-        if any(shift):  # the subject stands away from the samples' spot: so does the estimate
-            estimate[:3] += world_offset(self.camera, estimate[:3], -shift[0], -shift[1])
-        if placed is not None:
-            estimate = self.placement.pose(found.sample, placed)
+        self._seen[frame.frame] = [np.packbits(self.filter.observation_at(finest, view)) for view in seen]
+        estimate = self._placed_estimate(found, shifts, placed, offset)
         self._estimate = estimate
         result = TbfResult.of(self.part_names, found, frame=frame.frame, estimate=estimate,
                               timings_ms={**found.timings_ms, "filter": elapsed_ms(start)})  # fmt: skip
-        if self.anchor is not None:
-            result.frame_columns.update(align_du_px=shift[0], align_dv_px=shift[1])
+        if self.anchors is not None:
+            result.frame_columns.update(align_du_px=shifts[0][0], align_dv_px=shifts[0][1])
         if self.placement is not None:
             result.frame_columns.update(placement_scale=placed.scale if placed else float("nan"))
+        if self.views_placement is not None:
+            dx, dy = offset[:2] if offset is not None else (float("nan"), float("nan"))
+            result.frame_columns.update(placement_dx_m=float(dx), placement_dy_m=float(dy))
         return result
 
-    def _alignment(self, observed: np.ndarray) -> tuple[int, int]:
-        """Whole pixels ``(du, dv)`` that move the observed feet onto the samples' (`TbfSettings.align`)."""
-        found = feet_anchor(observed) if self.anchor is not None else None
+    def _placed_estimate(self, found: FilterResult, shifts: list[tuple[int, int]], placed: Placement | None,
+                         offset: np.ndarray | None) -> np.ndarray:  # fmt: skip
+        """The filter's sample where the alignment puts it: placed on the floor (one view's ground placement, or
+        several views' offset), or its root moved back by the views' shifts (their mean)."""
+        if self.dictionary is not None:
+            return self.estimate_of(found.pose)
+        if offset is not None:
+            return self.views_placement.pose(found.sample, offset)
+        if placed is not None:
+            return self.placement.pose(found.sample, placed)
+        estimate = found.pose.copy()
+        if any(any(shift) for shift in shifts):  # the subject stands away from the samples' spot: so does the estimate
+            estimate[:3] += np.mean([world_offset(camera, estimate[:3], -du, -dv) if du or dv else np.zeros(3)
+                                     for camera, (du, dv) in zip(self.cameras, shifts, strict=True)], axis=0)
+        return estimate
+
+    def _alignment(self, view: int, observed: np.ndarray) -> tuple[int, int]:
+        """Whole pixels ``(du, dv)`` that move the observed feet onto view ``view``'s samples' (`TbfSettings.align`)."""
+        found = feet_anchor(observed) if self.anchors is not None else None
         if found is None:
             return 0, 0
-        return int(round(self.anchor[0] - found[0])), int(round(self.anchor[1] - found[1]))
+        anchor = self.anchors[view]
+        return int(round(anchor[0] - found[0])), int(round(anchor[1] - found[1]))

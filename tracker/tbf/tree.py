@@ -7,8 +7,9 @@ Level 0 is one node holding every sample. A node S of level l-1 is split at leve
     3. every other member joins its nearest representative's node;
     4. each node's representative is re-picked as its member nearest the node's mean pose.
 Distances at level l are XOR distances (eq 6, over the sample set's window) between the samples' silhouettes at
-the level's resolution (`LEVEL_RESOLUTIONS`: coarse at the top). XOR is symmetric, so the tree is one for every
-cost. Poses are compared by their pose vectors (`tracker.models.body_mesh`) for "mean" and "nearest".
+the level's resolution (`LEVEL_RESOLUTIONS`: coarse at the top); with several views (`SampleViews`), the mean of
+the views' XOR distances, so that T_l keeps its meaning. XOR is symmetric, so the tree is one for every cost.
+Poses are compared by their pose vectors (`tracker.models.body_mesh`) for "mean" and "nearest".
 
 A `PoseTree` keeps, per level, each node's representative sample and parent node, and each sample's node; the
 leaves are the last level's nodes and every sample is in exactly one of them.
@@ -26,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from tracker.atomic import atomic_path, exclusive
-from tracker.tbf.samples import LEVEL_RESOLUTIONS, PoseSampleSet
+from tracker.tbf.samples import LEVEL_RESOLUTIONS, PoseSampleSet, SampleViews
 
 log = logging.getLogger(__name__)
 
@@ -64,14 +65,14 @@ class PoseTree:
         return np.flatnonzero(np.isin(self.levels[-1].node_of_sample, leaves))
 
 
-def tree_key(samples: PoseSampleSet, thresholds: tuple[float, ...], resolutions=LEVEL_RESOLUTIONS) -> str:
+def tree_key(samples: PoseSampleSet | SampleViews, thresholds: tuple[float, ...], resolutions=LEVEL_RESOLUTIONS) -> str:
     text = json.dumps({"samples": samples.key, "thresholds": list(map(float, thresholds)),
                        "resolutions": [list(r) for r in resolutions], "format": 2})  # fmt: skip
     return hashlib.sha256(text.encode()).hexdigest()[:20]
 
 
-def load_or_build_tree(samples: PoseSampleSet, thresholds: tuple[float, ...], cache_dir: str | Path | None = None,
-                       resolutions=LEVEL_RESOLUTIONS) -> PoseTree:  # fmt: skip
+def load_or_build_tree(samples: PoseSampleSet | SampleViews, thresholds: tuple[float, ...],
+                       cache_dir: str | Path | None = None, resolutions=LEVEL_RESOLUTIONS) -> PoseTree:  # fmt: skip
     """The tree of ``samples`` with T_l = ``thresholds`` (one per level), from ``cache_dir`` when cached intact."""
     if len(thresholds) != len(resolutions):
         raise ValueError(f"{len(thresholds)} thresholds for {len(resolutions)} levels")
@@ -100,8 +101,9 @@ def _build_logged(samples: PoseSampleSet, thresholds, resolutions, key: str, pat
     return tree
 
 
-def build_tree(samples: PoseSampleSet, thresholds: tuple[float, ...], resolutions=LEVEL_RESOLUTIONS,
+def build_tree(samples: PoseSampleSet | SampleViews, thresholds: tuple[float, ...], resolutions=LEVEL_RESOLUTIONS,
                key: str = "") -> PoseTree:  # fmt: skip
+    samples = SampleViews.of(samples)
     node_of_sample = np.zeros(len(samples), dtype=np.int64)  # level 0: one node
     levels = []
     for threshold, resolution in zip(thresholds, resolutions, strict=True):
@@ -110,18 +112,18 @@ def build_tree(samples: PoseSampleSet, thresholds: tuple[float, ...], resolution
     return PoseTree(tuple(levels), key)
 
 
-def _build_level(samples: PoseSampleSet, node_of_sample: np.ndarray, threshold: float,
+def _build_level(samples: SampleViews, node_of_sample: np.ndarray, threshold: float,
                  resolution: tuple[int, int]) -> TreeLevel:  # fmt: skip
     """The level below the nodes ``node_of_sample``: each node split at T_l = ``threshold`` (steps 1-4)."""
     poses = np.asarray(samples.poses)
-    silhouettes = samples.silhouettes(resolution)
-    pixels = int(np.prod(silhouettes.images.shape[1:]))
-    masks = _packed_bits(silhouettes.images)
+    stacks = samples.silhouettes(resolution)
+    pixels = [int(np.prod(stack.images.shape[1:])) for stack in stacks]
+    masks = [_packed_bits(stack.images) for stack in stacks]
     representatives, seeds, parents = [], [], []
     assignment = np.empty(len(poses), dtype=np.int64)
     for parent in range(node_of_sample.max() + 1):
         members = np.flatnonzero(node_of_sample == parent)
-        reps, first_reps, nearest = _split(poses[members], masks[members], pixels, threshold)
+        reps, first_reps, nearest = _split(poses[members], [view[members] for view in masks], pixels, threshold)
         assignment[members] = len(representatives) + nearest
         representatives.extend(members[reps])
         seeds.extend(members[first_reps])
@@ -134,11 +136,12 @@ SHARE_BISECTIONS = 16  # halvings of each threshold's bracket (in log space: ~0.
 _THRESHOLD_BRACKET = (1e-5, 1.0)  # T_l is a fraction of the window's pixels
 
 
-def thresholds_for_shares(samples: PoseSampleSet, shares: tuple[float, ...],
+def thresholds_for_shares(samples: PoseSampleSet | SampleViews, shares: tuple[float, ...],
                           resolutions=LEVEL_RESOLUTIONS) -> tuple[float, ...]:  # fmt: skip
     """T_l per level, top down, such that level l holds about ``shares[l]`` of the samples as nodes (the paper's
     3,417 samples gave 693 / 3,013 / 3,318 nodes: shares 0.20 / 0.88 / 0.97): each by bisection (more nodes for a
     smaller T_l), below the levels already chosen. Kept with the sample set (`PoseSampleSet.derived`)."""
+    samples = SampleViews.of(samples)
     chosen: list[float] = []
     node_of_sample = np.zeros(len(samples), dtype=np.int64)
     for share, resolution in zip(shares, resolutions, strict=True):
@@ -158,8 +161,8 @@ def thresholds_for_shares(samples: PoseSampleSet, shares: tuple[float, ...],
 
 
 def _split(poses, masks, pixels, threshold) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Steps 1-4 for one node's members: representative member indices (after step 4, and as step 2 chose
-    them), and each member's node 0..k-1."""
+    """Steps 1-4 for one node's members (``masks``, ``pixels``: per view): representative member indices (after
+    step 4, and as step 2 chose them), and each member's node 0..k-1."""
     count = len(poses)
     first = int(np.argmin(np.linalg.norm(poses - poses.mean(axis=0), axis=1)))
     nearest_distance = np.full(count, np.inf)
@@ -202,9 +205,14 @@ def _packed_bits(masks: np.ndarray, block: int = 4096) -> np.ndarray:
     return padded.view(np.uint64)
 
 
-def _xor_to_one(masks: np.ndarray, index: int, pixels: int) -> np.ndarray:
-    """XOR distance (eq 6) of sample ``index`` to every sample: differing pixels (popcount) over N_W."""
-    return np.bitwise_count(masks ^ masks[index]).sum(axis=1, dtype=np.int64) / pixels
+def _xor_to_one(masks: list[np.ndarray], index: int, pixels: list[int]) -> np.ndarray:
+    """XOR distance (eq 6) of sample ``index`` to every sample, differing pixels (popcount) over N_W, as the mean
+    over the views (``masks``, ``pixels``: per view)."""
+    total = None
+    for view_masks, view_pixels in zip(masks, pixels, strict=True):
+        distance = np.bitwise_count(view_masks ^ view_masks[index]).sum(axis=1, dtype=np.int64) / view_pixels
+        total = distance if total is None else total + distance
+    return total / len(masks)
 
 
 def _load(path: Path, key: str, samples: int, thresholds, resolutions) -> PoseTree:
