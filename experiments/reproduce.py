@@ -20,7 +20,8 @@ realism knob, the pictures and the report's text: `experiments.experiment_a`).
 ``--scale paper`` also tracks real motion the samples never held (`experiments.real_motion`: ``experiment=
 tbf_paper_scale``, ~52,000 samples from 23 real clips, each held-out clip whole and an ablation row per part of the
 build) into ``reports/tbf_real/``, with ``reports/tbf_real.md`` and Fig 5 per clip; its whole-build runs add their
-timings to Fig 6(d).
+timings to Fig 6(d). And the plug-board's comparison (`experiments.combinations`): those clips tracked from 1, 2
+and 3 cameras, and paper 1's arm by AbIS and by tree filtering, in ``reports/combinations.md``.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ import pandas as pd
 
 from eval.tables import collect, machine, table_4c, write_reports
 from experiments.cli_runs import LIGHT_RECORDING, run_sweep
+from experiments.combinations import combinations
 from experiments.experiment_a import experiment_a_figures, paper_2_markdown, realism_overrides
 from experiments.paper_1 import paper_1
 from experiments.real_motion import HELD_OUT, real_motion
@@ -127,6 +129,8 @@ def main(argv: list[str] | None = None) -> None:
     start = time.perf_counter()
     REPORTS.mkdir(exist_ok=True)
     sections = [Section(*paper_1(REPORTS)), paper_2(args.scale == "paper")]
+    if args.scale == "paper":
+        sections.append(Section(*combinations(REPORTS)))
     for section in sections:
         print(section.console)
     report = write_report(sections, time.perf_counter() - start, args.scale)
