@@ -8,28 +8,22 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from eval.real_motion import runs_by_clip
 from eval.tables import collect
 
 
 def body_table(root: Path, rows: dict[str, str]) -> pd.DataFrame:
     """One row per clip and build (``rows``: folder -> what the row says) of the runs under ``root/<clip>/``."""
-    runs = collect([root])
-    runs["clip"] = [Path(run).parent.name for run in runs["run"]]
-    runs["folder"] = [Path(run).name for run in runs["run"]]
     table = []
-    for clip in sorted(runs["clip"].unique()):
-        for folder, label in rows.items():
-            for run in runs[(runs["clip"] == clip) & (runs["folder"] == folder)].itertuples():
-                table.append({"clip": clip, "tracker and views": label, "frames": run.frames,
-                              "MPJPE mm": round(run.mpjpe_mm, 1),
-                              "root-aligned mm": round(run.mpjpe_root_aligned_mm, 1),
-                              "floor mm": _rounded(run, "mpjpe_floor_mm", 1),
-                              "aligned / floor": _rounded(run, "mpjpe_floor_mm", 2, run.mpjpe_root_aligned_mm),
-                              "joint angle °": round(run.joint_angle_error_deg, 1),
-                              "ambiguous frames": (f"{int(run.ambiguous_frames)} of {run.frames}"
-                                                   if pd.notna(getattr(run, "ambiguous_frames", np.nan)) else "—"),
-                              "estimation ms (median)": round(getattr(run, "estimate_ms_median", np.nan), 1),
-                              })  # fmt: skip
+    for clip, label, run in runs_by_clip(root, rows):
+        table.append({"clip": clip, "tracker and views": label, "frames": run.frames,
+                      "MPJPE mm": round(run.mpjpe_mm, 1), "root-aligned mm": round(run.mpjpe_root_aligned_mm, 1),
+                      "floor mm": _rounded(run, "mpjpe_floor_mm", 1),
+                      "aligned / floor": _rounded(run, "mpjpe_floor_mm", 2, run.mpjpe_root_aligned_mm),
+                      "joint angle °": round(run.joint_angle_error_deg, 1),
+                      "ambiguous frames": (f"{int(run.ambiguous_frames)} of {run.frames}"
+                                           if pd.notna(getattr(run, "ambiguous_frames", np.nan)) else "—"),
+                      "estimation ms (median)": round(getattr(run, "estimate_ms_median", np.nan), 1)})  # fmt: skip
     return pd.DataFrame(table)
 
 
