@@ -6,11 +6,12 @@ sample set of that body seen by each camera of the rig and their tree (``thresho
 sets the initial prior around the configured initial pose (upright, arms down, facing ``initial_yaw_deg``); `step`
 takes the frame's observed silhouettes (background subtraction, done by the run's capture stage:
 ``frame.silhouettes``), moves each onto its view's samples' feet or places the person on the floor when ``align``
-says so (`tracker.tbf.alignment`), and runs `tracker.tbf.filter.TreeFilter` on the views together (their
-distances summed). The estimate's root is the mean of what the views' alignments say, its turn their mean turn.
-The tracker never sees the truth after `start`; measuring the subject's size there stands for the paper's
-measuring of the person. `summarize` (after the run) measures the dictionary's floor against the truth and where
-the silhouette could not tell.
+says so (`tracker.tbf.alignment`; from several views, where their centroid rays cross), and runs
+`tracker.tbf.filter.TreeFilter` on the views together (their likelihoods multiplied). The tracker never sees the
+truth after `start`; measuring the subject's size there stands for the paper's measuring of the person.
+`summarize` (after the run) measures the dictionary's floor against the truth and where the silhouette could not
+tell. The DSQ arm (``model=dsq_arm``) is tracked the same way over a grid of its parameters
+(`tracker.tbf.arm_dictionary`), from the truth at frame 0 as paper 1 starts.
 """
 
 from __future__ import annotations
