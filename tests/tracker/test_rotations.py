@@ -129,3 +129,15 @@ def test_matrix_to_euler_near_gives_the_same_rotation_within_pi_of_near(seed):
     angles = matrix_to_euler(rotation, near=near)
     np.testing.assert_allclose(euler_to_matrix(angles), rotation, atol=1e-9)
     assert np.all(np.abs(angles - near) <= np.pi + 1e-9)
+
+
+@pytest.mark.parametrize("vector", [[0.0, 0.0, 0.0], [1e-5, -2e-5, 0.0], [0.3, -1.2, 0.5], [2.9, 0.1, -0.4]])
+def test_the_right_jacobian_maps_a_small_step_of_the_vector_to_a_turn_in_the_rotated_frame(vector):
+    from tracker.geometry.rotations import matrix_to_rotation_vector, right_jacobian, rotation_vector_to_matrix
+
+    vector, step = np.asarray(vector), 1e-6
+    rotation = rotation_vector_to_matrix(vector)
+    for axis in np.eye(3):
+        turned = rotation.T @ rotation_vector_to_matrix(vector + step * axis)  # Exp(J_r step e_k) to first order
+        np.testing.assert_allclose(matrix_to_rotation_vector(turned) / step, right_jacobian(vector) @ axis,
+                                   atol=1e-6)  # fmt: skip

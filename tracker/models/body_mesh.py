@@ -12,7 +12,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from tracker.geometry.rotations import matrices_to_rotation_vectors, rotation_vectors_to_matrices
+from tracker.geometry.rotations import matrices_to_rotation_vectors, right_jacobian, rotation_vectors_to_matrices
 from tracker.models.body_skeleton import FOOT_BONES, JOINT_INDEX, JOINT_NAMES, PART_COLORS, PART_NAMES, POSE_SIZE
 from tracker.render.mesh import SurfaceMesh, vertex_normals
 
@@ -120,6 +120,43 @@ class BodyMesh:
         vertices = vertices.transpose(1, 0, 2)  # (n, V, 3)
         return vertices[0] if poses.ndim == 1 else vertices
 
+    def vertex_jacobian(self, pose: np.ndarray, subset: np.ndarray) -> np.ndarray:
+        """``(len(subset), 3, POSE_SIZE)``: d v'/d pose of the skinned vertices ``subset`` at ``pose``, analytic.
+
+        The root's position moves every vertex as it moves (the weights sum to 1). Turning joint j's rotation vector
+        r_j by dr turns every bone below it (j included) about the world axis ``a = F_j J_r(r_j) dr`` through j's
+        posed head h'_j (F_j: j's world rotation from the T-pose, J_r: `right_jacobian`), so a vertex moves by
+        ``sum over those bones b of w_b a x (p_b - h'_j)``, with ``p_b = R_b (v - h_b) + h'_b`` the vertex as bone b
+        alone would carry it."""
+        pose = np.asarray(pose, dtype=np.float64)
+        rotations, heads = self.bone_transforms(pose)
+        from_t_pose = rotations @ np.transpose(self.t_pose_alignment, (0, 2, 1))  # F_j
+        subset = np.asarray(subset)
+        vertices, weights = self.rest_vertices[subset], self.weights[subset]
+        jacobian = np.zeros((len(subset), 3, POSE_SIZE))
+        jacobian[:, :, :3] = np.eye(3) * weights.sum(axis=1)[:, None, None]
+        carried = np.einsum("jab,vjb->vja", rotations, vertices[:, None, :] - self.rest_heads[None]) + heads[None]
+        below = self._descendants  # (J, J): below[j, b] when bone b is j or under it
+        for joint in range(len(self.parents)):
+            share = weights * below[joint]  # (V, J): each vertex's weights on the bones that joint turns
+            if not share.any():
+                continue
+            lever = np.einsum("vb,vba->va", share, carried - heads[joint])  # sum_b w_b (p_b - h'_j)
+            axes = from_t_pose[joint] @ right_jacobian(pose[3 + 3 * joint : 6 + 3 * joint])  # dr -> world axis
+            # a x lever = -[lever]_x a
+            jacobian[:, :, 3 + 3 * joint : 6 + 3 * joint] = -np.einsum("vab,bc->vac", _cross_matrices(lever), axes)
+        return jacobian
+
+    @cached_property
+    def _descendants(self) -> np.ndarray:
+        below = np.eye(len(self.parents), dtype=bool)
+        for joint, parent in enumerate(self.parents):  # parents first
+            ancestor = parent
+            while ancestor >= 0:
+                below[ancestor, joint] = True
+                ancestor = self.parents[ancestor]
+        return below
+
     def feet_heights(self, poses: np.ndarray) -> np.ndarray:
         """``(n,)`` the height (z, m) of the lowest vertex of the feet (those the foot and toe bones move most) at
         each of ``(n, POSE_SIZE)`` poses."""
@@ -168,3 +205,10 @@ class BodyMesh:
             used, inverse = np.unique(faces, return_inverse=True)
             topology.append((used, inverse.reshape(faces.shape).astype(np.int32)))
         return topology
+
+
+def _cross_matrices(vectors: np.ndarray) -> np.ndarray:
+    """``(n, 3, 3)``: ``[v]_x`` of each of ``(n, 3)`` vectors."""
+    out = np.zeros((len(vectors), 3, 3))
+    out[:, 0, 1], out[:, 0, 2], out[:, 1, 2] = -vectors[:, 2], vectors[:, 1], -vectors[:, 0]
+    return out - out.transpose(0, 2, 1)
