@@ -65,16 +65,15 @@ def with_picked_rig(argv: list[str], config_dir: Path, config_name: str) -> list
         return argv
     picked = set()
     for combination in sweep_combinations(overrides):
-        cfg = _compose(config_dir, config_name, combination)
-        choices = cfg.hydra.runtime.choices
-        entries = chosen_entries(OmegaConf.to_container(without_hydra(cfg), resolve=True))
         try:
+            cfg = _compose(config_dir, config_name, combination)
+            entries = chosen_entries(OmegaConf.to_container(without_hydra(cfg), resolve=True))
             fit = fit_of(entries["tracker"].name, entries["model"].name)
-            if fit is None or not fit.rig or fit.rig == choices["rig"]:
+            if fit is None or not fit.rig or fit.rig == cfg.hydra.runtime.choices["rig"]:
                 continue
             views = len(entries["rig"].build(OmegaConf.to_container(cfg.rig, resolve=True)))
-        except (ValueError, TypeError):
-            continue  # the check says why, in one line
+        except (ConfigError, OmegaConfBaseException, ValueError, TypeError):
+            continue  # `validate_command_line` says why, in one line
         if not fit.allows(views):
             picked.add(fit.rig)
     return [*argv, f"rig={picked.pop()}"] if len(picked) == 1 else argv

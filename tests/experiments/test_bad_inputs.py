@@ -100,6 +100,7 @@ AT_START = [
     (["tracker=abis", "tracker.features.max_features=0"], r"max_features=0 is out of range: allowed >= 1"),
     (["model=schema_dsq_arm"], r"^model=schema_dsq_arm is a schema, not an option"),
     (["frames=["], r"^cannot parse the overrides"),
+    (["rig.target=${nope}"], r"^rig\.target: Interpolation key 'nope' not found$"),
     (["rig=mono", "rig.position=[0.55,0,-0.2]"],
      r"^rig=mono: camera 'main': position and target coincide \(\[0\.55, 0\.0, -0\.2\]\)$"),
     (["experiment=nope"],

@@ -58,3 +58,23 @@ def test_a_cameras_rig_of_one_view_is_the_one_camera_rig(tbf_run, tmp_path):
         assert before[column].tolist() == after[column].tolist(), column
     assert [json.loads((run / "metrics.json").read_text())["mpjpe_mm"] for run in (tbf_run, out)] == [
         ONE_CAMERA_BEFORE["mpjpe_mm"]] * 2
+
+
+def test_a_fit_that_names_a_rig_picks_it_unless_the_command_line_names_one(monkeypatch):
+    """As model=body_mesh picks rig=body_side, a tracker that needs more views of a model picks its rig; a rig
+    named on the command line stays, and then fails at start saying which to add."""
+    from experiments.checks import ConfigError
+    from experiments.schemas import CONFIG_DIR
+    from experiments.validate import validate_command_line, with_picked_rig
+    from tracker.compatibility import Fit
+
+    monkeypatch.setitem(FITS["render_only"], "body_mesh", Fit((3, 4), rig="body_multi"))
+    argv = ["model=body_mesh", "frames=2"]
+    assert with_picked_rig(argv, CONFIG_DIR, "config") == [*argv, "rig=body_multi"]
+    validate_command_line([*argv, "rig=body_multi"], CONFIG_DIR, "config")
+    named = [*argv, "rig=body_side"]
+    assert with_picked_rig(named, CONFIG_DIR, "config") == named
+    with pytest.raises(ConfigError, match=r"^tracker=render_only tracks model=body_mesh from 3 to 4 camera views: "
+                                          r"rig=body_side has 1; add rig=body_multi$"):
+        validate_command_line(named, CONFIG_DIR, "config")
+    assert with_picked_rig(["model=dsq_arm"], CONFIG_DIR, "config") == ["model=dsq_arm"]  # its rig fits already
