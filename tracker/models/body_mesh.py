@@ -14,6 +14,7 @@ import numpy as np
 
 from tracker.geometry.rotations import matrices_to_rotation_vectors, right_jacobian, rotation_vectors_to_matrices
 from tracker.models.body_skeleton import FOOT_BONES, JOINT_INDEX, JOINT_NAMES, PART_COLORS, PART_NAMES, POSE_SIZE
+from tracker.models.textures import block_noise_texture
 from tracker.render.mesh import SurfaceMesh, vertex_normals
 
 
@@ -31,6 +32,7 @@ class BodyMesh:
     t_pose_alignment: np.ndarray  # (J, 3, 3) rotation of each bone from rest into the reference T-pose
     face_parts: np.ndarray  # (F,) index into PART_NAMES
     source_key: str  # hash of the source files and build settings (names the mesh in caches)
+    texture_seed: int | None = None  # draws the skin's block-noise texture (None: plain skin)
 
     @property
     def part_names(self) -> tuple[str, ...]:
@@ -181,10 +183,31 @@ class BodyMesh:
         """One lit mesh per body part (label = part index + 1), each with only its own vertices."""
         vertices = self.posed_vertices(pose)
         normals = vertex_normals(vertices, self.faces)
-        return [SurfaceMesh(key=f"body_{name}", label=k + 1, vertices=vertices[used], faces=faces,
-                            normals=normals[used], color=color)
-                for k, (name, (used, faces)) in enumerate(zip(PART_NAMES, self.part_topology, strict=True))
+        textures = self.part_textures if self.texture_seed is not None else [(None, None)] * len(PART_NAMES)
+        skin = "" if self.texture_seed is None else f"_texture{self.texture_seed}"  # the renderer keeps textures by key
+        return [SurfaceMesh(key=f"body_{name}{skin}", label=k + 1, vertices=vertices[used], faces=faces,
+                            normals=normals[used], color=color, uv=uv, texture=texture)
+                for k, (name, (used, faces), (uv, texture)) in enumerate(zip(PART_NAMES, self.part_topology, textures,
+                                                                             strict=True))
                 if len(faces)]  # fmt: skip
+
+    @cached_property
+    def part_textures(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Per part, texture coordinates of its vertices (``part_topology``'s) and a block-noise texture drawn from
+        ``texture_seed``: u the angle about the part's long axis at rest (its first principal direction), v the
+        position along it. The seam where u wraps is a one-face smear, as on a DSQ part."""
+        seeds = np.random.SeedSequence(self.texture_seed or 0).spawn(len(PART_NAMES))
+        out = []
+        for (used, _), seed in zip(self.part_topology, seeds, strict=True):
+            points = self.rest_vertices[used] - self.rest_vertices[used].mean(axis=0)
+            axes = np.linalg.svd(points, full_matrices=False)[2] if len(used) >= 3 else np.eye(3)
+            along, side, across = points @ axes[0], points @ axes[1], points @ axes[2]
+            span = np.ptp(along) if len(used) else 1.0
+            uv = np.stack([(np.arctan2(across, side) + np.pi) / (2 * np.pi),
+                           (along - (along.min() if len(used) else 0.0)) / max(span, 1e-9)], axis=1)  # fmt: skip
+            cells = (max(2, int(round(span / 0.03))), 12)  # blocks about 3 cm along the part, 12 around it
+            out.append((uv, block_noise_texture(np.random.default_rng(seed), cells, (214, 168, 140))))
+        return out
 
     @cached_property
     def closed(self) -> bool:

