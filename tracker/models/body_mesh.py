@@ -16,6 +16,9 @@ from tracker.geometry.rotations import matrices_to_rotation_vectors, right_jacob
 from tracker.models.body_skeleton import FOOT_BONES, JOINT_INDEX, JOINT_NAMES, PART_COLORS, PART_NAMES, POSE_SIZE
 from tracker.models.textures import block_noise_texture
 from tracker.render.mesh import SurfaceMesh, vertex_normals
+from tracker.tol import ZERO_LENGTH
+
+SKIN_RGB = (214, 168, 140)  # the plain skin, and the tint of the textured one
 
 
 @dataclass(frozen=True, eq=False)
@@ -179,7 +182,7 @@ class BodyMesh:
 
         return csr_matrix(self.weights)
 
-    def surface_meshes(self, pose: np.ndarray, color: tuple[int, int, int] = (214, 168, 140)) -> list[SurfaceMesh]:
+    def surface_meshes(self, pose: np.ndarray, color: tuple[int, int, int] = SKIN_RGB) -> list[SurfaceMesh]:
         """One lit mesh per body part (label = part index + 1), each with only its own vertices."""
         vertices = self.posed_vertices(pose)
         normals = vertex_normals(vertices, self.faces)
@@ -204,9 +207,9 @@ class BodyMesh:
             along, side, across = points @ axes[0], points @ axes[1], points @ axes[2]
             span = np.ptp(along) if len(used) else 1.0
             uv = np.stack([(np.arctan2(across, side) + np.pi) / (2 * np.pi),
-                           (along - (along.min() if len(used) else 0.0)) / max(span, 1e-9)], axis=1)  # fmt: skip
+                           (along - (along.min() if len(used) else 0.0)) / max(span, ZERO_LENGTH)], axis=1)  # fmt: skip
             cells = (max(2, int(round(span / 0.03))), 12)  # blocks about 3 cm along the part, 12 around it
-            out.append((uv, block_noise_texture(np.random.default_rng(seed), cells, (214, 168, 140))))
+            out.append((uv, block_noise_texture(np.random.default_rng(seed), cells, SKIN_RGB)))
         return out
 
     @cached_property
