@@ -17,7 +17,7 @@ import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Annotated, Literal
+from typing import Literal
 
 import numpy as np
 
@@ -26,12 +26,11 @@ from tracker.geometry.rotations import euler_to_matrix, transform_points
 from tracker.models.articulated import jointed_translation
 from tracker.models.dsq import ANGLE_NAMES, PARAM_INDEX, PARAM_NAMES, dsq_points, pole_point
 from tracker.models.dsq_arm import DSQArm
-from tracker.ranges import Finite, Positive, Rule, Vector3
+from tracker.ranges import Span, Vector3
 from tracker.settings import to_plain
 from tracker.tbf.motion import PoseSpace, RandomWalk
+from tracker.tbf.sample_spec import span_values
 
-_ORDERED = Rule(lambda span: span[0] <= span[1], "allowed [start, stop, step] with start <= stop")
-Span = Annotated[tuple[Finite, Finite, Positive], _ORDERED]  # start, stop (included), step
 _C = slice(PARAM_INDEX["c1"], PARAM_INDEX["c3"] + 1)
 _R = slice(PARAM_INDEX["r1"], PARAM_INDEX["r3"] + 1)
 
@@ -62,8 +61,7 @@ class ArmGridSpec:
 
 def axis_values(axis: ArmAxis) -> np.ndarray:
     """The axis' values in the pose vector's units (radians for angles)."""
-    start, stop, step = axis.span
-    values = np.arange(start, stop + step / 2, step)
+    values = span_values(axis.span)
     return np.radians(values) if axis.param in ANGLE_NAMES else values
 
 

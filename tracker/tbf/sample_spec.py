@@ -16,7 +16,7 @@ import numpy as np
 from tracker.data import data_dir, data_files, data_path
 from tracker.models.body_mesh import BodyMesh
 from tracker.motion.arm_capture import ArmRanges, capture_poses
-from tracker.ranges import Finite, Fraction, NonNegative, Positive, Range, Rule, Seed
+from tracker.ranges import Finite, Fraction, NonNegative, Positive, Range, Seed, Span
 from tracker.tbf.pose_sets import (
     arm_grid,
     clip_sequences,
@@ -29,8 +29,13 @@ from tracker.tbf.pose_sets import (
     varied,
 )
 
-_ORDERED = Rule(lambda span: span[0] <= span[1], "allowed [start, stop, step] with start <= stop")
-DegreeSpan = Annotated[tuple[Finite, Finite, Positive], _ORDERED]  # start, stop (included), step
+DegreeSpan = Span  # in degrees
+
+
+def span_values(span: tuple[float, float, float]) -> np.ndarray:
+    """A `Span`'s values: start to stop (included) by step."""
+    start, stop, step = span
+    return np.arange(start, stop + step / 2, step)
 
 
 @dataclass(frozen=True)
@@ -45,11 +50,8 @@ class GridSpec:
     yaw_deg: tuple[Finite, ...] = (-100.0, -90.0, -80.0)
 
     def poses(self, body: BodyMesh) -> np.ndarray:
-        def values(start, stop, step):
-            return np.arange(start, stop + step / 2, step)
-
-        return np.concatenate([arm_grid(body, values(*self.swing_deg), values(*self.abduction_deg),
-                                        values(*self.elbow_deg), self.left_swing_deg, yaw_deg=yaw)
+        return np.concatenate([arm_grid(body, span_values(self.swing_deg), span_values(self.abduction_deg),
+                                        span_values(self.elbow_deg), self.left_swing_deg, yaw_deg=yaw)
                                for yaw in self.yaw_deg])  # fmt: skip
 
 
