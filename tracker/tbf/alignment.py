@@ -89,6 +89,14 @@ def ground_point(camera: Camera, u: float, v: float) -> np.ndarray | None:
     return camera.position - camera.position[2] / ray[2] * ray
 
 
+def scaled_onto(mask: np.ndarray, scale: float, source: Sequence[float], target: Sequence[float]) -> np.ndarray:
+    """``mask`` scaled by ``scale`` about pixel ``source`` and moved so that ``source`` lands on ``target`` (bilinear,
+    inside where at least half covered)."""
+    (u, v), (a, b) = source, target
+    warp = np.array([[scale, 0.0, a - scale * u], [0.0, scale, b - scale * v]])
+    return cv2.warpAffine(mask.astype(np.float32), warp, mask.shape[::-1], flags=cv2.INTER_LINEAR) >= 0.5
+
+
 @dataclass(frozen=True)
 class Placement:
     """One frame's placement of the observed person: his silhouette in the samples' frame."""
@@ -137,10 +145,7 @@ class GroundPlacement:
             return None
         depths = self.camera.world_to_camera(np.array([ground, reference_ground]))[:, 2]
         scale = float(depths[0] / depths[1])
-        (u, v) = feet
-        warp = np.array([[scale, 0.0, a - scale * u], [0.0, scale, b - scale * v]])
-        moved = cv2.warpAffine(observed.astype(np.float32), warp, observed.shape[::-1], flags=cv2.INTER_LINEAR)
-        return Placement(moved >= 0.5, scale, feet, (a, b))
+        return Placement(scaled_onto(observed, scale, feet, (a, b)), scale, feet, (a, b))
 
     def pose(self, sample: int, placement: Placement) -> np.ndarray:
         """The estimate: sample ``sample`` placed where the observed silhouette says (see the module docstring);
@@ -220,10 +225,7 @@ class ViewsPlacement:
         for camera, pixel, mask in zip(self.cameras, self.pixels, observed, strict=True):
             (there, here), depths = camera.project(np.array([spot + offset, spot]))
             scale = float(depths[0] / depths[1])
-            (a, b), (u, v) = here / pixel, there / pixel
-            warp = np.array([[scale, 0.0, a - scale * u], [0.0, scale, b - scale * v]])
-            moved = cv2.warpAffine(mask.astype(np.float32), warp, mask.shape[::-1], flags=cv2.INTER_LINEAR)
-            placed.append(moved >= 0.5)
+            placed.append(scaled_onto(mask, scale, there / pixel, here / pixel))
         return placed, offset
 
     def pose(self, sample: int, offset: np.ndarray) -> np.ndarray:
