@@ -25,7 +25,7 @@ from omegaconf.errors import (
 
 from experiments.checks import ConfigError, check_config, chosen_entries, unknown_key, without_hydra
 from experiments.schemas import SCHEMA_PREFIX
-from tracker.compatibility import fit_of
+from tracker.compatibility import FITS, fit_of
 
 # Flags after which Hydra runs nothing (help, printing the config, shell completion): nothing to validate.
 _INFORMATIONAL_FLAGS = {"--help", "-h", "--hydra-help", "--cfg", "-c", "--info", "-i", "--version",
@@ -33,13 +33,20 @@ _INFORMATIONAL_FLAGS = {"--help", "-h", "--hydra-help", "--cfg", "-c", "--info",
 _MULTIRUN_FLAGS = {"--multirun", "-m"}
 
 
-def validate_command_line(argv: list[str], config_dir: Path, config_name: str) -> None:
-    """Raise `ConfigError` unless every job the command line describes composes and passes `check_config`."""
+def _jobs(argv: list[str]) -> tuple[list[str], bool] | None:
+    """The command line's overrides and whether it sweeps; None when Hydra runs no job (help, printing the
+    config, shell completion) or handles the flags itself (unknown ones, with its own usage message)."""
     flags = {arg.split("=", 1)[0] for arg in argv if arg.startswith("-")}
     if flags & _INFORMATIONAL_FLAGS or flags - _MULTIRUN_FLAGS:
-        return  # Hydra handles these itself (and unknown flags with its own usage message)
-    overrides = [arg for arg in argv if not arg.startswith("-")]
-    multirun = bool(flags & _MULTIRUN_FLAGS)
+        return None
+    return [arg for arg in argv if not arg.startswith("-")], bool(flags & _MULTIRUN_FLAGS)
+
+
+def validate_command_line(argv: list[str], config_dir: Path, config_name: str) -> None:
+    """Raise `ConfigError` unless every job the command line describes composes and passes `check_config`."""
+    if (jobs := _jobs(argv)) is None:
+        return
+    overrides, multirun = jobs
     for combination in sweep_combinations(overrides):
         cfg = _compose(config_dir, config_name, combination)
         check_output_dir("hydra.sweep.dir" if multirun else "hydra.run.dir",
@@ -59,10 +66,11 @@ def with_picked_rig(argv: list[str], config_dir: Path, config_name: str) -> list
     """``argv`` with ``rig=<option>`` added when it names no rig and the composed rig does not fit the tracker on
     the model while their fit names one (`tracker.compatibility.Fit.rig`; e.g. ``tracker=abis model=body_mesh``:
     ``rig=body_multi``). A sweep gets it when every job that needs a rig needs that one."""
-    flags = {arg.split("=", 1)[0] for arg in argv if arg.startswith("-")}
-    overrides = [arg for arg in argv if not arg.startswith("-")]
-    if flags & _INFORMATIONAL_FLAGS or flags - _MULTIRUN_FLAGS or any(_key(arg) == "rig" for arg in overrides):
-        return argv
+    jobs = _jobs(argv)
+    if jobs is None or any(_key(arg) == "rig" for arg in jobs[0]) or not any(fit.rig for fits in FITS.values()
+                                                                             for fit in fits.values()):  # fmt: skip
+        return argv  # nothing to pick: composing every job twice at start would only cost time
+    overrides, _ = jobs
     picked = set()
     for combination in sweep_combinations(overrides):
         try:
