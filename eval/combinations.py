@@ -29,9 +29,10 @@ def body_table(root: Path, rows: dict[str, str]) -> pd.DataFrame:
 
 def arm_table(runs: dict[str, Path]) -> pd.DataFrame:
     """One row per tracker of paper 1's arm (``runs``: what the row says -> run folder): part 2's b1 and r2."""
+    collected = collect(list(runs.values())).set_index("run")
     table = []
-    for label, run in collect(list(runs.values())).set_index("run").loc[[str(r) for r in runs.values()]].iterrows():
-        name = next(key for key, value in runs.items() if str(value) == label)
+    for name, folder in runs.items():
+        run = collected.loc[str(folder)]
         table.append({"tracker": name, "frames": run["frames"],
                       "b1 RMS": round(run["part2_b1_rms"], 4),
                       "b1 RMS % of range": round(100 * run["part2_b1_rms"] / run["part2_b1_range"], 1),

@@ -26,7 +26,7 @@ support is reported per frame (`PosePrior.last_mass_used`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Annotated
 
 import numpy as np
@@ -46,7 +46,7 @@ class PoseSpace:
 
     size: int
     lengths: tuple[int, ...]
-    part_components: tuple[tuple[int, ...], ...] = field(default=())
+    part_components: tuple[tuple[int, ...], ...] = ()
 
 
 # The body's pose vector (`tracker.models.body_skeleton`): the root's position, then each joint's rotation vector.
