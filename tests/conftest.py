@@ -90,6 +90,11 @@ def experiment_a_run(tmp_path_factory):
                     "tracker.samples.capture.seconds=15", f"tracker.cache_dir={cache}")  # fmt: skip
 
 
+# A small right-arm grid of TBF samples (side-on): enough for a run of a few frames.
+SMALL_GRID = ["tracker.samples.grid.swing_deg=[-30,60,10]", "tracker.samples.grid.abduction_deg=[0,0,8]",
+              "tracker.samples.grid.elbow_deg=[0,0,30]", "tracker.samples.grid.left_swing_deg=[0]",
+              "tracker.samples.grid.yaw_deg=[-90]"]  # fmt: skip
+
 # A 6-frame TBF run (nwXOR, DM2) of the body's arm swing on a small pose grid, seen by rig=body_side's camera.
 TBF_RUN = ("model=body_mesh", "tracker=tbf", "cost=nwxor", "motion=dm2", "frames=6",
            "tracker.samples.grid.swing_deg=[-30,60,6]", "tracker.samples.grid.abduction_deg=[0,16,8]",

@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from experiments.run import main
-from tests.conftest import MOCAP_DIR
+from tests.conftest import MOCAP_DIR, SMALL_GRID
 from tests.experiments.test_run import frames_by_entity
 
 CLIP, SHORT_CLIP = MOCAP_DIR / "69_20.bvh", MOCAP_DIR / "143_33.bvh"
@@ -168,11 +168,6 @@ def _outputs_readable(run_dir):
     recorded = frames_by_entity(run_dir / "run.rrd")
     assert not list(run_dir.glob(".*.tmp"))
     return metrics, frames, recorded
-
-
-SMALL_GRID = ["tracker.samples.grid.swing_deg=[-30,60,10]", "tracker.samples.grid.abduction_deg=[0,0,8]",
-              "tracker.samples.grid.elbow_deg=[0,0,30]", "tracker.samples.grid.left_swing_deg=[0]",
-              "tracker.samples.grid.yaw_deg=[-90]"]  # fmt: skip
 
 
 def test_a_camera_looking_away_loses_every_feature_and_each_abis_frame_is_recorded_failed(tmp_path):

@@ -8,12 +8,9 @@ import pandas as pd
 import pytest
 
 from experiments.components import build, compose
-from tests.conftest import TBF_RUN, run_cli
+from tests.conftest import SMALL_GRID, TBF_RUN, run_cli
 from tracker.compatibility import FITS
 
-SMALL_GRID = ["tracker.samples.grid.swing_deg=[-30,60,10]", "tracker.samples.grid.abduction_deg=[0,0,8]",
-              "tracker.samples.grid.elbow_deg=[0,0,30]", "tracker.samples.grid.left_swing_deg=[0]",
-              "tracker.samples.grid.yaw_deg=[-90]"]  # fmt: skip
 RIGS_OF_MODEL = {"dsq_arm": ("mono", "orthogonal3"), "body_mesh": ("body_side", "body_multi")}
 NEEDS = {"tbf": ("cost=nwxor", "motion=dm2", *SMALL_GRID)}
 VIEWS = {rig: len(build(compose([f"rig={rig}"])).cameras) for rigs in RIGS_OF_MODEL.values() for rig in rigs}

@@ -11,6 +11,7 @@ import pandas as pd
 from eval.figures import write_figures
 from eval.tables import collect, sweep_table, table_4c
 from experiments.schemas import CONFIG_DIR
+from tests.conftest import SMALL_GRID
 from tests.experiments.test_run import frames_by_entity
 from tracker.registry import COSTS, TRACKERS
 
@@ -18,11 +19,6 @@ PROJECT = CONFIG_DIR.parent
 PLUGIN = "tests.experiments.plugin_toys"
 OPTIONS = {"tracker/hold_still.yaml": "defaults:\n  - schema_hold_still\n  - _self_\n\nmarker_px: 8.0\n",
            "cost/uniform.yaml": "defaults:\n  - schema_uniform\n  - _self_\n"}  # fmt: skip
-SMALL_GRID = ["tracker.samples.grid.swing_deg=[-30,60,10]", "tracker.samples.grid.abduction_deg=[0,0,8]",
-              "tracker.samples.grid.elbow_deg=[0,0,30]", "tracker.samples.grid.left_swing_deg=[0]",
-              "tracker.samples.grid.yaw_deg=[-90]"]  # fmt: skip
-
-
 def run(tmp_path, name, *overrides):
     conf = tmp_path / "conf"
     for path, text in OPTIONS.items():
