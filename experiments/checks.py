@@ -82,6 +82,11 @@ def check_combination(entries: dict[str, Entry], choices: dict[str, str], plain:
         advice = f"; add rig={fit.rig}" if fit.rig else ""
         raise ValueError(f"tracker={choices['tracker']} tracks model={choices['model']} from {fit.says}: "
                          f"rig={choices['rig']} has {views}{advice}")  # fmt: skip
+    for key, value in () if fit is None else fit.sets:
+        group, _, name = key.partition(".")
+        if plain[group].get(name) is None:
+            raise ValueError(f"tracker={choices['tracker']} tracks model={choices['model']} with {key} set: "
+                             f"add {key}={value}")  # fmt: skip
     missing = [group for group in tracker.needs if group not in entries]
     if missing:
         allowed = ", ".join(f"{group}={'|'.join(REGISTRIES[group].names())}" for group in missing)

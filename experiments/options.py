@@ -13,7 +13,7 @@ import argparse
 from omegaconf import OmegaConf
 
 from experiments.schemas import CONFIG_DIR, GROUPS, SCHEMA_PREFIX
-from tracker.compatibility import FITS
+from tracker.compatibility import FITS, Fit
 from tracker.registry import MODELS, REGISTRIES, Entry
 
 README = CONFIG_DIR.parent / "README.md"
@@ -22,13 +22,18 @@ BEGIN, END = "<!-- options: made by python -m experiments.options --write -->", 
 
 def option_entries() -> list[tuple[str, str, Entry]]:
     """(group, option, the component it builds) for every option file, in group order."""
-    rows = []
-    for group in GROUPS:
-        for path in sorted((CONFIG_DIR / group).glob("*.yaml")):
-            defaults = [str(item) for item in OmegaConf.load(path).get("defaults", [])]
-            schema = next(item for item in defaults if SCHEMA_PREFIX in item)  # e.g. schema_mono, /model/schema_x@model
-            rows.append((group, path.stem, REGISTRIES[group][schema.split(SCHEMA_PREFIX)[1].split("@")[0]]))
-    return rows
+    return [(group, path.stem, REGISTRIES[group][_schema_of(path)])
+            for group in GROUPS for path in sorted((CONFIG_DIR / group).glob("*.yaml"))]  # fmt: skip
+
+
+def _schema_of(path) -> str:
+    """The component an option file builds: its schema's (``schema_mono``, ``/model/schema_x@model``), or, for an
+    option that extends another of its group (``rig=body_multi_vga``: ``defaults: [body_multi]``), that one's."""
+    defaults = [str(item) for item in OmegaConf.load(path).get("defaults", []) if str(item) != "_self_"]
+    schema = next((item for item in defaults if SCHEMA_PREFIX in item), None)
+    if schema is not None:
+        return schema.split(SCHEMA_PREFIX)[1].split("@")[0]
+    return _schema_of(path.with_name(f"{defaults[0]}.yaml"))
 
 
 def goes_with(entry: Entry) -> str:
@@ -42,15 +47,19 @@ def goes_with(entry: Entry) -> str:
 
 
 def compatibility_table() -> str:
-    """Trackers by models: the camera views each combination uses, and the rig it picks; — where it makes no
-    sense."""
+    """Trackers by models: the camera views each combination uses, and the rig and settings it picks; — where it
+    makes no sense."""
     models = MODELS.names()
     lines = ["| tracker | " + " | ".join(f"`model={m}`" for m in models) + " |", "|---" * (len(models) + 1) + "|"]
     for tracker, fits in FITS.items():
-        cells = [fits[m].says.replace(" camera", "") + (f", picks `rig={fits[m].rig}`" if fits[m].rig else "")
-                 if m in fits else "—" for m in models]  # fmt: skip
+        cells = [_fit_cell(fits[m]) if m in fits else "—" for m in models]
         lines.append(f"| `tracker={tracker}` | " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _fit_cell(fit: Fit) -> str:
+    picks = ([f"`rig={fit.rig}`"] if fit.rig else []) + [f"`{key}={value}`" for key, value in fit.sets]
+    return fit.says.replace(" camera", "") + (", picks " + ", ".join(picks) if picks else "")
 
 
 def table() -> str:

@@ -62,29 +62,36 @@ def validate_command_line(argv: list[str], config_dir: Path, config_name: str) -
             raise ConfigError(_describe(error)) from None
 
 
-def with_picked_rig(argv: list[str], config_dir: Path, config_name: str) -> list[str]:
-    """``argv`` with ``rig=<option>`` added when it names no rig and the composed rig does not fit the tracker on
-    the model while their fit names one (`tracker.compatibility.Fit.rig`; e.g. ``tracker=abis model=body_mesh``:
-    ``rig=body_multi``). A sweep gets it when every job that needs a rig needs that one."""
+def with_picks(argv: list[str], config_dir: Path, config_name: str) -> list[str]:
+    """``argv`` with what the tracker's fit on the model picks (`tracker.compatibility.Fit`): ``rig=<option>``
+    when it names no rig and the composed rig has a number of views the tracker does not take, and each of the
+    fit's settings that it does not name and the composed config leaves null (e.g. ``tracker=abis
+    model=body_mesh``: ``rig=body_multi_vga model.texture_seed=0``). A sweep gets a pick when every job that needs
+    one needs the same."""
     jobs = _jobs(argv)
-    if jobs is None or any(_key(arg) == "rig" for arg in jobs[0]) or not any(fit.rig for fits in FITS.values()
-                                                                             for fit in fits.values()):  # fmt: skip
+    if jobs is None or not any(fit.rig or fit.sets for fits in FITS.values() for fit in fits.values()):
         return argv  # nothing to pick: composing every job twice at start would only cost time
     overrides, _ = jobs
-    picked = set()
+    named = {_key(arg) for arg in overrides}
+    picks: dict[str, set[str]] = {}
     for combination in sweep_combinations(overrides):
         try:
             cfg = _compose(config_dir, config_name, combination)
             entries = chosen_entries(OmegaConf.to_container(without_hydra(cfg), resolve=True))
             fit = fit_of(entries["tracker"].name, entries["model"].name)
-            if fit is None or not fit.rig or fit.rig == cfg.hydra.runtime.choices["rig"]:
+            if fit is None:
+                continue
+            for key, value in fit.sets:
+                if key not in named and OmegaConf.select(cfg, key) is None:
+                    picks.setdefault(key, set()).add(f"{key}={value}")
+            if "rig" in named or not fit.rig or fit.rig == cfg.hydra.runtime.choices["rig"]:
                 continue
             views = len(entries["rig"].build(OmegaConf.to_container(cfg.rig, resolve=True)))
         except (ConfigError, OmegaConfBaseException, ValueError, TypeError):
             continue  # `validate_command_line` says why, in one line
         if not fit.allows(views):
-            picked.add(fit.rig)
-    return [*argv, f"rig={picked.pop()}"] if len(picked) == 1 else argv
+            picks.setdefault("rig", set()).add(f"rig={fit.rig}")
+    return [*argv, *(picked.pop() for picked in picks.values() if len(picked) == 1)]
 
 
 def _key(override: str) -> str:

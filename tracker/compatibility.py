@@ -4,22 +4,26 @@
 
 A tracker that is not in the table (a plugin's, until it calls `allow`) tracks any model from any rig. A fit
 may name the rig to use when the composed one has too few or too many views (``model=body_mesh`` picks the
-one-camera ``rig=body_side``; ``tracker=abis`` on the body then takes ``rig=body_multi``): the command line picks
-it unless it names a rig itself (`experiments.validate.with_picked_rig`).
+one-camera ``rig=body_side``; ``tracker=abis`` on the body then takes ``rig=body_multi_vga``), and settings the
+combination needs where the composed config leaves them unset (AbIS tracks the body's textured skin:
+``model.texture_seed``): the command line adds them unless it names them itself (`experiments.validate.with_picks`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 
 @dataclass(frozen=True)
 class Fit:
-    """A tracker on a model: the camera views it uses (fewest, most) and the rig option it takes when the
-    composed rig has another number of views (None: it asks for one)."""
+    """A tracker on a model: the camera views it uses (fewest, most), the rig option it takes when the composed
+    rig has another number of views (None: it asks for one), and ``(key, value)`` settings it needs where the
+    composed config leaves them null."""
 
     views: tuple[int, int]
     rig: str | None = None
+    sets: tuple[tuple[str, Any], ...] = ()
 
     def allows(self, views: int) -> bool:
         return self.views[0] <= views <= self.views[1]
@@ -33,7 +37,9 @@ class Fit:
 # tracker -> model -> fit
 FITS: dict[str, dict[str, Fit]] = {
     "render_only": {"dsq_arm": Fit((1, 4)), "body_mesh": Fit((1, 4))},
-    "abis": {"dsq_arm": Fit((1, 4))},  # paper 1: 3 orthogonal views
+    # paper 1: 3 orthogonal views; the body by the features of its textured skin, from 3 or 4 views at 640x480
+    "abis": {"dsq_arm": Fit((1, 4)),
+             "body_mesh": Fit((3, 4), rig="body_multi_vga", sets=(("model.texture_seed", 0),))},  # fmt: skip
     "tbf": {"body_mesh": Fit((1, 4)), "dsq_arm": Fit((1, 4))},  # paper 2: one camera; more: the views multiplied
 }
 

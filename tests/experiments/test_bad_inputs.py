@@ -73,7 +73,10 @@ AT_START = [
     (["cost=nwxor"], r"^cost=nwxor serves tracker=tbf only, not tracker=render_only: add tracker=tbf"),
     (["tracker=tbf"], r"^tracker=tbf needs cost and motion: add cost=nwxor motion=dm2 \(allowed cost=xor\|wxor\|nwxor, "
                       r"motion=dm1\|dm2\|learned\)$"),
-    (["tracker=abis", "model=body_mesh"], r"^tracker=abis does not track model=body_mesh: allowed model=dsq_arm$"),
+    (["tracker=abis", "model=body_mesh", "rig=body_side"],
+     r"^tracker=abis tracks model=body_mesh from 3 to 4 camera views: rig=body_side has 1; add rig=body_multi_vga$"),
+    (["tracker=abis", "model=body_mesh", "model.texture_seed=null"],
+     r"^tracker=abis tracks model=body_mesh with model\.texture_seed set: add model\.texture_seed=0$"),
     (["model=dsq_arm", "tracker=tbf", "cost=nwxor", "motion=dm2", "tracker.align=feet"],
      r"^tracker\.align=feet: the arm stands on no floor, allowed none$"),
     (["model=body_mesh", "tracker=tbf", "motion=dm1"],

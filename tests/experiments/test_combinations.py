@@ -62,16 +62,36 @@ def test_a_fit_that_names_a_rig_picks_it_unless_the_command_line_names_one(monke
     named on the command line stays, and then fails at start saying which to add."""
     from experiments.checks import ConfigError
     from experiments.schemas import CONFIG_DIR
-    from experiments.validate import validate_command_line, with_picked_rig
+    from experiments.validate import validate_command_line, with_picks
     from tracker.compatibility import Fit
 
     monkeypatch.setitem(FITS["render_only"], "body_mesh", Fit((3, 4), rig="body_multi"))
     argv = ["model=body_mesh", "frames=2"]
-    assert with_picked_rig(argv, CONFIG_DIR, "config") == [*argv, "rig=body_multi"]
+    assert with_picks(argv, CONFIG_DIR, "config") == [*argv, "rig=body_multi"]
     validate_command_line([*argv, "rig=body_multi"], CONFIG_DIR, "config")
     named = [*argv, "rig=body_side"]
-    assert with_picked_rig(named, CONFIG_DIR, "config") == named
+    assert with_picks(named, CONFIG_DIR, "config") == named
     with pytest.raises(ConfigError, match=r"^tracker=render_only tracks model=body_mesh from 3 to 4 camera views: "
                                           r"rig=body_side has 1; add rig=body_multi$"):
         validate_command_line(named, CONFIG_DIR, "config")
-    assert with_picked_rig(["model=dsq_arm"], CONFIG_DIR, "config") == ["model=dsq_arm"]  # its rig fits already
+    assert with_picks(["model=dsq_arm"], CONFIG_DIR, "config") == ["model=dsq_arm"]  # its rig fits already
+
+
+def test_the_body_by_abis_picks_its_rig_and_a_textured_skin_unless_the_command_line_names_them():
+    from experiments.schemas import CONFIG_DIR
+    from experiments.validate import with_picks
+
+    argv = ["model=body_mesh", "tracker=abis"]
+    assert with_picks(argv, CONFIG_DIR, "config") == [*argv, "model.texture_seed=0", "rig=body_multi_vga"]
+    named = [*argv, "rig=body_multi", "model.texture_seed=7"]
+    assert with_picks(named, CONFIG_DIR, "config") == named
+
+
+def test_a_tracker_fails_at_start_on_a_model_its_fits_leave_out(monkeypatch):
+    from experiments.checks import ConfigError
+    from experiments.schemas import CONFIG_DIR
+    from experiments.validate import validate_command_line
+
+    monkeypatch.setitem(FITS, "abis", {"dsq_arm": FITS["abis"]["dsq_arm"]})
+    with pytest.raises(ConfigError, match=r"^tracker=abis does not track model=body_mesh: allowed model=dsq_arm$"):
+        validate_command_line(["model=body_mesh", "tracker=abis", "rig=body_multi"], CONFIG_DIR, "config")

@@ -10,7 +10,8 @@ frame 0. A sample takes at most one feature per view: the nearest wins (the pape
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+from typing import Self
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -25,34 +26,39 @@ DIFFERENCE_STEP_RAD, GAUSS_NEWTON_DAMPING, POLE_MARGIN_RAD = 1e-5, 1e-6, 1e-3
 
 
 @dataclass(frozen=True, eq=False)
-class Pairs:
-    """One view's pairs: ``(k,)`` arrays of feature ids, parts, seed samples (grid indices) and the model point's
-    own surface coordinates (eta, omega), refined so that it lay exactly under its feature when the pair formed."""
+class PairTable:
+    """Rows of one view's pairs, ``(k,)`` arrays: feature ids, parts and seed samples (the sample each pair formed
+    at); a model's table adds where on the part each pair's own point is (`Pairs`, `tracker.abis.mesh_pairs`)."""
 
     feature_ids: np.ndarray
     parts: np.ndarray
     samples: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.feature_ids)
+
+    def subset(self, keep: np.ndarray) -> Self:
+        return type(self)(**{spec.name: getattr(self, spec.name)[keep] for spec in fields(self)})
+
+    def extend(self, other: Self) -> Self:
+        return type(self)(**{spec.name: np.concatenate([getattr(self, spec.name), getattr(other, spec.name)])
+                             for spec in fields(self)})  # fmt: skip
+
+    def count_by_part(self, n_parts: int) -> np.ndarray:
+        return np.bincount(self.parts, minlength=n_parts)
+
+
+@dataclass(frozen=True, eq=False)
+class Pairs(PairTable):
+    """A DSQ part's pairs: the model point's own surface coordinates (eta, omega) ``(k,)``, refined so that it lay
+    exactly under its feature when the pair formed."""
+
     eta: np.ndarray
     omega: np.ndarray
 
     @classmethod
     def empty(cls) -> Pairs:
         return cls(np.empty(0, np.int64), np.empty(0, int), np.empty(0, int), np.empty(0), np.empty(0))
-
-    def __len__(self) -> int:
-        return len(self.feature_ids)
-
-    def _fields(self) -> tuple[np.ndarray, ...]:
-        return self.feature_ids, self.parts, self.samples, self.eta, self.omega
-
-    def subset(self, keep: np.ndarray) -> Pairs:
-        return Pairs(*(values[keep] for values in self._fields()))
-
-    def extend(self, other: Pairs) -> Pairs:
-        return Pairs(*(np.concatenate(pair) for pair in zip(self._fields(), other._fields(), strict=True)))
-
-    def count_by_part(self, n_parts: int) -> np.ndarray:
-        return np.bincount(self.parts, minlength=n_parts)
 
 
 def pair_features(

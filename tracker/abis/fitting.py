@@ -100,23 +100,18 @@ class Evaluation:
     cost: float
 
 
-class PartProblem:
-    """Residuals and Jacobians of one part's pairs (and prior) as functions of its free parameters."""
+class PixelProblem:
+    """A part's pairs as pixels: per view the residuals (model minus observed) and their Jacobian over the free
+    parameters, stacked with the prior's rows, robust as eq 7 says. A model's problem says how its pairs' world
+    points follow the parameters (`points`) and, where they are not plain numbers, how the parameters move and
+    differ (`start`, `moved`, `pressed`, `prior_difference`)."""
 
-    def __init__(
-        self,
-        views: Sequence[ViewPairs],
-        parent_world: np.ndarray | None = None,
-        joint_in_parent: np.ndarray | None = None,
-        prior: Prior | None = None,
-    ) -> None:
-        self.views = [view for view in views if len(view.eta)]
-        self._eta = np.concatenate([view.eta for view in self.views]) if self.views else np.empty(0)
-        self._omega = np.concatenate([view.omega for view in self.views]) if self.views else np.empty(0)
-        bounds = np.cumsum([0] + [len(view.eta) for view in self.views])
+    def __init__(self, cameras: Sequence[Camera], observed: Sequence[np.ndarray], free: np.ndarray,
+                 prior: Prior | None) -> None:  # fmt: skip
+        self._cameras, self._observed = list(cameras), list(observed)
+        bounds = np.cumsum([0] + [len(pixels) for pixels in self._observed])
         self._rows = [slice(start, end) for start, end in zip(bounds[:-1], bounds[1:], strict=True)]
-        self.parent_world, self.joint_in_parent = parent_world, joint_in_parent
-        self.free = free_parameter_indices(parent_world is None)
+        self.free = free
         self.prior = prior
         if prior is not None:
             inverse = 1.0 / prior.sigmas[self.free]
@@ -125,27 +120,49 @@ class PartProblem:
 
     @property
     def empty(self) -> bool:
-        return not self.views
+        return not self._cameras
+
+    def points(self, q: np.ndarray, with_jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        """Every view's pairs' world points ``(M, 3)``, views one after another, and their Jacobian ``(M, 3,
+        n_free)``."""
+        raise NotImplementedError
+
+    def start(self, q: np.ndarray) -> np.ndarray:
+        """The parameters the fit starts from (a copy of ``q``)."""
+        return np.array(q, dtype=np.float64)
+
+    def moved(self, q: np.ndarray, delta: np.ndarray) -> np.ndarray:
+        """``q`` moved by ``delta`` over the free parameters."""
+        candidate = q.copy()
+        candidate[self.free] += delta
+        return candidate
+
+    def pressed(self, q: np.ndarray, gradient: np.ndarray) -> np.ndarray:
+        """Free parameters at a bound of their range that the descent direction (-gradient) points out of."""
+        return np.zeros(len(self.free), bool)
+
+    def prior_difference(self, q: np.ndarray) -> np.ndarray:
+        """q - the prior's reference, over the free parameters."""
+        return q[self.free] - self.prior.reference[self.free]
 
     def evaluate(self, q: np.ndarray, settings: FitSettings, with_jacobian: bool = True) -> Evaluation:
         residuals, jacobians = [], []
         # All views' points in one batch: the per-call overhead dominates at a few dozen pairs per view.
-        points, jacobian = part_world_points(q, self._eta, self._omega, self.parent_world, self.joint_in_parent,
-                                             local_rotation=True, with_jacobian=with_jacobian)
-        for view, rows in zip(self.views, self._rows, strict=True):
+        points, jacobian = self.points(q, with_jacobian)
+        for camera, observed, rows in zip(self._cameras, self._observed, self._rows, strict=True):
             if with_jacobian:
-                uv, uv_jacobian = project_with_jacobian(view.camera, points[rows], jacobian[rows])
+                uv, uv_jacobian = project_with_jacobian(camera, points[rows], jacobian[rows])
                 jacobians.append(uv_jacobian.reshape(-1, len(self.free)))
             else:
-                uv, _ = view.camera.project(points[rows])
-            residuals.append(uv - view.observed)
+                uv, _ = camera.project(points[rows])
+            residuals.append(uv - observed)
         distances = np.concatenate([np.linalg.norm(r, axis=1) for r in residuals]) if residuals else np.empty(0)
-        pixel_cost, pixel_weights = _robust(distances, settings.huber_px)
+        pixel_cost, pixel_weights = robust_cost(distances, settings.huber_px)
         vector = [np.concatenate([r.ravel() for r in residuals])] if residuals else []
         weights = [np.repeat(pixel_weights, 2)]
         prior_cost = 0.0
         if self.prior is not None and len(self._prior_rows):
-            difference = _parameter_difference(q, self.prior.reference, self.free)[self._prior_rows]
+            difference = self.prior_difference(q)[self._prior_rows]
             prior_residual = difference * self._prior_scale
             prior_cost = float(prior_residual @ prior_residual)
             vector.append(prior_residual)
@@ -162,9 +179,48 @@ class PartProblem:
         )
 
 
-def fit_part(q0: np.ndarray, problem: PartProblem, settings: FitSettings = FitSettings()) -> FitResult:
-    """Minimise the part's cost from ``q0`` (17,) over its free parameters; parameters stay in their ranges."""
-    q = _normalise_gauge(np.array(q0, dtype=np.float64))
+class PartProblem(PixelProblem):
+    """A DSQ part's pairs (and prior) as functions of its free parameters (`tracker.abis.part_model`)."""
+
+    def __init__(
+        self,
+        views: Sequence[ViewPairs],
+        parent_world: np.ndarray | None = None,
+        joint_in_parent: np.ndarray | None = None,
+        prior: Prior | None = None,
+    ) -> None:
+        self.views = [view for view in views if len(view.eta)]
+        super().__init__([view.camera for view in self.views], [view.observed for view in self.views],
+                         free_parameter_indices(parent_world is None), prior)  # fmt: skip
+        self._eta = np.concatenate([view.eta for view in self.views]) if self.views else np.empty(0)
+        self._omega = np.concatenate([view.omega for view in self.views]) if self.views else np.empty(0)
+        self.parent_world, self.joint_in_parent = parent_world, joint_in_parent
+
+    def points(self, q: np.ndarray, with_jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        return part_world_points(q, self._eta, self._omega, self.parent_world, self.joint_in_parent,
+                                 local_rotation=True, with_jacobian=with_jacobian)  # fmt: skip
+
+    def start(self, q: np.ndarray) -> np.ndarray:
+        """``q`` (a copy) in the gauge ``max(a1, a2, a3) = 1``."""
+        return _normalise_gauge(np.array(q, dtype=np.float64))
+
+    def moved(self, q: np.ndarray, delta: np.ndarray) -> np.ndarray:
+        """``q`` moved by ``delta`` over the free parameters (rotation entries: a local increment w)."""
+        return _apply(q, self.free, delta)
+
+    def pressed(self, q: np.ndarray, gradient: np.ndarray) -> np.ndarray:
+        return _pressed_against_bounds(q, self.free, gradient)
+
+    def prior_difference(self, q: np.ndarray) -> np.ndarray:
+        """Rotations: the rotation vector of R(ref)^T R(q)."""
+        return _parameter_difference(q, self.prior.reference, self.free)
+
+
+def fit_part(q0: np.ndarray, problem: PixelProblem, settings: FitSettings = FitSettings()) -> FitResult:
+    """Minimise the part's cost from ``q0`` over its free parameters; parameters stay in their ranges.
+
+    ``problem``: a DSQ part's `PartProblem`, a body part's (`tracker.abis.body_fitting`), any `PixelProblem`."""
+    q = problem.start(q0)
     if problem.empty:
         return FitResult(q, 0.0, 0.0, 0, [])
     current = problem.evaluate(q, settings)
@@ -201,7 +257,7 @@ def _lm_step(q, problem, current, settings, state):
         except np.linalg.LinAlgError:
             state["damping"] *= 10
             continue
-        candidate = _apply(q, problem.free, delta)
+        candidate = problem.moved(q, delta)
         evaluation = problem.evaluate(candidate, settings)
         if evaluation.cost < current.cost:
             state["damping"] = max(state["damping"] / 3, LM_SMALLEST_DAMPING)
@@ -220,14 +276,14 @@ def _sd_step(q, problem, current, settings, state):
     scale = _column_scale(current.jacobian)
     js = current.jacobian / scale
     gradient = js.T @ (current.weights * current.vector)  # half the gradient of E in scaled coordinates
-    gradient[_pressed_against_bounds(q, problem.free, gradient)] = 0.0
+    gradient[problem.pressed(q, gradient)] = 0.0
     slope = gradient @ gradient
     curvature = np.sum(current.weights * (js @ gradient) ** 2)
     if slope <= 0 or curvature <= 0:
         return None, current
     beta = slope / curvature
     for _ in range(30):
-        candidate = _apply(q, problem.free, -beta * gradient / scale)
+        candidate = problem.moved(q, -beta * gradient / scale)
         evaluation = problem.evaluate(candidate, settings, with_jacobian=False)
         if evaluation.cost <= current.cost - ARMIJO * beta * 2 * slope:  # sufficient decrease
             return candidate, evaluation
@@ -244,7 +300,7 @@ def _parameter_difference(q: np.ndarray, reference: np.ndarray, free: np.ndarray
     return difference
 
 
-def _robust(distances: np.ndarray, huber_px: float | None) -> tuple[float, np.ndarray]:
+def robust_cost(distances: np.ndarray, huber_px: float | None) -> tuple[float, np.ndarray]:
     """Eq 8's squares, or eq 7 with Huber's rho; and the IRLS weight of each pair."""
     if huber_px is None:
         return float(np.sum(distances**2)), np.ones_like(distances)

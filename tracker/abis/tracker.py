@@ -20,13 +20,13 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
-from typing import Annotated, Any, ClassVar, Literal
+from typing import ClassVar
 
 import cv2
 import numpy as np
 
-from tracker.abis.anchoring import AnchorSettings, texture_offsets
+from tracker.abis.anchoring import texture_offsets
+from tracker.abis.body_tracker import BodyAbis
 from tracker.abis.correspondences import (
     COUNT_NAMES,
     POLE_MARGIN_RAD,
@@ -35,7 +35,20 @@ from tracker.abis.correspondences import (
     pixel_jacobian,
     refine_surface_coordinates,
 )
-from tracker.abis.fitting import FitSettings, PartProblem, Prior, ViewPairs, fit_part
+from tracker.abis.fitting import PartProblem, Prior, ViewPairs, fit_part
+from tracker.abis.frame_steps import (
+    DISCARDED_ERROR,
+    DISCARDED_OCCLUSION,
+    NEW,
+    AbisResult,
+    ImageMotion,
+    ViewResult,
+    carry_over,
+    feature_rows,
+    feature_states,
+    interior_labels,
+)
+from tracker.abis.settings import AbisSettings, InitialNoise
 from tracker.abis.visibility import (
     VisibleSamples,
     facing_samples,
@@ -47,83 +60,14 @@ from tracker.abis.visibility import (
     visible_samples,
 )
 from tracker.geometry.cameras import Camera
+from tracker.models.body_mesh import BodyMesh
 from tracker.models.dsq import PARAM_INDEX, pole_point
 from tracker.models.dsq_arm import DSQArm
-from tracker.observe.features import FeatureFrame, FeatureSettings, FeatureTracker
-from tracker.protocol import FrameInput, Points, StepResult, Tracker
-from tracker.ranges import NonNegative, Positive, Range
+from tracker.observe.features import FeatureFrame, FeatureTracker
+from tracker.protocol import FrameInput, Tracker
 from tracker.registry import TRACKERS
 from tracker.render.offscreen import DepthLabels, SceneRenderer
 from tracker.timing import elapsed_ms
-
-TRACKED, NEW, DISCARDED_OCCLUSION, DISCARDED_ERROR, LOST = range(len(COUNT_NAMES))
-
-
-@dataclass(frozen=True)
-class InitialNoise:
-    """Frame 0's estimate is the truth plus Gaussian noise of these sizes (standard deviations): the paper aligns
-    the model with a user's help."""
-
-    translation_m: NonNegative = 0.003  # root position
-    rotation_rad: NonNegative = 0.01  # every part's r
-    scale_fraction: NonNegative = 0.01  # every part's a, relative
-
-
-@dataclass(frozen=True)
-class PriorSigmas:
-    """How much each parameter may plausibly change from one frame to the next (one sigma; inf: unconstrained).
-
-    One pixel of image residual weighs as much as one sigma of change (`tracker.abis.fitting.Prior`).
-    """
-
-    scale: Positive = 0.002  # a (m) and a1..a3
-    roundness: Positive = 0.01  # eps1, eps2
-    tapering: Positive = 0.01  # t1, t2
-    # b1 (m), b2, b3. Bending trades against the rotation about the joint (both swing the far end), so a loose
-    # prior lets b1 wander with r. 5 mm is a little above the arm-swing scene's fastest b1 change (3.9 mm/frame).
-    bending: Positive = 0.005
-    translation_m: Positive = 0.01  # the root's c
-    rotation_rad: Positive = 0.1  # r
-
-    def vector(self) -> np.ndarray:
-        groups = {"scale": ("a", "a1", "a2", "a3"), "roundness": ("eps1", "eps2"), "tapering": ("t1", "t2"),
-                  "bending": ("b1", "b2", "b3"), "translation_m": ("c1", "c2", "c3"),
-                  "rotation_rad": ("r1", "r2", "r3")}  # fmt: skip
-        sigmas = np.full(len(PARAM_INDEX), np.inf)
-        for group, names in groups.items():
-            sigmas[[PARAM_INDEX[name] for name in names]] = getattr(self, group)
-        return sigmas
-
-
-@dataclass(frozen=True)
-class AbisSettings:
-    """Paper 1's Analysis-by-Image-Synthesis: KLT features, z-buffer visibility, pairs, top-down fitting."""
-
-    fit: FitSettings = field(default_factory=lambda: FitSettings(huber_px=1.0))
-    features: FeatureSettings = field(default_factory=FeatureSettings)
-    prior: PriorSigmas | None = field(default_factory=PriorSigmas)  # None: eq 8 alone
-    pairing_radius_px: Positive = 2.0  # a feature pairs with the nearest visible sample within this
-    refined_tolerance_px: Positive = 0.5  # ... and keeps the pair if its own point then lies this close under it
-    # Features this close to a silhouette or occlusion edge do not pair (their window holds the background or
-    # another part; 3 px: with pairs anchored to the texture, the forearm's narrow image keeps more of them).
-    boundary_margin_px: Annotated[int, Range(0, 50)] = 3
-    # The model image predicts occlusion: a pair whose point another part's visible samples come this close to,
-    # plus their image motion relative to the point over the last frame, is discarded for occlusion before that
-    # part's edge reaches it: its feature's Lucas-Kanade window (`features.window_px`) would straddle two surfaces
-    # moving differently, and bottom-up tracking would lose it or slide onto the occluder. No new pair forms this
-    # close to an occluding edge either.
-    occlusion_margin_px: Annotated[int, Range(0, 50)] = 7
-    max_residual_px: Positive = 2.0  # after fitting, a pair farther off is a false match
-    # Which samples a view sees: the z-buffer of the estimate (paper 1), or, as bottom-up tracking would, any that
-    # faces the camera (the ablation: nothing discarded for occlusion, new pairs on hidden parts too).
-    selection: Literal["zbuffer", "none"] = "zbuffer"
-    # Pairs anchored where the model's texture says their feature's material point is (None: a new pair's point
-    # stays under its feature on the estimate, which carries the estimate's error into the pair).
-    anchor: AnchorSettings | None = field(default_factory=AnchorSettings)
-    # ... and every pair again every this many frames (a share of them each frame, by feature id), against the
-    # features' drift; 0: never
-    reanchor_every: Annotated[int, Range(0, 100)] = 3
-    initial_noise: InitialNoise = field(default_factory=InitialNoise)
 
 
 def initial_estimate(arm: DSQArm, truth: np.ndarray, noise: InitialNoise, rng: np.random.Generator) -> np.ndarray:
@@ -135,71 +79,37 @@ def initial_estimate(arm: DSQArm, truth: np.ndarray, noise: InitialNoise, rng: n
     return arm.connect(estimate)
 
 
-@dataclass(frozen=True, eq=False)
-class ViewResult:
-    """What one view saw and did: its features, the state of each (``FEATURE_STATES``), the estimate's samples."""
-
-    features: FeatureFrame
-    feature_states: np.ndarray  # (n,) index into FEATURE_STATES
-    visible: VisibleSamples
-
-
-FEATURE_STATES = ("tracked", "new", "discarded", "unpaired")
-
-
-@dataclass(frozen=True, eq=False, kw_only=True)
-class AbisResult(StepResult):
-    """A frame of AbIS: per view the pair counts (`COUNT_NAMES` order), the pairs held after the frame, what each
-    view saw and did; per part eq 8's cost at the end of its fit (0 where it had no pairs) and the iterations.
-    Build it with `AbisResult.of`, which also fills the columns, series and points every run records."""
-
-    counts: dict[str, np.ndarray]  # view -> (n_parts, 5)
-    pairs: dict[str, np.ndarray]  # view -> (n_parts,)
-    cost: np.ndarray  # (n_parts,)
-    iterations: np.ndarray  # (n_parts,)
-    views: dict[str, ViewResult]
-
-    @classmethod
-    def of(cls, part_names: Sequence[str], **fields: Any) -> AbisResult:
-        counts, pairs, views = fields["counts"], fields["pairs"], fields["views"]
-        columns: dict[str, np.ndarray] = {}
-        for index, count in enumerate(COUNT_NAMES):
-            per_view = {view: view_counts[:, index] for view, view_counts in counts.items()}
-            columns[count] = sum(per_view.values())
-            columns.update({f"{count}_{view}": values for view, values in per_view.items()})
-        columns.update(pairs=sum(pairs.values()), cost=fields["cost"], iterations=fields["iterations"])
-        series = {f"correspondences/{part}/{count}": float(columns[count][k])
-                  for k, part in enumerate(part_names) for count in COUNT_NAMES}  # fmt: skip
-        series.update({f"cost/{part}": float(fields["cost"][k]) for k, part in enumerate(part_names)})
-        points = {view: {"features": Points(seen.features.points, seen.feature_states, FEATURE_STATES),
-                         "estimate": Points(seen.visible.uv)} for view, seen in views.items()}  # fmt: skip
-        return cls(part_columns=columns, series=series, points=points, **fields)
-
-
 @TRACKERS.register("abis", settings=AbisSettings)
 class AbisTracker(Tracker):
     """`start` with the model, the cameras and the frame-0 truth; then `step` once per frame; `close`."""
 
     name: ClassVar[str] = "abis"
 
-    def __init__(self, settings: AbisSettings = AbisSettings()) -> None:
-        self.settings = settings
+    def __init__(self, settings: AbisSettings | None = None) -> None:
+        self.settings = settings or AbisSettings()
         self._renderer: SceneRenderer | None = None
+        self._body: BodyAbis | None = None  # the sequence's, when the model is a body
 
-    def start(self, model: DSQArm, cameras: Sequence[Camera], truth: np.ndarray, rng: np.random.Generator) -> None:
+    def start(self, model: DSQArm | BodyMesh, cameras: Sequence[Camera], truth: np.ndarray,
+              rng: np.random.Generator) -> None:  # fmt: skip
         """Begin a sequence: frame 0's estimate is ``truth`` with the configured `InitialNoise` drawn from ``rng``
-        (the paper's user-assisted alignment); after that the tracker sees images only."""
+        (the paper's user-assisted alignment); after that the tracker sees images only. A body is tracked by
+        `tracker.abis.body_tracker`."""
+        if self._renderer is None:
+            self._renderer = SceneRenderer(cameras[0].width, cameras[0].height)
+        self._body = BodyAbis(self.settings, model, cameras, truth, rng, self._renderer) if isinstance(
+            model, BodyMesh) else None  # fmt: skip
+        if self._body is not None:
+            return
         self.model, self.cameras = model, list(cameras)
         self._estimate = initial_estimate(model, truth, self.settings.initial_noise, rng)
         self._trackers = {  # feature ids are unique across views
             camera.name: FeatureTracker(self.settings.features, first_id=k << 40) for k, camera in enumerate(cameras)
         }
         self._pairs = {camera.name: Pairs.empty() for camera in cameras}
-        self._sample_pixels: dict[str, np.ndarray] = {}  # view -> the last estimate's samples' pixels
+        self._motion = ImageMotion()  # the samples' image motion (parts' samples one after another)
         self._textures = [cv2.cvtColor(texture, cv2.COLOR_RGB2GRAY).astype(np.float32) for texture in model.textures]
         self._sample_offsets = np.arange(len(model.parts)) * len(model.sample_grid.eta)  # part -> its first row
-        if self._renderer is None:
-            self._renderer = SceneRenderer(cameras[0].width, cameras[0].height)
         self._frame = 0
 
     def close(self) -> None:
@@ -208,6 +118,8 @@ class AbisTracker(Tracker):
             self._renderer = None
 
     def step(self, frame: FrameInput) -> AbisResult:
+        if self._body is not None:
+            return self._body.step(frame)
         n_parts = len(self.model.parts)
         names = [camera.name for camera in self.cameras]
         counts = {name: np.zeros((n_parts, len(COUNT_NAMES)), int) for name in names}
@@ -219,7 +131,7 @@ class AbisTracker(Tracker):
         features = {name: self._trackers[name].step(frame.views[name].rgb) for name in names}
         timings["features"] = elapsed_ms(start)
         if self._frame > 0:
-            self._carry_over(features, counts)  # 1. pairs whose feature was tracked
+            self._pairs = carry_over(self._pairs, features, counts, n_parts)  # 1. pairs whose feature was tracked
             start = time.perf_counter()  # 2. fit top-down
             estimate, cost, iterations, failure = self._fit(features)
             timings["fit"] = elapsed_ms(start)
@@ -239,14 +151,15 @@ class AbisTracker(Tracker):
         start = time.perf_counter()  # 4. pair upkeep
         world = self.model.world_transforms(self._estimate)
         views = {}
+        every_sample = np.concatenate(samples)
         for camera in self.cameras:
             name = camera.name
-            motion = self._sample_motion(camera, samples) if self.settings.selection == "zbuffer" else None
+            motion = self._motion.step(camera, every_sample) if self.settings.selection == "zbuffer" else None
             gray = features[name].gray.astype(np.float32)  # the feature tracker's own, for texture matching
             discarded = self._upkeep(camera, features[name], gray, zbuffers[name], visible[name], world, motion,
                                      counts[name])  # fmt: skip
-            views[name] = ViewResult(features[name], self._feature_states(name, features[name], discarded),
-                                     visible[name])  # fmt: skip
+            states = feature_states(self._pairs[name].feature_ids, features[name], discarded)
+            views[name] = ViewResult(features[name], states, visible[name])
         timings["pairing"] = elapsed_ms(start)
         if failure is None and all(len(pairs) == 0 for pairs in self._pairs.values()):
             failure = "all pairs lost"
@@ -254,15 +167,6 @@ class AbisTracker(Tracker):
         return AbisResult.of(self.model.part_names, frame=frame.frame, estimate=self._estimate.copy(), counts=counts,
                              pairs={name: self._pairs[name].count_by_part(n_parts) for name in names}, cost=cost,
                              iterations=iterations, views=views, timings_ms=timings, failure=failure)  # fmt: skip
-
-    def _sample_motion(self, camera: Camera, samples: list[np.ndarray]) -> np.ndarray:
-        """``(n, 2)``: every sample's image motion in ``camera`` between the last two estimates (pixels; parts'
-        samples one after another, `_sample_offsets`; zero at the first frame and where a sample does not
-        project). Keeps this frame's pixels for the next."""
-        pixels = camera.project(np.concatenate(samples))[0]
-        before = self._sample_pixels.get(camera.name, pixels)
-        self._sample_pixels[camera.name] = pixels
-        return np.nan_to_num(pixels - before, nan=0.0, posinf=0.0, neginf=0.0)
 
     def _sample_normals(self) -> list[np.ndarray]:
         """Each part's outward normals at its grid samples, for the estimate."""
@@ -276,15 +180,6 @@ class AbisTracker(Tracker):
             normals.append(outward_normals(surface, grid.eta, grid.omega, world[part][:3, 3]))
         return normals
 
-    def _carry_over(self, features: Mapping[str, FeatureFrame], counts: dict[str, np.ndarray]) -> None:
-        """Keep the pairs whose feature was tracked into this frame; count them and the lost ones."""
-        n_parts = len(self.model.parts)
-        for name, pairs in self._pairs.items():
-            live = np.isin(pairs.feature_ids, features[name].ids)
-            counts[name][:, LOST] = pairs.subset(~live).count_by_part(n_parts)
-            self._pairs[name] = pairs.subset(live)
-            counts[name][:, TRACKED] = self._pairs[name].count_by_part(n_parts)
-
     def _fit(self, features: Mapping[str, FeatureFrame]) -> tuple[np.ndarray, np.ndarray, np.ndarray, str | None]:
         """Fit every part top-down against the current pairs; a failure leaves the previous estimate."""
         estimate = self._estimate.copy()
@@ -297,7 +192,7 @@ class AbisTracker(Tracker):
             for camera in self.cameras:
                 pairs = self._pairs[camera.name]
                 mine = pairs.parts == part
-                observed = _rows(features[camera.name], pairs.feature_ids[mine])
+                observed = feature_rows(features[camera.name], pairs.feature_ids[mine])
                 views.append(ViewPairs(camera, pairs.eta[mine], pairs.omega[mine], observed))
             world = self.model.world_transforms(estimate)
             prior = None if sigmas is None else Prior(reference=self._estimate[part], sigmas=sigmas)
@@ -336,7 +231,7 @@ class AbisTracker(Tracker):
                 visible, motion[self._sample_offsets[visible.part] + visible.sample],
                 self.settings.occlusion_margin_px, self.settings.features.window_px)  # fmt: skip
         counts[:, DISCARDED_OCCLUSION] = pairs.subset(~seen).count_by_part(n_parts)
-        residual = np.linalg.norm(uv - _rows(features, pairs.feature_ids), axis=1)
+        residual = np.linalg.norm(uv - feature_rows(features, pairs.feature_ids), axis=1)
         wrong = seen & (residual > self.settings.max_residual_px)
         counts[:, DISCARDED_ERROR] = pairs.subset(wrong).count_by_part(n_parts)
         discarded = pairs.feature_ids[~seen | wrong]
@@ -370,7 +265,7 @@ class AbisTracker(Tracker):
                 return self.model.part_points(self._estimate, part, eta, omega, world)
 
             new.eta[mine], new.omega[mine], distance = refine_surface_coordinates(
-                surface, camera, new.eta[mine], new.omega[mine], _rows(features, new.feature_ids[mine]))
+                surface, camera, new.eta[mine], new.omega[mine], feature_rows(features, new.feature_ids[mine]))
             keep[mine] = distance <= self.settings.refined_tolerance_px
         new = new.subset(keep)
         counts[:, NEW] = new.count_by_part(n_parts)
@@ -398,36 +293,11 @@ class AbisTracker(Tracker):
             # The observed patch around the feature against the texture around the pair's point, as the estimate
             # maps it: the match is in the material, whatever the estimate's offset in the image.
             jacobian = pixel_jacobian(surface, camera, pairs.eta[mine], pairs.omega[mine])
-            offsets, _ = texture_offsets(gray, _rows(features, pairs.feature_ids[mine]), pairs.eta[mine],
+            offsets, _ = texture_offsets(gray, feature_rows(features, pairs.feature_ids[mine]), pairs.eta[mine],
                                          pairs.omega[mine], jacobian, self._textures[part], self.settings.anchor,
                                          search[mine])  # fmt: skip
             pairs.eta[mine] = np.clip(pairs.eta[mine] + offsets[:, 0], -np.pi / 2 + POLE_MARGIN_RAD,
                                       np.pi / 2 - POLE_MARGIN_RAD)  # as `refine_surface_coordinates` keeps them
             omega = pairs.omega[mine] + offsets[:, 1]
             pairs.omega[mine] = np.where(np.abs(omega) > np.pi, (omega + np.pi) % (2 * np.pi) - np.pi, omega)
-
-    def _feature_states(self, name: str, features: FeatureFrame, discarded: np.ndarray) -> np.ndarray:
-        """Each feature's index into FEATURE_STATES after this frame's upkeep in view ``name``."""
-        states = np.full(len(features.ids), FEATURE_STATES.index("unpaired"))
-        paired = np.isin(features.ids, self._pairs[name].feature_ids)
-        states[paired & features.tracked] = FEATURE_STATES.index("tracked")
-        states[paired & features.new] = FEATURE_STATES.index("new")
-        states[np.isin(features.ids, discarded)] = FEATURE_STATES.index("discarded")
-        return states
-
-
-def interior_labels(labels: np.ndarray, margin_px: int) -> np.ndarray:
-    """The label image with every pixel within ``margin_px`` of another label (or the background) set to 0."""
-    if margin_px <= 0:
-        return labels
-    kernel = np.ones((2 * margin_px + 1, 2 * margin_px + 1), np.uint8)
-    smallest = cv2.erode(labels, kernel)  # a pixel keeps its label only if its whole neighbourhood has it
-    largest = cv2.dilate(labels, kernel)
-    return np.where((smallest == labels) & (largest == labels), labels, 0)
-
-
-def _rows(features: FeatureFrame, ids: np.ndarray) -> np.ndarray:
-    """The feature points of ``ids`` (all live in ``features``)."""
-    order = np.argsort(features.ids)
-    return features.points[order[np.searchsorted(features.ids[order], ids)]]
 

@@ -6,6 +6,7 @@ data (`tracker.models.makehuman.build_body`).
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import cached_property
 from typing import ClassVar
@@ -125,8 +126,9 @@ class BodyMesh:
         vertices = vertices.transpose(1, 0, 2)  # (n, V, 3)
         return vertices[0] if poses.ndim == 1 else vertices
 
-    def vertex_jacobian(self, pose: np.ndarray, subset: np.ndarray) -> np.ndarray:
-        """``(len(subset), 3, POSE_SIZE)``: d v'/d pose of the skinned vertices ``subset`` at ``pose``, analytic.
+    def vertex_jacobian(self, pose: np.ndarray, subset: np.ndarray, joints: Iterable[int] | None = None) -> np.ndarray:
+        """``(len(subset), 3, POSE_SIZE)``: d v'/d pose of the skinned vertices ``subset`` at ``pose``, analytic
+        (only the root position's and ``joints``' rotation columns when given, the others left 0).
 
         The root's position moves every vertex as it moves (the weights sum to 1). Turning joint j's rotation vector
         r_j by dr turns every bone below it (j included) about the world axis ``a = F_j J_r(r_j) dr`` through j's
@@ -142,7 +144,7 @@ class BodyMesh:
         jacobian[:, :, :3] = np.eye(3) * weights.sum(axis=1)[:, None, None]
         carried = np.einsum("jab,vjb->vja", rotations, vertices[:, None, :] - self.rest_heads[None]) + heads[None]
         below = self._descendants  # (J, J): below[j, b] when bone b is j or under it
-        for joint in range(len(self.parents)):
+        for joint in range(len(self.parents)) if joints is None else joints:
             share = weights * below[joint]  # (V, J): each vertex's weights on the bones that joint turns
             if not share.any():
                 continue

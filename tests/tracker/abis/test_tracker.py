@@ -2,7 +2,9 @@ import numpy as np
 import pytest
 
 from tracker.abis.correspondences import COUNT_NAMES
-from tracker.abis.tracker import AbisTracker, InitialNoise, initial_estimate, interior_labels
+from tracker.abis.frame_steps import interior_labels
+from tracker.abis.settings import InitialNoise
+from tracker.abis.tracker import AbisTracker, initial_estimate
 from tracker.models.dsq import PARAM_INDEX
 from tracker.sequence import simulate
 

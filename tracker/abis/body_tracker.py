@@ -1,0 +1,243 @@
+"""AbIS on the skinned body (``model=body_mesh tracker=abis``): paper 1's loop with a triangle mesh for the arm's
+superquadrics.
+
+The steps, their counts and the frame's result are the arm's (`tracker.abis.tracker`); what the mesh changes:
+- samples: each part's vertices (those of its faces, `BodyMesh.part_topology`); a z-buffer render of the
+  estimate's part meshes (label k + 1) decides which a view sees, as for the arm;
+- pairs: an unpaired feature inside a part's region of the label image pairs with that part at the point where
+  its viewing ray meets the part's faces on the estimate (`tracker.abis.mesh_pairs`), exactly under the feature;
+  its sample is the hit face's nearest corner, taken at most once per view. (The arm pairs with the nearest
+  sample within ``pairing_radius_px``, then moves the point under the feature: the body's vertices, ~3 cm apart,
+  are too sparse for that radius, 3-6 px apart at 320-640 px wide.)
+- fitting: top-down over the part tree (pelvis, torso, head, arms, legs), each part's joints' rotation vectors,
+  the pelvis also the root position (`tracker.abis.body_fitting`), with the prior's ``translation_m`` and
+  ``rotation_rad`` per pose component, against the pairs of the part and of every part it carries. (The arm
+  fits each part to its own pairs, eq 8. The body's root part, the pelvis, is a small region that the thighs'
+  and the torso's occlusion edges mostly cover: on 143_33 it held no pair from frame 6 on, so by its own pairs
+  the root's position and orientation never moved; walking away on 69_20 that gave 1.2 m MPJPE. With the carried
+  parts' pairs: 54 and 55 mm; with them for the root alone: 54 and 51 mm, root-aligned 53 and 58 mm against
+  53 and 53 mm.)
+Not carried over: anchoring pairs to the texture (``tracker.anchor``, ``tracker.reanchor_every``: the arm's texture
+is mapped in its surface coordinates) and frame 0's scale noise: the tracker models the subject's own mesh, as
+paper 1 models the arm's known shape. Frame 0 is the truth with `InitialNoise`'s translation and rotation noise on
+the root position and every rotation vector component.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from tracker.abis.body_fitting import (
+    BodyPartProblem,
+    MeshViewPairs,
+    carried_parts,
+    part_joints,
+    part_parents,
+    pose_prior_sigmas,
+    topdown_parts,
+)
+from tracker.abis.correspondences import COUNT_NAMES, sample_keys
+from tracker.abis.fitting import Prior, fit_part
+from tracker.abis.frame_steps import (
+    DISCARDED_ERROR,
+    DISCARDED_OCCLUSION,
+    NEW,
+    AbisResult,
+    ImageMotion,
+    ViewResult,
+    carry_over,
+    feature_rows,
+    feature_states,
+    interior_labels,
+)
+from tracker.abis.mesh_pairs import MeshPairs, ray_hits
+from tracker.abis.settings import AbisSettings, InitialNoise
+from tracker.abis.visibility import (
+    VisibleSamples,
+    facing_samples,
+    in_image,
+    occlusion_edges,
+    reached_by_other_parts,
+    visible_mask,
+    visible_samples,
+)
+from tracker.geometry.cameras import Camera
+from tracker.models.body_mesh import BodyMesh
+from tracker.observe.features import FeatureFrame, FeatureTracker
+from tracker.protocol import FrameInput
+from tracker.render.mesh import vertex_normals
+from tracker.render.offscreen import DepthLabels, SceneRenderer
+from tracker.timing import elapsed_ms
+
+
+def initial_body_estimate(truth: np.ndarray, noise: InitialNoise, rng: np.random.Generator) -> np.ndarray:
+    """The frame-0 pose: the truth with noise on the root position and on every rotation vector component."""
+    estimate = np.array(truth, dtype=np.float64)
+    estimate[:3] += rng.normal(0, noise.translation_m, 3)
+    estimate[3:] += rng.normal(0, noise.rotation_rad, len(estimate) - 3)
+    return estimate
+
+
+class BodyAbis:
+    """One sequence of AbIS on a body: built at `AbisTracker.start`, then `step` once per frame."""
+
+    def __init__(self, settings: AbisSettings, body: BodyMesh, cameras: Sequence[Camera], truth: np.ndarray,
+                 rng: np.random.Generator, renderer: SceneRenderer) -> None:  # fmt: skip
+        self.settings, self.body, self.cameras, self._renderer = settings, body, list(cameras), renderer
+        self._estimate = initial_body_estimate(truth, settings.initial_noise, rng)
+        self._trackers = {  # feature ids are unique across views
+            camera.name: FeatureTracker(settings.features, first_id=k << 40) for k, camera in enumerate(cameras)
+        }
+        self._pairs = {camera.name: MeshPairs.empty() for camera in cameras}
+        self._motion = ImageMotion()  # every vertex's
+        self._part_vertices = [used for used, _ in body.part_topology]
+        self._sample_vertex = np.concatenate(self._part_vertices)  # parts' samples one after another
+        self._sample_offsets = np.cumsum([0] + [len(used) for used in self._part_vertices])[:-1]
+        self._part_faces = [np.flatnonzero(body.face_parts == part) for part in range(len(body.part_names))]
+        self._joints = part_joints()
+        self._parents = part_parents(body.parents)
+        self._order = topdown_parts(self._parents)
+        self._carried = [carried_parts(self._parents, part) for part in range(len(self._parents))]
+        prior = settings.prior
+        self._sigmas = None if prior is None else pose_prior_sigmas(prior.translation_m, prior.rotation_rad)
+        self._frame = 0
+
+    def step(self, frame: FrameInput) -> AbisResult:
+        n_parts = len(self.body.part_names)
+        names = [camera.name for camera in self.cameras]
+        counts = {name: np.zeros((n_parts, len(COUNT_NAMES)), int) for name in names}
+        timings: dict[str, float] = {}
+        failure = None
+        cost, iterations = np.zeros(n_parts), np.zeros(n_parts, int)
+
+        start = time.perf_counter()
+        features = {name: self._trackers[name].step(frame.views[name].rgb) for name in names}
+        timings["features"] = elapsed_ms(start)
+        if self._frame > 0:
+            self._pairs = carry_over(self._pairs, features, counts, n_parts)  # 1. pairs whose feature was tracked
+            start = time.perf_counter()  # 2. fit top-down
+            estimate, cost, iterations, failure = self._fit(features)
+            timings["fit"] = elapsed_ms(start)
+            if failure is None:
+                self._estimate = estimate
+
+        start = time.perf_counter()  # 3. visibility of the new estimate
+        vertices = self.body.posed_vertices(self._estimate)
+        samples = [vertices[used] for used in self._part_vertices]
+        if self.settings.selection == "zbuffer":
+            zbuffers = self._renderer.render_depth_labels(self.cameras, self.body.surface_meshes(self._estimate))
+            visible = {c.name: self._by_vertex(visible_samples(c, zbuffers[c.name], samples)) for c in self.cameras}
+        else:  # no model image at all: the back-face test alone
+            zbuffers = dict.fromkeys(names)
+            normals = vertex_normals(vertices, self.body.faces)
+            facing = [normals[used] for used in self._part_vertices]
+            visible = {c.name: self._by_vertex(facing_samples(c, samples, facing)) for c in self.cameras}
+        timings["visibility"] = elapsed_ms(start)
+        start = time.perf_counter()  # 4. pair upkeep
+        views = {}
+        for camera in self.cameras:
+            name = camera.name
+            motion = self._motion.step(camera, vertices) if self.settings.selection == "zbuffer" else None
+            discarded = self._upkeep(camera, features[name], zbuffers[name], visible[name], vertices, motion,
+                                     counts[name])  # fmt: skip
+            states = feature_states(self._pairs[name].feature_ids, features[name], discarded)
+            views[name] = ViewResult(features[name], states, visible[name])
+        timings["pairing"] = elapsed_ms(start)
+        if failure is None and all(len(pairs) == 0 for pairs in self._pairs.values()):
+            failure = "all pairs lost"
+        self._frame += 1
+        return AbisResult.of(self.body.part_names, frame=frame.frame, estimate=self._estimate.copy(), counts=counts,
+                             pairs={name: self._pairs[name].count_by_part(n_parts) for name in names}, cost=cost,
+                             iterations=iterations, views=views, timings_ms=timings, failure=failure)  # fmt: skip
+
+    def _by_vertex(self, visible: VisibleSamples) -> VisibleSamples:
+        """``visible`` with each sample named by its vertex index (a part's samples are its vertices, in order)."""
+        return VisibleSamples(visible.part, self._sample_vertex[self._sample_offsets[visible.part] + visible.sample],
+                              visible.uv)
+
+    def _fit(self, features: Mapping[str, FeatureFrame]) -> tuple[np.ndarray, np.ndarray, np.ndarray, str | None]:
+        """Fit every part top-down against the current pairs; a failure leaves the previous estimate."""
+        estimate = self._estimate.copy()
+        n_parts = len(self.body.part_names)
+        cost, iterations = np.zeros(n_parts), np.zeros(n_parts, int)
+        prior = None if self._sigmas is None else Prior(reference=self._estimate, sigmas=self._sigmas)
+        for part in self._order:
+            views = []
+            for camera in self.cameras:
+                pairs = self._pairs[camera.name]
+                mine = np.isin(pairs.parts, self._carried[part])
+                views.append(MeshViewPairs(camera, pairs.corners(self.body.faces)[mine], pairs.barycentric[mine],
+                                           feature_rows(features[camera.name], pairs.feature_ids[mine])))  # fmt: skip
+            problem = BodyPartProblem(self.body, views, self._joints[part], self._parents[part] is None, prior)
+            fitted = fit_part(estimate, problem, self.settings.fit)
+            if not np.isfinite(fitted.params).all():
+                return self._estimate, cost, iterations, f"non-finite pose fitting {self.body.part_names[part]}"
+            estimate = fitted.params
+            cost[part], iterations[part] = fitted.cost, fitted.iterations
+        return estimate, cost, iterations, None
+
+    def _upkeep(self, camera: Camera, features: FeatureFrame, zbuffer: DepthLabels | None, visible: VisibleSamples,
+                vertices: np.ndarray, motion: np.ndarray | None, counts: np.ndarray) -> np.ndarray:  # fmt: skip
+        """Discard hidden and false pairs, pair the unpaired features; returns the discarded features' ids.
+
+        ``vertices``: the estimate's posed vertices; ``zbuffer``, ``motion`` (every vertex's image motion over the
+        last frame): None under ``selection=none``."""
+        n_parts = len(self.body.part_names)
+        pairs = self._pairs[camera.name]
+        points = pairs.points(vertices, self.body.faces)
+        seen, uv = np.zeros(len(pairs), bool), np.zeros((len(pairs), 2))
+        by_zbuffer = self.settings.selection == "zbuffer"
+        for part in np.unique(pairs.parts):
+            mine = pairs.parts == part
+            seen[mine], uv[mine] = visible_mask(camera, zbuffer, part, points[mine]) if by_zbuffer else in_image(
+                camera, points[mine])  # fmt: skip
+        if by_zbuffer:  # the model image also predicts the pairs another part's edge is about to cover
+            seen[seen] = ~reached_by_other_parts(uv[seen], pairs.parts[seen], motion[pairs.samples[seen]], visible,
+                                                 motion[visible.sample], self.settings.occlusion_margin_px,
+                                                 self.settings.features.window_px)  # fmt: skip
+        counts[:, DISCARDED_OCCLUSION] = pairs.subset(~seen).count_by_part(n_parts)
+        residual = np.linalg.norm(uv - feature_rows(features, pairs.feature_ids), axis=1)
+        wrong = seen & (residual > self.settings.max_residual_px)
+        counts[:, DISCARDED_ERROR] = pairs.subset(wrong).count_by_part(n_parts)
+        discarded = pairs.feature_ids[~seen | wrong]
+        pairs = pairs.subset(seen & ~wrong)
+
+        unpaired = ~np.isin(features.ids, pairs.feature_ids) & ~np.isin(features.ids, discarded)
+        if by_zbuffer:  # the part whose region (away from silhouettes and occlusion edges) holds the feature
+            edges = occlusion_edges(zbuffer.labels, self.settings.occlusion_margin_px)
+            interior = np.where(edges, 0, interior_labels(zbuffer.labels, self.settings.boundary_margin_px))
+            pixel = np.rint(features.points).astype(int)
+            part_of = interior[pixel[:, 1], pixel[:, 0]].astype(int) - 1
+        else:  # bottom-up: the part of the nearest sample facing the camera, hidden or not
+            part_of = visible.part[cKDTree(visible.uv).query(features.points)[1]] if len(visible) else np.full(
+                len(features.ids), -1)  # fmt: skip
+        offered = np.flatnonzero(unpaired & (part_of >= 0))
+        new = self._under_features(camera, vertices, features.ids[offered], features.points[offered],
+                                   part_of[offered])  # fmt: skip
+        keys = sample_keys(new.parts, new.samples)  # a sample pairs once per view: the first feature takes it
+        _, first = np.unique(keys, return_index=True)
+        fresh = np.zeros(len(new), bool)
+        fresh[first] = True
+        new = new.subset(fresh & ~np.isin(keys, sample_keys(pairs.parts, pairs.samples)))
+        counts[:, NEW] = new.count_by_part(n_parts)
+        self._pairs[camera.name] = pairs.extend(new)
+        return discarded
+
+    def _under_features(self, camera: Camera, vertices: np.ndarray, feature_ids: np.ndarray, points: np.ndarray,
+                        parts: np.ndarray) -> MeshPairs:  # fmt: skip
+        """New pairs of features at ``points`` on ``parts``: each at the point of its part's surface under the
+        feature, its sample the hit face's corner nearest that point (a ray that misses the part makes no pair)."""
+        faces, barycentric = np.full(len(points), -1), np.zeros((len(points), 3))
+        for part in np.unique(parts):
+            mine = parts == part
+            own = self._part_faces[part]
+            hit, barycentric[mine] = ray_hits(camera, points[mine], vertices, self.body.faces[own])
+            faces[mine] = np.where(hit >= 0, own[hit], -1)
+        kept = faces >= 0
+        faces, barycentric = faces[kept], barycentric[kept]
+        seeds = self.body.faces[faces, np.argmax(barycentric, axis=1)]
+        return MeshPairs(feature_ids[kept], parts[kept], seeds, faces, barycentric)
