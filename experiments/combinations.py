@@ -5,7 +5,9 @@ a tracker on more views), into ``reports/combinations/`` and ``reports/combinati
 - the held-out real clips (`experiments.real_motion.HELD_OUT`, whole, at 15 fps) tracked by tree filtering on the
   paper-scale samples from 1, 2 and 3 cameras (``experiment=tbf_multi_view``, its ``rig=body_multi`` cut to its
   first views: front; front and side; front, side and the 45° view), and from one camera as paper 2 tracks
-  (``experiment=tbf_paper_scale``: its multi-view settings' jumps let one ambiguous view jump to a wrong pose);
+  (``experiment=tbf_paper_scale``: its multi-view settings' jumps let one ambiguous view jump to a wrong pose); and
+  by paper 1's AbIS from 3 cameras at 640x480 (``experiment=abis_body``: features on a textured skin, the body's
+  parts fitted top-down), at 15 fps and at 60 fps (the same clip, its limbs moving a quarter as far per frame);
 - paper 1's arm in its elbow swing (``experiment=abis_fig8_fig9``, 3 orthogonal views) by AbIS and by tree
   filtering over a grid of its parameters (``tracker=tbf cost=nwxor motion=dm2``).
 """
@@ -14,6 +16,7 @@ from __future__ import annotations
 
 import shutil
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 from omegaconf import OmegaConf
@@ -27,6 +30,7 @@ from tracker.atomic import atomic_path
 from tracker.motion.mocap import available_frames, read_clip
 
 CAMERA_COUNTS = (1, 2, 3)  # the first views of rig=body_multi
+ABIS_DENSE_FPS = 60.0
 ARM_TRACKERS = {"AbIS (Levenberg-Marquardt), 3 views": (),
                 "tree filtering (nwXOR, DM2), 3 views": ("tracker=tbf", "cost=nwxor", "motion=dm2")}  # fmt: skip
 
@@ -38,12 +42,27 @@ def first_views(count: int) -> str:
                                     for v in views) + "]"  # fmt: skip
 
 
-def body_runs() -> dict[str, tuple[str, str, tuple[str, ...]]]:
-    """Folder -> (what the row says, the experiment, its overrides) of every row of the held-out clips."""
-    rows = {"tbf_paper_1_view": ("tree filtering, 1 camera (experiment=tbf_paper_scale)", "tbf_paper_scale", ())}
+@dataclass(frozen=True)
+class BodyRow:
+    """A row of the held-out clips: what it says, the experiment, its overrides and the frame rate it tracks at."""
+
+    label: str
+    experiment: str
+    overrides: tuple[str, ...] = ()
+    fps: float = FPS
+
+
+def body_runs() -> dict[str, BodyRow]:
+    """Folder -> its row, for every row of the held-out clips."""
+    rows = {"tbf_paper_1_view": BodyRow("tree filtering, 1 camera (experiment=tbf_paper_scale)", "tbf_paper_scale")}
     for count in CAMERA_COUNTS:
-        rows[f"tbf_{count}_views"] = (f"tree filtering, {count} camera{'s' * (count > 1)} (experiment="
-                                      f"tbf_multi_view)", "tbf_multi_view", (first_views(count),))  # fmt: skip
+        rows[f"tbf_{count}_views"] = BodyRow(f"tree filtering, {count} camera{'s' * (count > 1)} (experiment="
+                                             f"tbf_multi_view)", "tbf_multi_view", (first_views(count),))  # fmt: skip
+    rows["abis_3_views"] = BodyRow("AbIS, 3 cameras at 640x480 (experiment=abis_body)", "abis_body")
+    # The same clip 4 times as densely sampled in time: how much of AbIS's error is the limbs' motion per frame.
+    rows[f"abis_3_views_{ABIS_DENSE_FPS:.0f}fps"] = BodyRow(f"AbIS, 3 cameras, at {ABIS_DENSE_FPS:.0f} fps",
+                                                            "abis_body", (f"scene.fps={ABIS_DENSE_FPS}",),
+                                                            ABIS_DENSE_FPS)  # fmt: skip
     return rows
 
 
@@ -54,17 +73,18 @@ def combinations(reports: Path) -> tuple[str, str]:
     shutil.rmtree(root, ignore_errors=True)
     body_rows = body_runs()
     for path in HELD_OUT:
-        clip, frames = Path(path).stem, available_frames(read_clip(path), 0.0, FPS)
-        for folder, (label, experiment, overrides) in body_rows.items():
-            print(f"combinations: {clip} ({frames} frames), {label} ...", flush=True)
-            run_experiment(experiment, root / clip / folder, f"scene.path={path}", f"frames={frames}", *overrides,
-                           *LIGHT_RECORDING)  # fmt: skip
+        clip = Path(path).stem
+        for folder, row in body_rows.items():
+            frames = available_frames(read_clip(path), 0.0, row.fps)
+            print(f"combinations: {clip} ({frames} frames), {row.label} ...", flush=True)
+            run_experiment(row.experiment, root / clip / folder, f"scene.path={path}", f"frames={frames}",
+                           *row.overrides, *LIGHT_RECORDING)  # fmt: skip
     arm_runs = {}
     for label, overrides in ARM_TRACKERS.items():
         print(f"combinations: paper 1's arm by {label} ...", flush=True)
         folder = root / "arm" / ("tbf" if overrides else "abis")
         arm_runs[label] = run_experiment("abis_fig8_fig9", folder, *overrides, *LIGHT_RECORDING)
-    body, arm = body_table(root, {folder: label for folder, (label, _, _) in body_rows.items()}), arm_table(arm_runs)
+    body, arm = body_table(root, {folder: row.label for folder, row in body_rows.items()}), arm_table(arm_runs)
     with atomic_path(reports / "combinations.csv") as temporary:
         body.to_csv(temporary, index=False)
     text = markdown(body) + "\n\n" + markdown(arm)
@@ -73,9 +93,13 @@ def combinations(reports: Path) -> tuple[str, str]:
     seconds = time.perf_counter() - start
     console = f"\nAny model with any tracker ({seconds:.0f} s):\n{text}\n"
     section = (
-        "### Any model with any tracker: several views for tree filtering, the arm by tree filtering\n\n"
+        "### Any model with any tracker: several views for tree filtering, the body by AbIS, the arm by tree "
+        "filtering\n\n"
         "The held-out real clips tracked by tree filtering on the paper-scale samples (`experiment=tbf_multi_view`) "
         "from the first 1, 2 and 3 cameras of `rig=body_multi` (front; side; 45° between), the likelihood the "
-        "product of the views'; and paper 1's arm in its elbow swing by AbIS and by tree filtering over a grid of "
-        "its parameters (the floor: the grid's sample nearest the truth).\n\n" + text + "\n\n")  # fmt: skip
+        "product of the views', and by paper 1's AbIS from the same three views at 640x480 (`experiment=abis_body`: "
+        "KLT features on a textured skin, the parts' joints fitted top-down; it starts at the truth, as paper 1 "
+        "does, and has no floor: it searches no dictionary), at 15 fps and at 60 fps; and paper 1's arm in its "
+        "elbow swing by AbIS and by tree filtering over a grid of its parameters (the floor: the grid's sample "
+        "nearest the truth).\n\n" + text + "\n\n")  # fmt: skip
     return console, section

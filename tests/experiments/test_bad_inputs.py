@@ -107,7 +107,7 @@ AT_START = [
     (["rig=mono", "rig.position=[0.55,0,-0.2]"],
      r"^rig=mono: camera 'main': position and target coincide \(\[0\.55, 0\.0, -0\.2\]\)$"),
     (["experiment=nope"],
-     r"^experiment=nope: no such option, allowed abis_fig8_fig9, abis_occlusion, arm_scene, tbf_multi_view, "
+     r"^experiment=nope: no such option, allowed abis_body, abis_fig8_fig9, abis_occlusion, arm_scene, tbf_multi_view, "
      r"tbf_paper_scale, "
      r"tbf_table4c, tbf_table4c_clean$"),
     (["tracker=kalman"], r"^tracker=kalman: no such option, allowed abis, render_only, tbf$"),

@@ -8,7 +8,7 @@ import pytest
 
 from eval.combinations import arm_table, body_table
 from experiments.combinations import ARM_TRACKERS, body_runs, first_views
-from experiments.real_motion import FPS, HELD_OUT
+from experiments.real_motion import HELD_OUT
 from experiments.schemas import CONFIG_DIR
 from experiments.validate import validate_command_line
 from tests.conftest import run_cli
@@ -17,11 +17,11 @@ from tracker.motion.mocap import available_frames, read_clip
 
 @pytest.mark.parametrize("folder", list(body_runs()))
 def test_every_body_row_is_a_valid_run_of_every_held_out_clip(folder):
-    _, experiment, overrides = body_runs()[folder]
+    row = body_runs()[folder]
     for clip in HELD_OUT:
-        frames = available_frames(read_clip(clip), 0.0, FPS)
-        validate_command_line([f"experiment={experiment}", f"scene.path={clip}", f"frames={frames}", *overrides],
-                              CONFIG_DIR, "config")  # fmt: skip
+        frames = available_frames(read_clip(clip), 0.0, row.fps)
+        validate_command_line([f"experiment={row.experiment}", f"scene.path={clip}", f"frames={frames}",
+                               *row.overrides], CONFIG_DIR, "config")  # fmt: skip
 
 
 def test_the_first_views_are_rig_body_multis_first_cameras():
