@@ -15,7 +15,7 @@ import time
 import numpy as np
 
 from experiments.components import build, compose
-from tracker.tbf.distances import ObservationScorer
+from tracker.tbf.distances import ObservationScorer, RunBoundaries, SilhouetteRuns, window_pixels
 from tracker.tol import ZERO_LENGTH
 
 log = logging.getLogger(__name__)
@@ -42,6 +42,9 @@ def bench_tbf(frames: int, experiment: str, overrides: list[str]) -> dict[str, o
     filter_ = tracker.filter
     estimate_ms, first_ms, evaluated, worst = [], [], [], 0.0
     frame_scoring, level1_scoring = [], []  # per frame: (weights, vectorised, naive) seconds, bytes
+    level1_ways = []  # per frame: all of level 1 scored from its runs, from its run boundaries (seconds)
+    top_runs = [stack.runs.subset(filter_.tree.levels[0].representatives)
+                for stack in filter_.samples.silhouettes(filter_.tree.levels[0].resolution)]  # fmt: skip
     for frame in observed:
         start = time.perf_counter()
         result = tracker.step(frame)  # the tracker's whole step: placing the silhouette, then the filter
@@ -59,7 +62,9 @@ def bench_tbf(frames: int, experiment: str, overrides: list[str]) -> dict[str, o
         figures, difference = _compare_scoring(filter_, 0, silhouettes, np.arange(len(filter_.tree.levels[0])))
         level1_scoring.append(figures)
         worst = max(worst, difference)
+        level1_ways.append(_level1_ways(filter_, top_runs, silhouettes))
     frame_scoring, level1_scoring = np.median(frame_scoring, axis=0), np.median(level1_scoring, axis=0)
+    level1_ways = np.median(level1_ways, axis=0)
     return {"samples": len(filter_.samples), "nodes": filter_.tree.node_counts, "frames": frames, "views": len(rig),
             "estimate_ms": statistics.median(estimate_ms), "estimate_ms_max": max(estimate_ms),
             "nodes_evaluated": statistics.median(evaluated),
@@ -67,7 +72,24 @@ def bench_tbf(frames: int, experiment: str, overrides: list[str]) -> dict[str, o
             "scoring_naive_ms": 1e3 * frame_scoring[2], "bytes_per_frame": frame_scoring[3],
             "level1_vectorised_ms": 1e3 * level1_scoring[1], "level1_naive_ms": 1e3 * level1_scoring[2],
             "level1_bytes": level1_scoring[3], "bandwidth_gb_s": _memory_bandwidth_gb_s(),
+            "level1_runs_ms": 1e3 * level1_ways[0], "level1_boundaries_ms": 1e3 * level1_ways[1],
             "max_relative_difference": worst, "first_frame_ms": first_ms[0]}  # fmt: skip
+
+
+def _level1_ways(filter_, top_runs: list[SilhouetteRuns], silhouettes: tuple[np.ndarray, ...]) -> np.ndarray:
+    """Seconds to score every level-1 node in every view from its runs (``top_runs``, per view), and from the
+    filter's run boundaries, with the same scorers; they must agree to rounding."""
+    seconds = np.zeros(2)
+    for view, silhouette in enumerate(silhouettes):
+        stack = filter_.samples.sets[view].silhouettes(filter_.tree.levels[0].resolution)
+        scorer = ObservationScorer(filter_.cost, filter_.observation_at(0, silhouette), stack.window)
+        scores = []
+        for way, runs in enumerate((top_runs[view], filter_.level_runs[0][view])):
+            start = time.perf_counter()
+            scores.append(scorer.scores_of_runs(runs))
+            seconds[way] += time.perf_counter() - start
+        np.testing.assert_allclose(scores[1], scores[0], rtol=1e-9, atol=1e-12)
+    return seconds
 
 
 def _compare_scoring(filter_, level: int, silhouettes: tuple[np.ndarray, ...],
@@ -96,10 +118,8 @@ def _compare_view_scoring(filter_, level: int, view: int, silhouette: np.ndarray
     start = time.perf_counter()
     scores = scorer.scores_of_runs(runs, None if len(nodes) == len(runs) else nodes)
     vectorised_s = time.perf_counter() - start
-    # each run's start, end and owner; plus the prefix sums of the weights over the window
+    read = _bytes_read(runs, nodes) + 8 * (window_pixels(stack.window) + 1)  # and the weights' prefix sums
     u0, v0, u1, v1 = stack.window
-    run_bytes = runs.starts.itemsize + runs.ends.itemsize + runs.owner.itemsize
-    read = int((runs.ptr[nodes + 1] - runs.ptr[nodes]).sum()) * run_bytes + 8 * ((u1 - u0) * (v1 - v0) + 1)
     weights, inside = scorer.weights[v0:v1, u0:u1], observed[v0:v1, u0:u1]
     models = [stack.mask(rep) for rep in tree_level.representatives[nodes]]  # as bool masks before the clock
     start = time.perf_counter()
@@ -107,6 +127,17 @@ def _compare_view_scoring(filter_, level: int, view: int, silhouette: np.ndarray
     naive_s = time.perf_counter() - start
     difference = float(np.max(np.abs(naive - scores) / np.maximum(np.abs(scores), ZERO_LENGTH))) if len(nodes) else 0.0
     return np.array([weights_s, vectorised_s, naive_s, read]), difference
+
+
+def _bytes_read(runs: SilhouetteRuns | RunBoundaries, nodes: np.ndarray) -> int:
+    """The bytes of ``nodes``' runs that scoring reads: each run's start, end and owner, or its two boundaries'
+    columns and signs."""
+    if isinstance(runs, RunBoundaries):
+        matrix = runs.matrix
+        return int((matrix.indptr[nodes + 1] - matrix.indptr[nodes]).sum()) * (matrix.indices.itemsize
+                                                                                + matrix.data.itemsize)  # fmt: skip
+    return int((runs.ptr[nodes + 1] - runs.ptr[nodes]).sum()) * (runs.starts.itemsize + runs.ends.itemsize
+                                                                  + runs.owner.itemsize)  # fmt: skip
 
 
 def _memory_bandwidth_gb_s() -> float:
@@ -137,6 +168,9 @@ def run(frames: int, experiment: str, overrides: list[str]) -> None:
     log.info("  scoring all %d level-1 nodes: from runs %.3f ms, naive per-node loop %.2f ms: %.1fx (%.2f MB read)",
              figures["nodes"][0], figures["level1_vectorised_ms"], figures["level1_naive_ms"],
              figures["level1_naive_ms"] / figures["level1_vectorised_ms"], figures["level1_bytes"] / 1e6)
+    log.info("  all of level 1, every view: from its runs %.3f ms, from its run boundaries (as the filter scores "
+             "it) %.3f ms: %.1fx", figures["level1_runs_ms"], figures["level1_boundaries_ms"],
+             figures["level1_runs_ms"] / figures["level1_boundaries_ms"])
     log.info("  naive and vectorised scores agree to %.1e (relative); frame 0 stages (ms): %s",
              figures["max_relative_difference"],
              ", ".join(f"{k} {v:.1f}" for k, v in figures["first_frame_ms"].items()))

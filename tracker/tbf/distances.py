@@ -22,7 +22,10 @@ Because d_P depends on P only, the distance is affine in Q's pixels: ``d = (c + 
 scores any number of model silhouettes at once. A model silhouette is stored as its runs of inside pixels along
 the window's pixels in row-major order (`SilhouetteRuns`), so with ``A`` the prefix sum of ``a`` the sum over Q is
 ``sum over runs [s, e) of A(e) - A(s)``: two reads per run (a few hundred per silhouette at 320x240) instead of
-one per inside pixel (thousands).
+one per inside pixel (thousands). Where many silhouettes are scored at every frame (a tree's top level), their runs
+are kept as a sparse matrix with -1 at each run's start and +1 at its end (`RunBoundaries`), and the sums are one
+sparse product with A: ~8x faster than gathering A at the runs and adding them up per silhouette, for twice the
+memory of the runs (the same sums, to rounding: ~1e-13).
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ from typing import Any
 
 import cv2
 import numpy as np
+from scipy import sparse
 from skimage.morphology import skeletonize
 
 from tracker.ranges import NonNegative
@@ -47,6 +51,12 @@ class EmptySilhouette(ValueError):
 
 def full_window(shape: tuple[int, int]) -> Window:
     return (0, 0, shape[1], shape[0])
+
+
+def window_pixels(window: Window) -> int:
+    """N_W: the window's pixel count."""
+    u0, v0, u1, v1 = window
+    return (u1 - u0) * (v1 - v0)
 
 
 def euclidean_distance(away: np.ndarray) -> np.ndarray:
@@ -125,7 +135,7 @@ def silhouette_distance(cost: str | Cost, observed: np.ndarray, model: np.ndarra
     u0, v0, u1, v1 = window or full_window(observed.shape)
     weights = weight_map(cost, observed, window, **settings)
     differs = np.logical_xor(observed, model)[v0:v1, u0:u1]
-    return float((weights[v0:v1, u0:u1] * differs).sum() / ((u1 - u0) * (v1 - v0)))
+    return float((weights[v0:v1, u0:u1] * differs).sum() / window_pixels((u0, v0, u1, v1)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -188,6 +198,29 @@ class SilhouetteRuns:
         return np.arange(len(owner)) + np.repeat(first - (np.cumsum(counts) - counts), counts), owner
 
 
+class RunBoundaries:
+    """Silhouettes' runs as a sparse ``(n, pixels + 1)`` matrix B: row i holds -1 at each of silhouette i's runs'
+    starts and +1 at their ends, so that ``B @ A``, A the prefix sum of per-pixel values (``A[0] = 0``), is each
+    silhouette's sum of the values over its pixels."""
+
+    def __init__(self, runs: SilhouetteRuns, pixels: int) -> None:
+        columns = np.empty(2 * len(runs.starts), np.int32)
+        columns[0::2], columns[1::2] = runs.starts, runs.ends  # a row's runs are ordered and never touch
+        signs = np.empty(len(columns))
+        signs[0::2], signs[1::2] = -1.0, 1.0
+        self.matrix = sparse.csr_matrix((signs, columns, 2 * runs.ptr), shape=(len(runs), pixels + 1))
+
+    def __len__(self) -> int:
+        return self.matrix.shape[0]
+
+    def sums(self, values: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
+        """As `SilhouetteRuns.sums`."""
+        prefix = np.empty(len(values) + 1)
+        prefix[0] = 0.0
+        np.cumsum(values, out=prefix[1:])
+        return (self.matrix if rows is None else self.matrix[np.asarray(rows)]) @ prefix
+
+
 @dataclass(frozen=True, eq=False)
 class SilhouetteStack:
     """Many model silhouettes of one resolution, cropped to a window: ``images`` ``(n, v1 - v0, u1 - u0)``, a
@@ -226,7 +259,7 @@ class ObservationScorer:
         inside = np.asarray(observed, bool)[v0:v1, u0:u1]
         self._slope = (crop * np.where(inside, -1.0, 1.0)).ravel()
         self._constant = float(crop[inside].sum())
-        self._pixels = (u1 - u0) * (v1 - v0)
+        self._pixels = window_pixels(window)
 
     def scores(self, stack: SilhouetteStack, rows: np.ndarray | None = None) -> np.ndarray:
         """The distance to every silhouette of ``stack`` (or to those of ``rows``)."""
@@ -234,6 +267,6 @@ class ObservationScorer:
             raise ValueError(f"the stack's window {stack.window} is not the scorer's {self.window}")
         return self.scores_of_runs(stack.runs, rows)
 
-    def scores_of_runs(self, runs: SilhouetteRuns, rows: np.ndarray | None = None) -> np.ndarray:
-        """The same for silhouettes given by their runs over the scorer's window."""
+    def scores_of_runs(self, runs: SilhouetteRuns | RunBoundaries, rows: np.ndarray | None = None) -> np.ndarray:
+        """The same for silhouettes given by their runs over the scorer's window (or their `RunBoundaries`)."""
         return (self._constant + runs.sums(self._slope, rows)) / self._pixels

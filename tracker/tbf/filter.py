@@ -32,7 +32,7 @@ import numpy as np
 from tracker.observe.silhouettes import resize_silhouette
 from tracker.ranges import Positive, Range
 from tracker.settings import validate
-from tracker.tbf.distances import Cost, ObservationScorer
+from tracker.tbf.distances import Cost, ObservationScorer, RunBoundaries, window_pixels
 from tracker.tbf.motion import BODY_SPACE, PosePrior, PoseSpace, RandomWalk
 from tracker.tbf.samples import PoseSampleSet, SampleViews
 from tracker.tbf.tree import PoseTree
@@ -122,9 +122,12 @@ class TreeFilter:
         self._prior = PosePrior(samples.poses, motion, transitions=transitions, space=space)
         self._stacks = [samples.silhouettes(level.resolution) for level in tree.levels]
         # Per level and view, the representatives' runs in node order (a level scored whole reads them straight
-        # through).
+        # through); the top level's, scored whole at frame 0 and, with a jump share, at every frame, as run
+        # boundaries (the coarsest resolution: its matrix is small).
         self.level_runs = [tuple(stack.runs.subset(level.representatives) for stack in stacks)
                            for stacks, level in zip(self._stacks, tree.levels, strict=True)]  # fmt: skip
+        self.level_runs[0] = tuple(RunBoundaries(runs, window_pixels(stack.window))
+                                   for runs, stack in zip(self.level_runs[0], self._stacks[0], strict=True))
         self._occluded = samples.occluded(motion.occlusion_area_px)
         # Per level, each view's sigma (eq 10): its own neighbour step.
         self.level_sigmas = [tuple(settings.likelihood_sigma * view.derived(

@@ -7,6 +7,7 @@ from tracker.registry import COSTS
 from tracker.tbf.distances import (
     EmptySilhouette,
     ObservationScorer,
+    RunBoundaries,
     SilhouetteRuns,
     SilhouetteStack,
     silhouette_distance,
@@ -89,6 +90,12 @@ def test_runs_hold_exactly_the_inside_pixels():
     np.testing.assert_allclose(runs.sums(values), masks.reshape(7, -1) @ values, atol=1e-12)
     rows = np.array([4, 2, 0, 4])
     np.testing.assert_allclose(runs.sums(values, rows), masks.reshape(7, -1)[rows] @ values, atol=1e-12)
+    masks[6, 4, 3:] = True  # a run that reaches the last pixel: the sums as one sparse product
+    runs = SilhouetteRuns.from_masks(masks)
+    boundaries = RunBoundaries(runs, 30)
+    assert runs.ends.max() == 30 and len(boundaries) == 7
+    np.testing.assert_allclose(boundaries.sums(values), masks.reshape(7, -1) @ values, atol=1e-12)
+    np.testing.assert_allclose(boundaries.sums(values, rows), masks.reshape(7, -1)[rows] @ values, atol=1e-12)
 
 
 def test_an_empty_observation_has_no_weighted_distance():
