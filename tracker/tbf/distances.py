@@ -71,10 +71,22 @@ def euclidean_distance(away: np.ndarray) -> np.ndarray:
     return np.sqrt(np.rint(rough * rough))
 
 
+def bounding_box(silhouette: np.ndarray) -> tuple[slice, slice]:
+    """The rows and columns of the smallest rectangle holding the silhouette (empty slices for none)."""
+    rows, columns = np.flatnonzero(silhouette.any(axis=1)), np.flatnonzero(silhouette.any(axis=0))
+    if not len(rows):
+        return slice(0, 0), slice(0, 0)
+    return slice(rows[0], rows[-1] + 1), slice(columns[0], columns[-1] + 1)
+
+
 def inside_distance(silhouette: np.ndarray) -> np.ndarray:
     """D_P: per pixel of the silhouette, the Euclidean distance to the nearest pixel outside it (0 outside).
-    The image border counts as outside."""
-    return euclidean_distance(np.pad(silhouette, 1))[1:-1, 1:-1]
+    The image border counts as outside. (Computed on the silhouette's bounding box framed by one pixel outside:
+    a pixel's nearest outside pixel lies in that frame or nearer.)"""
+    distance = np.zeros(silhouette.shape)
+    box = bounding_box(silhouette)
+    distance[box] = euclidean_distance(np.pad(silhouette[box], 1))[1:-1, 1:-1]
+    return distance
 
 
 def outside_distance(silhouette: np.ndarray) -> np.ndarray:
@@ -85,11 +97,16 @@ def outside_distance(silhouette: np.ndarray) -> np.ndarray:
 
 
 def medial_axis_distance(silhouette: np.ndarray) -> np.ndarray:
-    """D_Pmed: per pixel, the Euclidean distance to the silhouette's thinned centre line (skeleton)."""
-    axis = skeletonize(silhouette)
+    """D_Pmed: per pixel of the silhouette, the Euclidean distance to its thinned centre line (skeleton); 0
+    outside it. (Thinning and distances on the silhouette's bounding box framed by one pixel outside: thinning
+    sees only a pixel's neighbours, and the centre line lies inside.)"""
+    box = bounding_box(silhouette)
+    axis = skeletonize(np.pad(silhouette[box], 1))
     if not axis.any():
         raise EmptySilhouette("the silhouette is empty: it has no medial axis")
-    return euclidean_distance(~axis)
+    distance = np.zeros(silhouette.shape)
+    distance[box] = np.where(silhouette[box], euclidean_distance(~axis)[1:-1, 1:-1], 0.0)
+    return distance
 
 
 @COSTS.register("xor")
