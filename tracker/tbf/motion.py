@@ -17,10 +17,12 @@ of the prior mass. A sample no clip frame stands for (from a grid) keeps the wal
 The prior of eq 14, ``p(x^n | z_1:t-1) = sum_i N(x^n; x^i, Sigma) p(x^i | z_1:t-1)``, is a dense N x N sum at N
 samples. `PosePrior.prior` keeps the terms that matter: from the previous posterior's support (its
 ``max_support`` largest samples among those with at least ``support_fraction`` of its peak) to every sample
-within ``reach`` standard deviations, found in one call of a KD-tree over pose space divided by the frame's
-sigmas (one tree per distinct sigma vector, i.e. per DM2 occlusion pattern, built on first use). Terms beyond
-``reach`` sigmas weigh less than ``exp(-reach^2 / 2)`` each (reach 4: 3e-4); the posterior mass left out of the
-support is reported per frame (`PosePrior.last_mass_used`).
+within ``reach`` standard deviations, found by a KD-tree over pose space divided by the frame's sigmas (one tree
+per distinct sigma vector, i.e. per DM2 occlusion pattern, built on first use) and kept per sample
+(`KernelNeighbours`): the support moves little from frame to frame, and in a pose space of ~100 components the
+tree spends its time proving that a sample has few neighbours (a few dozen terms a frame at ~52,000 samples).
+Terms beyond ``reach`` sigmas weigh less than ``exp(-reach^2 / 2)`` each (reach 4: 3e-4); the posterior mass left
+out of the support is reported per frame (`PosePrior.last_mass_used`).
 """
 
 from __future__ import annotations
@@ -108,6 +110,35 @@ class LearnedTransitions(OccludedWiderWalk):
         return walk_sigmas * (self.learned_sigma / self.sigma)
 
 
+class KernelNeighbours:
+    """For one sigma vector, each asked sample's samples within ``reach`` sigmas and their distances in sigmas,
+    found on first ask (one KD-tree query for all of a call's new samples) and kept."""
+
+    def __init__(self, poses: np.ndarray, sigmas: np.ndarray, reach: float) -> None:
+        self.scaled, self.reach = poses / sigmas, reach
+        self.tree = cKDTree(self.scaled)
+        self._first = np.full(len(poses), -1)  # per sample: where its neighbours start in the kept arrays, -1: unasked
+        self._count = np.zeros(len(poses), np.int64)
+        self._neighbours, self._distances = np.zeros(0, np.int64), np.zeros(0)
+
+    def pairs(self, centres: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every (centre, sample within reach) pair: the centre's position in ``centres``, the sample and their
+        distance in sigmas; centre by centre, each centre's samples in index order."""
+        new = np.unique(centres[self._first[centres] < 0])
+        if len(new):
+            found = self.tree.sparse_distance_matrix(cKDTree(self.scaled[new]), self.reach, output_type="ndarray")
+            order = np.lexsort((found["i"], found["j"]))  # by centre, then by sample
+            counts = np.bincount(found["j"], minlength=len(new))  # >= 1: a centre is its own neighbour
+            self._first[new] = len(self._neighbours) + np.cumsum(counts) - counts
+            self._count[new] = counts
+            self._neighbours = np.concatenate([self._neighbours, found["i"][order]])
+            self._distances = np.concatenate([self._distances, found["v"][order]])
+        counts = self._count[centres]
+        rows = np.repeat(np.arange(len(centres)), counts)
+        index = np.repeat(self._first[centres] - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())
+        return rows, self._neighbours[index], self._distances[index]
+
+
 class PosePrior:
     """Eq 14 over a fixed sample set, sparse (see the module docstring); with `LearnedTransitions`, its mixture
     over the learned ``transitions`` (``(m, 3)`` rows ``from, to, count``). ``space``: what the poses hold."""
@@ -118,9 +149,9 @@ class PosePrior:
         self.poses = np.asarray(poses, dtype=np.float64)
         self.motion, self.reach, self.space = motion, reach, space
         self.support_fraction, self.max_support = support_fraction, max_support
-        self._trees: dict[bytes, cKDTree] = {}
+        self._neighbours: dict[bytes, KernelNeighbours] = {}
         self.last_mass_used = 1.0
-        self._tree(motion.base_sigmas(space))  # the no-occlusion tree up front (~0.1 s at 57k samples), not in a frame
+        self._within_reach(motion.base_sigmas(space))  # the no-occlusion tree up front (~0.1 s at 57k samples)
         self.learned = isinstance(motion, LearnedTransitions)
         if self.learned:
             if transitions is None or not len(transitions):
@@ -129,13 +160,13 @@ class PosePrior:
             order = np.argsort(transitions[:, 0], kind="stable")
             self._to, self._count = transitions[order, 1], transitions[order, 2].astype(np.float64)
             self._rows = np.searchsorted(transitions[order, 0], np.arange(len(self.poses) + 1))
-            self._tree(motion.learned_sigmas(motion.base_sigmas(space)))
+            self._within_reach(motion.learned_sigmas(motion.base_sigmas(space)))
 
-    def _tree(self, sigmas: np.ndarray) -> cKDTree:
+    def _within_reach(self, sigmas: np.ndarray) -> KernelNeighbours:
         key = sigmas.tobytes()
-        if key not in self._trees:
-            self._trees[key] = cKDTree(self.poses / sigmas)
-        return self._trees[key]
+        if key not in self._neighbours:
+            self._neighbours[key] = KernelNeighbours(self.poses, sigmas, self.reach)
+        return self._neighbours[key]
 
     def prior(self, posterior: np.ndarray, occluded_parts: np.ndarray) -> tuple[np.ndarray, int]:
         """``(N,)`` unnormalised eq 14 at every sample (0 where beyond reach) and the number of kernel terms
@@ -147,10 +178,9 @@ class PosePrior:
         self.last_mass_used = float(posterior[support].sum() / posterior.sum())
         if self.learned:
             return self._learned_prior(support, posterior[support], sigmas)
-        pairs = self._tree(sigmas).sparse_distance_matrix(cKDTree(self.poses[support] / sigmas), self.reach,
-                                                        output_type="ndarray")  # fmt: skip
-        weights = posterior[support][pairs["j"]] * np.exp(-0.5 * pairs["v"] ** 2)
-        return np.bincount(pairs["i"], weights=weights, minlength=len(self.poses)), len(pairs)
+        centre, sample, distance = self._within_reach(sigmas).pairs(support)
+        weights = posterior[support][centre] * np.exp(-0.5 * distance**2)
+        return np.bincount(sample, weights=weights, minlength=len(self.poses)), len(sample)
 
     def _learned_prior(self, support: np.ndarray, mass: np.ndarray, sigmas: np.ndarray) -> tuple[np.ndarray, int]:
         """`LearnedTransitions`' mixture from the ``support`` samples holding ``mass``; ``sigmas``: the frame's walk."""
@@ -169,12 +199,11 @@ class PosePrior:
         within ``reach``), and the number of terms."""
         if not len(centres):
             return np.zeros(len(self.poses)), 0
-        pairs = self._tree(sigmas).sparse_distance_matrix(cKDTree(self.poses[centres] / sigmas), self.reach,
-                                                        output_type="ndarray")  # fmt: skip
-        kernel = np.exp(-0.5 * pairs["v"] ** 2)
-        totals = np.bincount(pairs["j"], weights=kernel, minlength=len(centres))  # >= 1: a centre is a sample
-        return np.bincount(pairs["i"], weights=mass[pairs["j"]] * kernel / totals[pairs["j"]],
-                           minlength=len(self.poses)), len(pairs)  # fmt: skip
+        centre, sample, distance = self._within_reach(sigmas).pairs(centres)
+        kernel = np.exp(-0.5 * distance**2)
+        totals = np.bincount(centre, weights=kernel, minlength=len(centres))  # >= 1: a centre is a sample
+        return np.bincount(sample, weights=mass[centre] * kernel / totals[centre],
+                           minlength=len(self.poses)), len(sample)  # fmt: skip
 
     def dense_prior(self, posterior: np.ndarray, occluded_parts: np.ndarray) -> np.ndarray:
         """The same sum over every pair (the naive N x N reference; small sets only)."""
