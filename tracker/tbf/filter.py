@@ -32,7 +32,7 @@ import numpy as np
 from tracker.observe.silhouettes import resize_silhouette
 from tracker.ranges import Positive, Range
 from tracker.settings import validate
-from tracker.tbf.distances import Cost, ObservationScorer, RunBoundaries, window_pixels
+from tracker.tbf.distances import Cost, ObservationScorer, RunBoundaries
 from tracker.tbf.motion import BODY_SPACE, PosePrior, PoseSpace, RandomWalk
 from tracker.tbf.samples import PoseSampleSet, SampleViews
 from tracker.tbf.tree import PoseTree
@@ -126,8 +126,8 @@ class TreeFilter:
         # boundaries (the coarsest resolution: its matrix is small).
         self.level_runs = [tuple(stack.runs.subset(level.representatives) for stack in stacks)
                            for stacks, level in zip(self._stacks, tree.levels, strict=True)]  # fmt: skip
-        self.level_runs[0] = tuple(RunBoundaries(runs, window_pixels(stack.window))
-                                   for runs, stack in zip(self.level_runs[0], self._stacks[0], strict=True))
+        self.level_runs[0] = tuple(RunBoundaries(stack.images[tree.levels[0].representatives])
+                                   for stack in self._stacks[0])
         self._occluded = samples.occluded(motion.occlusion_area_px)
         # Per level, each view's sigma (eq 10): its own neighbour step.
         self.level_sigmas = [tuple(settings.likelihood_sigma * view.derived(

@@ -90,12 +90,15 @@ def test_runs_hold_exactly_the_inside_pixels():
     np.testing.assert_allclose(runs.sums(values), masks.reshape(7, -1) @ values, atol=1e-12)
     rows = np.array([4, 2, 0, 4])
     np.testing.assert_allclose(runs.sums(values, rows), masks.reshape(7, -1)[rows] @ values, atol=1e-12)
-    masks[6, 4, 3:] = True  # a run that reaches the last pixel: the sums as one sparse product
-    runs = SilhouetteRuns.from_masks(masks)
-    boundaries = RunBoundaries(runs, 30)
-    assert runs.ends.max() == 30 and len(boundaries) == 7
-    np.testing.assert_allclose(boundaries.sums(values), masks.reshape(7, -1) @ values, atol=1e-12)
-    np.testing.assert_allclose(boundaries.sums(values, rows), masks.reshape(7, -1)[rows] @ values, atol=1e-12)
+    masks[6, 4, 3:] = True  # a run that reaches the last pixel
+    assert SilhouetteRuns.from_masks(masks).ends.max() == 30
+    wide, tall = np.zeros((2, 7, 5, 6), bool)
+    wide[:, 1:3], tall[:, :, 1:3] = True, True  # two rows: one run a row, six a column; two columns: the reverse
+    for shapes, by_columns in ((masks, None), (wide, False), (tall, True)):  # the sums as one sparse product
+        boundaries = RunBoundaries(shapes)
+        assert len(boundaries) == 7 and by_columns in (None, boundaries.by_columns)
+        np.testing.assert_allclose(boundaries.sums(values), shapes.reshape(7, -1) @ values, atol=1e-12)
+        np.testing.assert_allclose(boundaries.sums(values, rows), shapes.reshape(7, -1)[rows] @ values, atol=1e-12)
 
 
 def test_an_empty_observation_has_no_weighted_distance():
