@@ -120,7 +120,7 @@ def _compare_view_scoring(filter_, level: int, view: int, silhouette: np.ndarray
     vectorised_s = time.perf_counter() - start
     read = _bytes_read(runs, nodes) + 8 * (window_pixels(stack.window) + 1)  # and the weights' prefix sums
     u0, v0, u1, v1 = stack.window
-    weights, inside = scorer.weights[v0:v1, u0:u1], observed[v0:v1, u0:u1]
+    weights, inside = scorer.weights, observed[v0:v1, u0:u1]
     models = [stack.mask(rep) for rep in tree_level.representatives[nodes]]  # as bool masks before the clock
     start = time.perf_counter()
     naive = np.array([(weights * (inside ^ model)).sum() / inside.size for model in models])

@@ -67,8 +67,10 @@ def euclidean_distance(away: np.ndarray) -> np.ndarray:
     process' floating-point state (it changes once an OpenGL context has rendered); the distance is the square root
     of a whole number of squared pixels, so it is snapped to that and taken again in float64: the same bits every
     time."""
-    rough = cv2.distanceTransform(away.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE).astype(np.float64)
-    return np.sqrt(np.rint(rough * rough))
+    distance = cv2.distanceTransform(away.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE).astype(np.float64)
+    np.multiply(distance, distance, out=distance)  # in place: a fresh array per step costs more than the step
+    np.rint(distance, out=distance)
+    return np.sqrt(distance, out=distance)
 
 
 def bounding_box(silhouette: np.ndarray) -> tuple[slice, slice]:
@@ -81,12 +83,17 @@ def bounding_box(silhouette: np.ndarray) -> tuple[slice, slice]:
 
 def inside_distance(silhouette: np.ndarray) -> np.ndarray:
     """D_P: per pixel of the silhouette, the Euclidean distance to the nearest pixel outside it (0 outside).
-    The image border counts as outside. (Computed on the silhouette's bounding box framed by one pixel outside:
-    a pixel's nearest outside pixel lies in that frame or nearer.)"""
+    The image border counts as outside."""
     distance = np.zeros(silhouette.shape)
     box = bounding_box(silhouette)
-    distance[box] = euclidean_distance(np.pad(silhouette[box], 1))[1:-1, 1:-1]
+    distance[box] = _inside_distance_in_box(silhouette[box])
     return distance
+
+
+def _inside_distance_in_box(boxed: np.ndarray) -> np.ndarray:
+    """`inside_distance` of a silhouette cropped to its bounding box, on the crop: framed by one pixel outside, as
+    a pixel's nearest outside pixel lies in that frame or nearer."""
+    return euclidean_distance(np.pad(boxed, 1))[1:-1, 1:-1]
 
 
 def outside_distance(silhouette: np.ndarray) -> np.ndarray:
@@ -98,15 +105,20 @@ def outside_distance(silhouette: np.ndarray) -> np.ndarray:
 
 def medial_axis_distance(silhouette: np.ndarray) -> np.ndarray:
     """D_Pmed: per pixel of the silhouette, the Euclidean distance to its thinned centre line (skeleton); 0
-    outside it. (Thinning and distances on the silhouette's bounding box framed by one pixel outside: thinning
-    sees only a pixel's neighbours, and the centre line lies inside.)"""
+    outside it."""
     box = bounding_box(silhouette)
-    axis = skeletonize(np.pad(silhouette[box], 1))
+    distance = np.zeros(silhouette.shape)
+    distance[box] = _medial_axis_distance_in_box(silhouette[box])
+    return distance
+
+
+def _medial_axis_distance_in_box(boxed: np.ndarray) -> np.ndarray:
+    """`medial_axis_distance` of a silhouette cropped to its bounding box, on the crop: thinned and measured framed
+    by one pixel outside, as thinning sees only a pixel's neighbours and the centre line lies inside."""
+    axis = skeletonize(np.pad(boxed, 1))
     if not axis.any():
         raise EmptySilhouette("the silhouette is empty: it has no medial axis")
-    distance = np.zeros(silhouette.shape)
-    distance[box] = np.where(silhouette[box], euclidean_distance(~axis)[1:-1, 1:-1], 0.0)
-    return distance
+    return np.where(boxed, euclidean_distance(~axis)[1:-1, 1:-1], 0.0)
 
 
 @COSTS.register("xor")
@@ -115,20 +127,34 @@ def xor(inside: np.ndarray) -> np.ndarray:
     return np.ones(inside.shape)
 
 
+# wXOR and nwXOR compute their inner terms on the silhouette's bounding box (0 outside it) and add them onto the
+# outer term, which spans the window.
+
+
 @COSTS.register("wxor")
 def wxor(inside: np.ndarray, *, w: NonNegative = 1.0) -> np.ndarray:
     """Eq 7-8: XOR weighted by the distance to the observed silhouette's contour, inside + w outside."""
-    return inside_distance(inside) + w * outside_distance(inside)
+    box = bounding_box(inside)
+    core = _inside_distance_in_box(inside[box])
+    outer = outside_distance(inside)
+    weights = np.multiply(outer, w, out=outer)
+    weights[box] += core
+    return weights
 
 
 @COSTS.register("nwxor")
 def nwxor(inside: np.ndarray) -> np.ndarray:
     """Eq 9: XOR weighted by the inside distance normalised by the local thickness, outside scaled to the same
     maximum (w' makes the two terms' maxima equal)."""
-    core, to_axis, outer = inside_distance(inside), medial_axis_distance(inside), outside_distance(inside)
-    inner = np.divide(core, core + to_axis, out=np.zeros_like(core), where=inside)
-    w_prime = inner.max() / outer.max() if outer.max() > 0 else 0.0
-    return inner + w_prime * outer
+    box = bounding_box(inside)
+    boxed = inside[box]
+    core, to_axis = _inside_distance_in_box(boxed), _medial_axis_distance_in_box(boxed)
+    outer = outside_distance(inside)
+    inner = np.divide(core, core + to_axis, out=np.zeros_like(core), where=boxed)
+    farthest = outer.max()
+    weights = np.multiply(outer, inner.max() / farthest if farthest > 0 else 0.0, out=outer)
+    weights[box] += inner
+    return weights
 
 
 Cost = Callable[[np.ndarray], np.ndarray]  # the observed silhouette, cropped to the window -> its weights there
@@ -138,12 +164,17 @@ def weight_map(cost: str | Cost, observed: np.ndarray, window: Window | None = N
     """``(h, w)`` float64 d_P of ``cost`` (a registered name, with ``settings``, or a configured cost) for the
     observed silhouette, 0 outside the window. A cost that needs a silhouette to measure from (wXOR, nwXOR) raises
     `EmptySilhouette` when the window holds none of it."""
-    weights_of = COSTS.build(cost, settings) if isinstance(cost, str) else cost
     u0, v0, u1, v1 = window or full_window(observed.shape)
-    inside = np.asarray(observed, bool)[v0:v1, u0:u1]
     weights = np.zeros(observed.shape)
-    weights[v0:v1, u0:u1] = weights_of(inside)
+    weights[v0:v1, u0:u1] = window_weights(cost, observed, (u0, v0, u1, v1), **settings)
     return weights
+
+
+def window_weights(cost: str | Cost, observed: np.ndarray, window: Window, **settings: Any) -> np.ndarray:
+    """`weight_map` over the window only: ``(v1 - v0, u1 - u0)``."""
+    weights_of = COSTS.build(cost, settings) if isinstance(cost, str) else cost
+    u0, v0, u1, v1 = window
+    return weights_of(np.asarray(observed, bool)[v0:v1, u0:u1])
 
 
 def silhouette_distance(cost: str | Cost, observed: np.ndarray, model: np.ndarray, window: Window | None = None,
@@ -281,11 +312,10 @@ class ObservationScorer:
     def __init__(self, cost: str | Cost, observed: np.ndarray, window: Window, **settings: Any) -> None:
         u0, v0, u1, v1 = window
         self.window = window
-        self.weights = weight_map(cost, observed, window, **settings)
-        crop = self.weights[v0:v1, u0:u1]
+        self.weights = window_weights(cost, observed, window, **settings)  # d_P over the window
         inside = np.asarray(observed, bool)[v0:v1, u0:u1]
-        self._slope = (crop * np.where(inside, -1.0, 1.0)).ravel()
-        self._constant = float(crop[inside].sum())
+        self._slope = np.negative(self.weights, out=self.weights.copy(), where=inside).ravel()  # a = d_P (1 - 2P)
+        self._constant = float(self.weights[inside].sum())
         self._pixels = window_pixels(window)
 
     def scores(self, stack: SilhouetteStack, rows: np.ndarray | None = None) -> np.ndarray:
