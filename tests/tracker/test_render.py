@@ -106,6 +106,25 @@ def test_rendering_is_deterministic_and_reuses_the_context(arm, motion, rig, ren
     assert len(renderer._materials) == materials  # one material (texture upload) per part, not one per frame
 
 
+def test_where_two_surfaces_lie_at_the_same_depth_the_last_mesh_listed_is_seen(renderer):
+    """Two coplanar squares, red and blue: the overlap shows the one listed last, in colour and label, whatever
+    the nodes' addresses (pyrender draws mesh nodes in a set's order; it used to follow the addresses, so a hand on
+    the face showed one part's texture or the other's from run to run)."""
+    camera = look_at("c", np.array([0.0, -2.0, 0.0]), np.zeros(3), np.array([0, 0, 1.0]), width=320, height=240,
+                     focal_px=400.0)
+    quad = np.array([[-0.3, 0.0, -0.3], [0.3, 0.0, -0.3], [0.3, 0.0, 0.3], [-0.3, 0.0, 0.3]])
+    faces = np.array([[0, 1, 2], [0, 2, 3]])  # counter-clockwise seen from the camera (-y)
+    red, blue = (SurfaceMesh(key=name, label=label, vertices=quad + shift, faces=faces, normals=None, color=color)
+                 for name, label, shift, color in (("red", 1, (-0.1, 0, 0), (255, 0, 0)),
+                                                   ("blue", 2, (0.1, 0, 0), (0, 0, 255))))  # fmt: skip
+    centre = (120, 160)  # the camera looks at the overlap's middle
+    for _ in range(3):  # nodes made anew each time, at other addresses
+        for meshes, seen in (([red, blue], 2), ([blue, red], 1)):
+            view = renderer.render([camera], meshes)["c"]
+            assert view.labels[centre] == seen
+            assert (view.rgb[centre][0] > view.rgb[centre][2]) == (seen == 1)
+
+
 def test_repeated_renders_reuse_compiled_shaders(arm, motion, rig, renderer):
     # Regression: under OSMesa every pass used to miss pyrender's shader cache and compile (and leak) new programs.
     renderer.render(rig, arm.surface_meshes(motion.params(arm, 0)))

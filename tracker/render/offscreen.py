@@ -9,6 +9,7 @@ One GL context serves every frame and camera of a run; textures are uploaded onc
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -140,7 +141,8 @@ class SceneRenderer:
         for node in self._mesh_nodes:
             self._scene.remove_node(node)
         self._mesh_nodes = []
-        for mesh in meshes:
+        node_in_order = _node_in_order(pr.Node)
+        for order, mesh in enumerate(meshes):
             primitive = pr.Primitive(
                 positions=mesh.vertices.astype(np.float32),
                 normals=None if mesh.normals is None else mesh.normals.astype(np.float32),
@@ -148,7 +150,9 @@ class SceneRenderer:
                 indices=mesh.faces.astype(np.uint32),
                 material=self._material(mesh),
             )
-            self._mesh_nodes.append(self._scene.add(pr.Mesh([primitive])))
+            node = node_in_order(order, mesh=pr.Mesh([primitive]))
+            self._scene.add_node(node)
+            self._mesh_nodes.append(node)
 
     def _material(self, mesh: SurfaceMesh):
         material = self._materials.get(mesh.key)
@@ -163,6 +167,26 @@ class SceneRenderer:
             )
             self._materials[mesh.key] = material
         return material
+
+
+@functools.cache
+def _node_in_order(node_class: type) -> type:
+    """pyrender's node class with a hash that is the node's place in the list of meshes drawn.
+
+    pyrender keeps a scene's mesh nodes in a set and draws them in its order (sorted by their poses, here all the
+    same); a node's default hash is its address, so that order, and with it which of two surfaces at the same
+    depth is seen (where a hand touches the face, two parts' textures), changed from run to run. Hashes 0, 1, 2, ...
+    give the same order in every run: the meshes' own (at the same depth the one listed last is seen)."""
+
+    class NodeInOrder(node_class):
+        def __init__(self, order: int, **kwargs) -> None:
+            super().__init__(**kwargs)
+            self.order = order
+
+        def __hash__(self) -> int:
+            return self.order
+
+    return NodeInOrder
 
 
 def _metric_depth(depth: np.ndarray) -> np.ndarray:
