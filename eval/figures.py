@@ -173,12 +173,13 @@ def save_png(plt, figure, out: Path) -> Path:
 # Each figure and the frames.parquet columns it draws: a run gets every figure its table has the columns of.
 FIGURES = ((fig6_fig7_sheets, {"est_a", "est_b1", "est_r2"}),
            (fig8_part2_b1_r2, {"truth_b1", "est_b1", "truth_r2", "est_r2"}),
-           (fig9_part2_correspondences, {"tracked", "new", "discarded_occlusion", "discarded_error", "lost"}))
+           (fig9_part2_correspondences, {"est_b1", "tracked", "new", "discarded_occlusion", "discarded_error",
+                                         "lost"}))  # fmt: skip
 
 
 def write_figures(run_dir: str | Path) -> list[Path]:
     """Every figure the run supports: the views sheet, and those whose columns its table has (Fig 6-8: estimates
-    of the DSQ arm; Fig 9: AbIS's pair counts)."""
+    of the DSQ arm; Fig 9: AbIS's pair counts on the arm)."""
     import pyarrow.parquet as pq
 
     run_dir = Path(run_dir)

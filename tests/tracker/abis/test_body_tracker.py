@@ -133,7 +133,7 @@ def body_run(tmp_path_factory):
     from tests.conftest import run_cli
 
     out = tmp_path_factory.mktemp("body_abis") / "out"
-    result = run_cli(out, "model=body_mesh", "tracker=abis", "frames=6", "record.images=false", cwd=out.parent)
+    result = run_cli(out, "model=body_mesh", "tracker=abis", "frames=6", cwd=out.parent)
     assert result.returncode == 0, result.stderr
     assert "rig=body_multi_vga" in result.stderr and "model.texture_seed=0" in result.stderr
     return out, json.loads((out / "metrics.json").read_text())
@@ -153,3 +153,11 @@ def test_the_body_by_abis_follows_the_arm_swing_with_pairs_that_balance(body_run
                                       + rows["new"])  # fmt: skip
     per_part = table.groupby("part")["pairs"].mean()
     assert per_part["torso"] > 20 and per_part["head"] > 10  # the textured skin gives features to pair
+
+
+def test_the_figures_of_a_body_abis_run_are_those_that_apply_to_it(body_run):
+    """The views sheet from the recording; paper 1's figures are of the DSQ arm's part 2 and are left out."""
+    from eval.figures import write_figures
+
+    out, _ = body_run
+    assert [path.name for path in write_figures(out)] == ["views.png"]
