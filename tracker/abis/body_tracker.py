@@ -1,7 +1,8 @@
 """AbIS on the skinned body (``model=body_mesh tracker=abis``): paper 1's loop with a triangle mesh for the arm's
 superquadrics.
 
-The steps, their counts and the frame's result are the arm's (`tracker.abis.tracker`); what the mesh changes:
+The frame loop, its counts and the frame's result are every model's (`tracker.abis.frame_steps.AbisSequence`);
+what the mesh changes:
 - samples: each part's vertices (those of its faces, `BodyMesh.part_topology`); a z-buffer render of the
   estimate's part meshes (label k + 1) decides which a view sees, as for the arm;
 - pairs: an unpaired feature inside a part's region of the label image pairs with that part at the point where
@@ -13,10 +14,8 @@ The steps, their counts and the frame's result are the arm's (`tracker.abis.trac
   the pelvis also the root position (`tracker.abis.body_fitting`), with the prior's ``translation_m`` and
   ``rotation_rad`` per pose component, against the pairs of the part and of every part it carries. (The arm
   fits each part to its own pairs, eq 8. The body's root part, the pelvis, is a small region that the thighs'
-  and the torso's occlusion edges mostly cover: on 143_33 it held no pair from frame 6 on, so by its own pairs
-  the root's position and orientation never moved; walking away on 69_20 that gave 1.2 m MPJPE. With the carried
-  parts' pairs: 54 and 55 mm; with them for the root alone: 54 and 51 mm, root-aligned 53 and 58 mm against
-  53 and 53 mm.)
+  and the torso's occluding edges mostly cover: on the held-out clips (``experiment=abis_body``) it holds 0.0 and
+  0.1 pairs a frame, so by its own pairs the root would never move.)
 Not carried over: anchoring pairs to the texture (``tracker.anchor``, ``tracker.reanchor_every``: the arm's texture
 is mapped in its surface coordinates) and frame 0's scale noise: the tracker models the subject's own mesh, as
 paper 1 models the arm's known shape. Frame 0 is the truth with `InitialNoise`'s translation and rotation noise on
@@ -25,7 +24,6 @@ the root position and every rotation vector component.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -40,18 +38,14 @@ from tracker.abis.body_fitting import (
     pose_prior_sigmas,
     topdown_parts,
 )
-from tracker.abis.correspondences import COUNT_NAMES, sample_keys
+from tracker.abis.correspondences import sample_keys
 from tracker.abis.fitting import Prior, fit_part
 from tracker.abis.frame_steps import (
     DISCARDED_ERROR,
     DISCARDED_OCCLUSION,
     NEW,
-    AbisResult,
-    ImageMotion,
-    ViewResult,
-    carry_over,
+    AbisSequence,
     feature_rows,
-    feature_states,
     interior_labels,
 )
 from tracker.abis.mesh_pairs import MeshPairs, ray_hits
@@ -67,11 +61,9 @@ from tracker.abis.visibility import (
 )
 from tracker.geometry.cameras import Camera
 from tracker.models.body_mesh import BodyMesh
-from tracker.observe.features import FeatureFrame, FeatureTracker
-from tracker.protocol import FrameInput
+from tracker.observe.features import FeatureFrame
 from tracker.render.mesh import vertex_normals
 from tracker.render.offscreen import DepthLabels, SceneRenderer
-from tracker.timing import elapsed_ms
 
 
 def initial_body_estimate(truth: np.ndarray, noise: InitialNoise, rng: np.random.Generator) -> np.ndarray:
@@ -82,18 +74,14 @@ def initial_body_estimate(truth: np.ndarray, noise: InitialNoise, rng: np.random
     return estimate
 
 
-class BodyAbis:
-    """One sequence of AbIS on a body: built at `AbisTracker.start`, then `step` once per frame."""
+class BodyAbis(AbisSequence):
+    """One sequence of AbIS on a body: its parts' vertices as samples, pairs on its faces, its joints fitted."""
 
     def __init__(self, settings: AbisSettings, body: BodyMesh, cameras: Sequence[Camera], truth: np.ndarray,
                  rng: np.random.Generator, renderer: SceneRenderer) -> None:  # fmt: skip
-        self.settings, self.body, self.cameras, self._renderer = settings, body, list(cameras), renderer
-        self._estimate = initial_body_estimate(truth, settings.initial_noise, rng)
-        self._trackers = {  # feature ids are unique across views
-            camera.name: FeatureTracker(settings.features, first_id=k << 40) for k, camera in enumerate(cameras)
-        }
-        self._pairs = {camera.name: MeshPairs.empty() for camera in cameras}
-        self._motion = ImageMotion()  # every vertex's
+        super().__init__(settings, body.part_names, cameras, initial_body_estimate(truth, settings.initial_noise,
+                                                                                   rng), MeshPairs.empty())  # fmt: skip
+        self.body, self._renderer = body, renderer
         self._part_vertices = [used for used, _ in body.part_topology]
         self._sample_vertex = np.concatenate(self._part_vertices)  # parts' samples one after another
         self._sample_offsets = np.cumsum([0] + [len(used) for used in self._part_vertices])[:-1]
@@ -104,55 +92,21 @@ class BodyAbis:
         self._carried = [carried_parts(self._parents, part) for part in range(len(self._parents))]
         prior = settings.prior
         self._sigmas = None if prior is None else pose_prior_sigmas(prior.translation_m, prior.rotation_rad)
-        self._frame = 0
 
-    def step(self, frame: FrameInput) -> AbisResult:
-        n_parts = len(self.body.part_names)
-        names = [camera.name for camera in self.cameras]
-        counts = {name: np.zeros((n_parts, len(COUNT_NAMES)), int) for name in names}
-        timings: dict[str, float] = {}
-        failure = None
-        cost, iterations = np.zeros(n_parts), np.zeros(n_parts, int)
-
-        start = time.perf_counter()
-        features = {name: self._trackers[name].step(frame.views[name].rgb) for name in names}
-        timings["features"] = elapsed_ms(start)
-        if self._frame > 0:
-            self._pairs = carry_over(self._pairs, features, counts, n_parts)  # 1. pairs whose feature was tracked
-            start = time.perf_counter()  # 2. fit top-down
-            estimate, cost, iterations, failure = self._fit(features)
-            timings["fit"] = elapsed_ms(start)
-            if failure is None:
-                self._estimate = estimate
-
-        start = time.perf_counter()  # 3. visibility of the new estimate
+    def _visibility(self) -> tuple[dict[str, DepthLabels | None], dict[str, VisibleSamples], np.ndarray, np.ndarray]:
+        """Per view the z-buffer and the vertices it sees (named by vertex index); every vertex's point, which is
+        also the posed body upkeep reads."""
         vertices = self.body.posed_vertices(self._estimate)
         samples = [vertices[used] for used in self._part_vertices]
         if self.settings.selection == "zbuffer":
             zbuffers = self._renderer.render_depth_labels(self.cameras, self.body.surface_meshes(self._estimate))
             visible = {c.name: self._by_vertex(visible_samples(c, zbuffers[c.name], samples)) for c in self.cameras}
         else:  # no model image at all: the back-face test alone
-            zbuffers = dict.fromkeys(names)
+            zbuffers = dict.fromkeys(camera.name for camera in self.cameras)
             normals = vertex_normals(vertices, self.body.faces)
             facing = [normals[used] for used in self._part_vertices]
             visible = {c.name: self._by_vertex(facing_samples(c, samples, facing)) for c in self.cameras}
-        timings["visibility"] = elapsed_ms(start)
-        start = time.perf_counter()  # 4. pair upkeep
-        views = {}
-        for camera in self.cameras:
-            name = camera.name
-            motion = self._motion.step(camera, vertices) if self.settings.selection == "zbuffer" else None
-            discarded = self._upkeep(camera, features[name], zbuffers[name], visible[name], vertices, motion,
-                                     counts[name])  # fmt: skip
-            states = feature_states(self._pairs[name].feature_ids, features[name], discarded)
-            views[name] = ViewResult(features[name], states, visible[name])
-        timings["pairing"] = elapsed_ms(start)
-        if failure is None and all(len(pairs) == 0 for pairs in self._pairs.values()):
-            failure = "all pairs lost"
-        self._frame += 1
-        return AbisResult.of(self.body.part_names, frame=frame.frame, estimate=self._estimate.copy(), counts=counts,
-                             pairs={name: self._pairs[name].count_by_part(n_parts) for name in names}, cost=cost,
-                             iterations=iterations, views=views, timings_ms=timings, failure=failure)  # fmt: skip
+        return zbuffers, visible, vertices, vertices
 
     def _by_vertex(self, visible: VisibleSamples) -> VisibleSamples:
         """``visible`` with each sample named by its vertex index (a part's samples are its vertices, in order)."""
@@ -181,11 +135,8 @@ class BodyAbis:
         return estimate, cost, iterations, None
 
     def _upkeep(self, camera: Camera, features: FeatureFrame, zbuffer: DepthLabels | None, visible: VisibleSamples,
-                vertices: np.ndarray, motion: np.ndarray | None, counts: np.ndarray) -> np.ndarray:  # fmt: skip
-        """Discard hidden and false pairs, pair the unpaired features; returns the discarded features' ids.
-
-        ``vertices``: the estimate's posed vertices; ``zbuffer``, ``motion`` (every vertex's image motion over the
-        last frame): None under ``selection=none``."""
+                motion: np.ndarray | None, vertices: np.ndarray, counts: np.ndarray) -> np.ndarray:  # fmt: skip
+        """``vertices``: the estimate's posed vertices (``motion``: each one's image motion)."""
         n_parts = len(self.body.part_names)
         pairs = self._pairs[camera.name]
         points = pairs.points(vertices, self.body.faces)

@@ -1,8 +1,10 @@
-"""What AbIS does the same way on every model, frame by frame: pair bookkeeping over the views' feature tracks,
-the label image's part interiors, the samples' image motion, and the result of a frame."""
+"""What AbIS does the same way on every model, frame by frame: the frame loop (`AbisSequence`), pair bookkeeping
+over the views' feature tracks, the label image's part interiors, the samples' image motion, and the result of a
+frame."""
 
 from __future__ import annotations
 
+import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -10,11 +12,14 @@ from typing import Any
 import cv2
 import numpy as np
 
-from tracker.abis.correspondences import COUNT_NAMES
+from tracker.abis.correspondences import COUNT_NAMES, PairTable
+from tracker.abis.settings import AbisSettings
 from tracker.abis.visibility import VisibleSamples
 from tracker.geometry.cameras import Camera
-from tracker.observe.features import FeatureFrame
-from tracker.protocol import Points, StepResult
+from tracker.observe.features import FeatureFrame, FeatureTracker
+from tracker.protocol import FrameInput, Points, StepResult
+from tracker.render.offscreen import DepthLabels
+from tracker.timing import elapsed_ms
 
 TRACKED, NEW, DISCARDED_OCCLUSION, DISCARDED_ERROR, LOST = range(len(COUNT_NAMES))
 
@@ -113,3 +118,78 @@ class ImageMotion:
         before = self._pixels.get(camera.name, pixels)
         self._pixels[camera.name] = pixels
         return np.nan_to_num(pixels - before, nan=0.0, posinf=0.0, neginf=0.0)
+
+
+class AbisSequence:
+    """One sequence of AbIS on a model, frame by frame: features tracked in every view, pairs carried over (1), the
+    parts fitted (2), the new estimate's visibility (3), each view's pairs kept, discarded and made (4), and the
+    frame's counts and result. A model's sequence says how it fits (`_fit`), sees (`_visibility`) and keeps its
+    pairs (`_upkeep`); it is built at `AbisTracker.start` with frame 0's estimate and its empty pair table."""
+
+    def __init__(self, settings: AbisSettings, part_names: Sequence[str], cameras: Sequence[Camera],
+                 estimate: np.ndarray, no_pairs: PairTable) -> None:  # fmt: skip
+        self.settings, self.part_names, self.cameras = settings, tuple(part_names), list(cameras)
+        self._estimate = estimate
+        self._trackers = {  # feature ids are unique across views
+            camera.name: FeatureTracker(settings.features, first_id=k << 40) for k, camera in enumerate(cameras)
+        }
+        self._pairs = {camera.name: no_pairs for camera in cameras}
+        self._motion = ImageMotion()  # the samples' image motion, for the model's prediction of occlusion
+        self._frame = 0
+
+    def step(self, frame: FrameInput) -> AbisResult:
+        n_parts = len(self.part_names)
+        names = [camera.name for camera in self.cameras]
+        counts = {name: np.zeros((n_parts, len(COUNT_NAMES)), int) for name in names}
+        timings: dict[str, float] = {}
+        failure = None
+        cost, iterations = np.zeros(n_parts), np.zeros(n_parts, int)
+
+        start = time.perf_counter()
+        features = {name: self._trackers[name].step(frame.views[name].rgb) for name in names}
+        timings["features"] = elapsed_ms(start)
+        if self._frame > 0:
+            self._pairs = carry_over(self._pairs, features, counts, n_parts)  # 1. pairs whose feature was tracked
+            start = time.perf_counter()  # 2. fit top-down
+            estimate, cost, iterations, failure = self._fit(features)
+            timings["fit"] = elapsed_ms(start)
+            if failure is None:
+                self._estimate = estimate
+
+        start = time.perf_counter()  # 3. visibility of the new estimate
+        zbuffers, visible, points, posed = self._visibility()
+        timings["visibility"] = elapsed_ms(start)
+        start = time.perf_counter()  # 4. pair upkeep
+        views = {}
+        for camera in self.cameras:
+            name = camera.name
+            motion = self._motion.step(camera, points) if self.settings.selection == "zbuffer" else None
+            discarded = self._upkeep(camera, features[name], zbuffers[name], visible[name], motion, posed,
+                                     counts[name])  # fmt: skip
+            states = feature_states(self._pairs[name].feature_ids, features[name], discarded)
+            views[name] = ViewResult(features[name], states, visible[name])
+        timings["pairing"] = elapsed_ms(start)
+        if failure is None and all(len(pairs) == 0 for pairs in self._pairs.values()):
+            failure = "all pairs lost"
+        self._frame += 1
+        return AbisResult.of(self.part_names, frame=frame.frame, estimate=self._estimate.copy(), counts=counts,
+                             pairs={name: self._pairs[name].count_by_part(n_parts) for name in names}, cost=cost,
+                             iterations=iterations, views=views, timings_ms=timings, failure=failure)  # fmt: skip
+
+    def _fit(self, features: Mapping[str, FeatureFrame]) -> tuple[np.ndarray, np.ndarray, np.ndarray, str | None]:
+        """Step 2: every part fitted top-down against the current pairs: the estimate, per part eq 8's cost and
+        the iterations, and a failure (None, or why the previous estimate stands)."""
+        raise NotImplementedError
+
+    def _visibility(self) -> tuple[dict[str, DepthLabels | None], dict[str, VisibleSamples], np.ndarray, Any]:
+        """Step 3, for the estimate: per view its z-buffer (None under ``selection=none``) and the samples it sees;
+        every sample's world point (parts one after another: their image motion is followed); and the posed model
+        that upkeep reads pairs' points from (the arm's part transforms, the body's vertices)."""
+        raise NotImplementedError
+
+    def _upkeep(self, camera: Camera, features: FeatureFrame, zbuffer: DepthLabels | None, visible: VisibleSamples,
+                motion: np.ndarray | None, posed: Any, counts: np.ndarray) -> np.ndarray:  # fmt: skip
+        """Step 4 in one view: discard hidden and false pairs, pair the unpaired features (counted into ``counts``,
+        ``(parts, 5)``); returns the discarded features' ids. ``motion``: every sample's image motion over the last
+        frame (None under ``selection=none``)."""
+        raise NotImplementedError

@@ -1,4 +1,6 @@
-"""The AbIS tracker (paper 1): features -> pairs -> top-down per-part fitting -> visibility -> pair upkeep.
+"""The AbIS tracker (paper 1): features -> pairs -> top-down per-part fitting -> visibility -> pair upkeep; here
+the tracker (`AbisTracker`, which tracks the arm by `ArmAbis` and a body by `tracker.abis.body_tracker.BodyAbis`)
+and the arm's sequence, whose frame loop every model shares (`tracker.abis.frame_steps.AbisSequence`).
 
 Per frame t it sees only the views' RGB images. Frame 0 starts from an initial estimate (the paper aligns the model
 with a user's help; `initial_estimate` stands in with the truth plus configurable noise) and pairs features with
@@ -18,7 +20,6 @@ So per part and view: pairs(t) = pairs(t-1) - lost - discarded_occlusion - disca
 
 from __future__ import annotations
 
-import time
 from collections.abc import Mapping, Sequence
 from typing import ClassVar
 
@@ -28,7 +29,6 @@ import numpy as np
 from tracker.abis.anchoring import texture_offsets
 from tracker.abis.body_tracker import BodyAbis
 from tracker.abis.correspondences import (
-    COUNT_NAMES,
     POLE_MARGIN_RAD,
     Pairs,
     pair_features,
@@ -41,11 +41,8 @@ from tracker.abis.frame_steps import (
     DISCARDED_OCCLUSION,
     NEW,
     AbisResult,
-    ImageMotion,
-    ViewResult,
-    carry_over,
+    AbisSequence,
     feature_rows,
-    feature_states,
     interior_labels,
 )
 from tracker.abis.settings import AbisSettings, InitialNoise
@@ -63,11 +60,10 @@ from tracker.geometry.cameras import Camera
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.dsq import PARAM_INDEX, pole_point
 from tracker.models.dsq_arm import DSQArm
-from tracker.observe.features import FeatureFrame, FeatureTracker
+from tracker.observe.features import FeatureFrame
 from tracker.protocol import FrameInput, Tracker
 from tracker.registry import TRACKERS
 from tracker.render.offscreen import DepthLabels, SceneRenderer
-from tracker.timing import elapsed_ms
 
 
 def initial_estimate(arm: DSQArm, truth: np.ndarray, noise: InitialNoise, rng: np.random.Generator) -> np.ndarray:
@@ -88,29 +84,17 @@ class AbisTracker(Tracker):
     def __init__(self, settings: AbisSettings | None = None) -> None:
         self.settings = settings or AbisSettings()
         self._renderer: SceneRenderer | None = None
-        self._body: BodyAbis | None = None  # the sequence's, when the model is a body
+        self._sequence: AbisSequence | None = None
 
     def start(self, model: DSQArm | BodyMesh, cameras: Sequence[Camera], truth: np.ndarray,
               rng: np.random.Generator) -> None:  # fmt: skip
         """Begin a sequence: frame 0's estimate is ``truth`` with the configured `InitialNoise` drawn from ``rng``
-        (the paper's user-assisted alignment); after that the tracker sees images only. A body is tracked by
-        `tracker.abis.body_tracker`."""
+        (the paper's user-assisted alignment); after that the tracker sees images only. The arm is tracked by
+        `ArmAbis`, a body by `tracker.abis.body_tracker.BodyAbis`."""
         if self._renderer is None:
             self._renderer = SceneRenderer(cameras[0].width, cameras[0].height)
-        self._body = BodyAbis(self.settings, model, cameras, truth, rng, self._renderer) if isinstance(
-            model, BodyMesh) else None  # fmt: skip
-        if self._body is not None:
-            return
-        self.model, self.cameras = model, list(cameras)
-        self._estimate = initial_estimate(model, truth, self.settings.initial_noise, rng)
-        self._trackers = {  # feature ids are unique across views
-            camera.name: FeatureTracker(self.settings.features, first_id=k << 40) for k, camera in enumerate(cameras)
-        }
-        self._pairs = {camera.name: Pairs.empty() for camera in cameras}
-        self._motion = ImageMotion()  # the samples' image motion (parts' samples one after another)
-        self._textures = [cv2.cvtColor(texture, cv2.COLOR_RGB2GRAY).astype(np.float32) for texture in model.textures]
-        self._sample_offsets = np.arange(len(model.parts)) * len(model.sample_grid.eta)  # part -> its first row
-        self._frame = 0
+        sequence = BodyAbis if isinstance(model, BodyMesh) else ArmAbis
+        self._sequence = sequence(self.settings, model, cameras, truth, rng, self._renderer)
 
     def close(self) -> None:
         if self._renderer is not None:
@@ -118,55 +102,31 @@ class AbisTracker(Tracker):
             self._renderer = None
 
     def step(self, frame: FrameInput) -> AbisResult:
-        if self._body is not None:
-            return self._body.step(frame)
-        n_parts = len(self.model.parts)
-        names = [camera.name for camera in self.cameras]
-        counts = {name: np.zeros((n_parts, len(COUNT_NAMES)), int) for name in names}
-        timings: dict[str, float] = {}
-        failure = None
-        cost, iterations = np.zeros(n_parts), np.zeros(n_parts, int)
+        return self._sequence.step(frame)
 
-        start = time.perf_counter()
-        features = {name: self._trackers[name].step(frame.views[name].rgb) for name in names}
-        timings["features"] = elapsed_ms(start)
-        if self._frame > 0:
-            self._pairs = carry_over(self._pairs, features, counts, n_parts)  # 1. pairs whose feature was tracked
-            start = time.perf_counter()  # 2. fit top-down
-            estimate, cost, iterations, failure = self._fit(features)
-            timings["fit"] = elapsed_ms(start)
-            if failure is None:
-                self._estimate = estimate
 
-        start = time.perf_counter()  # 3. visibility of the new estimate
+class ArmAbis(AbisSequence):
+    """One sequence of AbIS on the arm of deformable superquadrics (paper 1)."""
+
+    def __init__(self, settings: AbisSettings, model: DSQArm, cameras: Sequence[Camera], truth: np.ndarray,
+                 rng: np.random.Generator, renderer: SceneRenderer) -> None:  # fmt: skip
+        super().__init__(settings, model.part_names, cameras, initial_estimate(model, truth, settings.initial_noise,
+                                                                               rng), Pairs.empty())  # fmt: skip
+        self.model, self._renderer = model, renderer
+        self._textures = [cv2.cvtColor(texture, cv2.COLOR_RGB2GRAY).astype(np.float32) for texture in model.textures]
+        self._sample_offsets = np.arange(len(model.parts)) * len(model.sample_grid.eta)  # part -> its first row
+
+    def _visibility(self) -> tuple[dict[str, DepthLabels | None], dict[str, VisibleSamples], np.ndarray, np.ndarray]:
+        """Per view the z-buffer and the grid samples it sees; every sample's point; the parts' world transforms."""
         samples = self.model.sample_points(self._estimate)
         if self.settings.selection == "zbuffer":
             zbuffers = self._renderer.render_depth_labels(self.cameras, self.model.zbuffer_meshes(self._estimate))
             visible = {c.name: visible_samples(c, zbuffers[c.name], samples) for c in self.cameras}
         else:  # no model image at all: the back-face test alone
-            zbuffers = dict.fromkeys(names)
+            zbuffers = dict.fromkeys(camera.name for camera in self.cameras)
             normals = self._sample_normals()
             visible = {c.name: facing_samples(c, samples, normals) for c in self.cameras}
-        timings["visibility"] = elapsed_ms(start)
-        start = time.perf_counter()  # 4. pair upkeep
-        world = self.model.world_transforms(self._estimate)
-        views = {}
-        every_sample = np.concatenate(samples)
-        for camera in self.cameras:
-            name = camera.name
-            motion = self._motion.step(camera, every_sample) if self.settings.selection == "zbuffer" else None
-            gray = features[name].gray.astype(np.float32)  # the feature tracker's own, for texture matching
-            discarded = self._upkeep(camera, features[name], gray, zbuffers[name], visible[name], world, motion,
-                                     counts[name])  # fmt: skip
-            states = feature_states(self._pairs[name].feature_ids, features[name], discarded)
-            views[name] = ViewResult(features[name], states, visible[name])
-        timings["pairing"] = elapsed_ms(start)
-        if failure is None and all(len(pairs) == 0 for pairs in self._pairs.values()):
-            failure = "all pairs lost"
-        self._frame += 1
-        return AbisResult.of(self.model.part_names, frame=frame.frame, estimate=self._estimate.copy(), counts=counts,
-                             pairs={name: self._pairs[name].count_by_part(n_parts) for name in names}, cost=cost,
-                             iterations=iterations, views=views, timings_ms=timings, failure=failure)  # fmt: skip
+        return zbuffers, visible, np.concatenate(samples), self.model.world_transforms(self._estimate)
 
     def _sample_normals(self) -> list[np.ndarray]:
         """Each part's outward normals at its grid samples, for the estimate."""
@@ -208,15 +168,12 @@ class AbisTracker(Tracker):
             cost[part], iterations[part] = fitted.cost, fitted.iterations
         return estimate, cost, iterations, None
 
-    def _upkeep(self, camera: Camera, features: FeatureFrame, gray: np.ndarray, zbuffer: DepthLabels | None,
-                visible: VisibleSamples, world: np.ndarray, motion: np.ndarray | None,
-                counts: np.ndarray) -> np.ndarray:  # fmt: skip
-        """Discard hidden and false pairs, pair the unpaired features; returns the discarded features' ids.
-
-        ``world``: the estimate's part -> world transforms (the same for every view); ``zbuffer``: None under
-        ``selection=none``; ``motion``: the samples' image motion over the last frame (`_sample_motion`; None under
-        ``selection=none``); ``gray``: the view's image (float32 grey), for anchoring pairs to the model's texture."""
+    def _upkeep(self, camera: Camera, features: FeatureFrame, zbuffer: DepthLabels | None, visible: VisibleSamples,
+                motion: np.ndarray | None, world: np.ndarray, counts: np.ndarray) -> np.ndarray:  # fmt: skip
+        """``world``: the estimate's part -> world transforms; new and due pairs are anchored to the model's
+        texture against the view's image (the feature tracker's own grey)."""
         n_parts = len(self.model.parts)
+        gray = features.gray.astype(np.float32)
         pairs = self._pairs[camera.name]
         seen, uv = np.zeros(len(pairs), bool), np.zeros((len(pairs), 2))
         by_zbuffer = self.settings.selection == "zbuffer"
