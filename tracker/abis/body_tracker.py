@@ -41,10 +41,9 @@ from tracker.abis.body_fitting import (
 from tracker.abis.correspondences import sample_keys
 from tracker.abis.fitting import Prior, fit_part
 from tracker.abis.frame_steps import (
-    DISCARDED_ERROR,
-    DISCARDED_OCCLUSION,
     NEW,
     AbisSequence,
+    discard,
     feature_rows,
     interior_labels,
 )
@@ -150,13 +149,7 @@ class BodyAbis(AbisSequence):
             seen[seen] = ~reached_by_other_parts(uv[seen], pairs.parts[seen], motion[pairs.samples[seen]], visible,
                                                  motion[visible.sample], self.settings.occlusion_margin_px,
                                                  self.settings.features.window_px)  # fmt: skip
-        counts[:, DISCARDED_OCCLUSION] = pairs.subset(~seen).count_by_part(n_parts)
-        residual = np.linalg.norm(uv - feature_rows(features, pairs.feature_ids), axis=1)
-        wrong = seen & (residual > self.settings.max_residual_px)
-        counts[:, DISCARDED_ERROR] = pairs.subset(wrong).count_by_part(n_parts)
-        discarded = pairs.feature_ids[~seen | wrong]
-        pairs = pairs.subset(seen & ~wrong)
-
+        pairs, discarded = discard(pairs, seen, uv, features, self.settings.max_residual_px, counts)
         unpaired = ~np.isin(features.ids, pairs.feature_ids) & ~np.isin(features.ids, discarded)
         if by_zbuffer:  # the part whose region (away from silhouettes and occlusion edges) holds the feature
             edges = occlusion_edges(zbuffer.labels, self.settings.occlusion_margin_px)

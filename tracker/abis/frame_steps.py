@@ -94,6 +94,19 @@ def carry_over(pairs: Mapping[str, Any], features: Mapping[str, FeatureFrame], c
     return kept
 
 
+def discard(pairs: PairTable, seen: np.ndarray, uv: np.ndarray, features: FeatureFrame, max_residual_px: float,
+            counts: np.ndarray) -> tuple[PairTable, np.ndarray]:  # fmt: skip
+    """Step 4's discards in one view: the pairs not ``seen`` (hidden, or about to be: occlusion), then those seen
+    whose point projects (``uv``) farther than ``max_residual_px`` from its feature (false matches), each counted
+    per part into ``counts``; the pairs kept, and the discarded ones' feature ids."""
+    n_parts = len(counts)
+    counts[:, DISCARDED_OCCLUSION] = pairs.subset(~seen).count_by_part(n_parts)
+    residual = np.linalg.norm(uv - feature_rows(features, pairs.feature_ids), axis=1)
+    wrong = seen & (residual > max_residual_px)
+    counts[:, DISCARDED_ERROR] = pairs.subset(wrong).count_by_part(n_parts)
+    return pairs.subset(seen & ~wrong), pairs.feature_ids[~seen | wrong]
+
+
 def feature_states(paired_ids: np.ndarray, features: FeatureFrame, discarded: np.ndarray) -> np.ndarray:
     """Each feature's index into FEATURE_STATES after a view's upkeep (``paired_ids``: its pairs' features)."""
     states = np.full(len(features.ids), FEATURE_STATES.index("unpaired"))

@@ -37,11 +37,10 @@ from tracker.abis.correspondences import (
 )
 from tracker.abis.fitting import PartProblem, Prior, ViewPairs, fit_part
 from tracker.abis.frame_steps import (
-    DISCARDED_ERROR,
-    DISCARDED_OCCLUSION,
     NEW,
     AbisResult,
     AbisSequence,
+    discard,
     feature_rows,
     interior_labels,
 )
@@ -187,13 +186,7 @@ class ArmAbis(AbisSequence):
                 uv[seen], pairs.parts[seen], motion[self._sample_offsets[pairs.parts[seen]] + pairs.samples[seen]],
                 visible, motion[self._sample_offsets[visible.part] + visible.sample],
                 self.settings.occlusion_margin_px, self.settings.features.window_px)  # fmt: skip
-        counts[:, DISCARDED_OCCLUSION] = pairs.subset(~seen).count_by_part(n_parts)
-        residual = np.linalg.norm(uv - feature_rows(features, pairs.feature_ids), axis=1)
-        wrong = seen & (residual > self.settings.max_residual_px)
-        counts[:, DISCARDED_ERROR] = pairs.subset(wrong).count_by_part(n_parts)
-        discarded = pairs.feature_ids[~seen | wrong]
-        pairs = pairs.subset(seen & ~wrong)
-
+        pairs, discarded = discard(pairs, seen, uv, features, self.settings.max_residual_px, counts)
         unpaired = ~np.isin(features.ids, pairs.feature_ids) & ~np.isin(features.ids, discarded)
         # Only features inside a part's region (away from silhouettes and occlusion edges, whose corners are no
         # material point of either side) pair, and only with samples of that part.
