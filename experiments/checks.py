@@ -65,6 +65,13 @@ def chosen_entries(plain: dict[str, Any]) -> dict[str, Entry]:
     return entries
 
 
+def _dotted(plain: dict[str, Any], key: str) -> Any:
+    """The value at a dotted ``key`` (``model.texture_seed``) of a plain config; None where any step is missing."""
+    for step in key.split("."):
+        plain = plain.get(step) if isinstance(plain, dict) else None
+    return plain
+
+
 def check_combination(entries: dict[str, Entry], choices: dict[str, str], plain: dict[str, Any]) -> None:
     """The chosen options go together: each works with the model, the tracker tracks it from the rig's number
     of views (`tracker.compatibility`), and it has what it needs and nothing it does not."""
@@ -83,8 +90,7 @@ def check_combination(entries: dict[str, Entry], choices: dict[str, str], plain:
         raise ValueError(f"tracker={choices['tracker']} tracks model={choices['model']} from {fit.says}: "
                          f"rig={choices['rig']} has {views}{advice}")  # fmt: skip
     for key, value in () if fit is None else fit.sets:
-        group, _, name = key.partition(".")
-        if plain[group].get(name) is None:
+        if _dotted(plain, key) is None:
             raise ValueError(f"tracker={choices['tracker']} tracks model={choices['model']} with {key} set: "
                              f"add {key}={value}")  # fmt: skip
     missing = [group for group in tracker.needs if group not in entries]

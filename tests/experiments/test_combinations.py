@@ -8,11 +8,12 @@ import pandas as pd
 import pytest
 
 from experiments.components import build, compose
-from tests.conftest import SMALL_GRID, TBF_RUN, run_cli
+from tests.conftest import SMALL_ARM_GRID, SMALL_GRID, TBF_RUN, run_cli
 from tracker.compatibility import FITS
 
 RIGS_OF_MODEL = {"dsq_arm": ("mono", "orthogonal3"), "body_mesh": ("body_side", "body_multi")}
-NEEDS = {"tbf": ("cost=nwxor", "motion=dm2", *SMALL_GRID)}
+NEEDS = {"tbf": ("cost=nwxor", "motion=dm2")}
+SMALL_SAMPLES = {"body_mesh": tuple(SMALL_GRID), "dsq_arm": (SMALL_ARM_GRID,)}
 VIEWS = {rig: len(build(compose([f"rig={rig}"])).cameras) for rigs in RIGS_OF_MODEL.values() for rig in rigs}
 COMBINATIONS = [(tracker, model, rig) for tracker, fits in FITS.items() for model, fit in fits.items()
                 for rig in RIGS_OF_MODEL[model] if fit.allows(VIEWS[rig])]  # fmt: skip
@@ -23,7 +24,8 @@ def test_every_allowed_combination_runs_two_frames(tracker, model, rig, tmp_path
     out = tmp_path / "out"
     result = run_cli(out, f"tracker={tracker}", f"model={model}", f"rig={rig}", "frames=2", "record.images=false",
                      f"tracker.cache_dir={tmp_path / 'cache'}" if tracker == "tbf" else "seed=0",
-                     *NEEDS.get(tracker, ()), cwd=tmp_path)  # fmt: skip
+                     *NEEDS.get(tracker, ()), *(SMALL_SAMPLES[model] if tracker == "tbf" else ()),
+                     cwd=tmp_path)  # fmt: skip
     assert result.returncode == 0, result.stderr
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["status"] == "ok" and metrics.get("failed_frames", 0) == 0  # render_only estimates nothing

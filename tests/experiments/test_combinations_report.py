@@ -11,7 +11,7 @@ from experiments.combinations import ARM_TRACKERS, body_runs, first_views
 from experiments.real_motion import HELD_OUT
 from experiments.schemas import CONFIG_DIR
 from experiments.validate import validate_command_line
-from tests.conftest import run_cli
+from tests.conftest import SMALL_ARM_GRID, run_cli
 from tracker.motion.mocap import available_frames, read_clip
 
 
@@ -43,8 +43,8 @@ def test_the_arm_table_compares_abis_and_tree_filtering_on_the_same_frames(tmp_p
     runs = {}
     for label, overrides in ARM_TRACKERS.items():
         out = tmp_path / label.split()[0]
-        cache = f"tracker.cache_dir={tmp_path / 'cache'}" if overrides else "seed=0"  # AbIS caches nothing
-        result = run_cli(out, "experiment=abis_fig8_fig9", "frames=3", "record.images=false", *overrides, cache,
+        grid = (f"tracker.cache_dir={tmp_path / 'cache'}", SMALL_ARM_GRID) if overrides else ()  # AbIS has none
+        result = run_cli(out, "experiment=abis_fig8_fig9", "frames=3", "record.images=false", *overrides, *grid,
                          cwd=tmp_path)  # fmt: skip
         assert result.returncode == 0, result.stderr
         runs[label] = out
