@@ -99,6 +99,11 @@ def test_the_skinned_vertices_analytic_jacobian_matches_central_differences(body
             2 * step)  # fmt: skip
     np.testing.assert_allclose(analytic, numeric, atol=1e-8)
     assert np.abs(numeric[:, :, 3:]).max() > 0.5  # the joints move the vertices: not a vacuous comparison
+    # A caller that has the pose's bone transforms (a fit needs both the vertices and their Jacobian) gets the
+    # same bits from them as from the pose alone.
+    transforms = body.bone_transforms(pose)
+    assert np.array_equal(body.vertex_jacobian(pose, subset, transforms=transforms), analytic)
+    assert np.array_equal(body.posed_vertices(pose, subset, transforms), body.posed_vertices(pose, subset))
 
 
 def test_a_textured_body_gives_corners_to_track_and_the_plain_one_renders_as_before(body, renderer):

@@ -91,11 +91,12 @@ class BodyPartProblem(PixelProblem):
         self._corners = inverse.reshape(corners.shape)
 
     def points(self, q: np.ndarray, with_jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
-        vertices = self.body.posed_vertices(q, self._vertices)
+        transforms = self.body.bone_transforms(q)  # skinning and its Jacobian both start from them
+        vertices = self.body.posed_vertices(q, self._vertices, transforms)
         points = np.einsum("mc,mcd->md", self._barycentric, vertices[self._corners])
         if not with_jacobian:
             return points, None
-        jacobian = self.body.vertex_jacobian(q, self._vertices, self.joints)[:, :, self.free]
+        jacobian = self.body.vertex_jacobian(q, self._vertices, self.joints, transforms)[:, :, self.free]
         return points, np.einsum("mc,mcdk->mdk", self._barycentric, jacobian[self._corners])
 
 

@@ -109,11 +109,15 @@ class BodyMesh:
         """``(J, 3)`` posed joint positions (``(n, J, 3)`` for ``n`` poses)."""
         return self.bone_transforms(pose)[1]
 
-    def posed_vertices(self, poses: np.ndarray, subset: np.ndarray | None = None) -> np.ndarray:
+    def posed_vertices(self, poses: np.ndarray, subset: np.ndarray | None = None,
+                       transforms: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:  # fmt: skip
         """``(V, 3)`` vertices by linear-blend skinning, ``v' = sum_j w_j (R_j (v - h_j) + h'_j)``; ``(n, V, 3)``
-        for ``(n, POSE_SIZE)`` poses; only the vertices ``subset`` (indices) when given."""
+        for ``(n, POSE_SIZE)`` poses; only the vertices ``subset`` (indices) when given. ``transforms``: the poses'
+        `bone_transforms`, when the caller has them."""
         poses = np.asarray(poses, dtype=np.float64)
-        rotations, heads = self.bone_transforms(poses.reshape(-1, POSE_SIZE))  # (n, J, 3, 3), (n, J, 3)
+        rotations, heads = transforms or self.bone_transforms(poses.reshape(-1, POSE_SIZE))
+        rotations = rotations.reshape(-1, *rotations.shape[-3:])  # (n, J, 3, 3), one pose's transforms too
+        heads = heads.reshape(-1, *heads.shape[-2:])  # (n, J, 3)
         count, joints = rotations.shape[:2]
         offsets = heads - np.einsum("njab,jb->nja", rotations, self.rest_heads)
         bones = np.concatenate([rotations, offsets[..., None]], axis=3)  # (n, J, 3, 4): x' = R x + o per bone
@@ -126,9 +130,11 @@ class BodyMesh:
         vertices = vertices.transpose(1, 0, 2)  # (n, V, 3)
         return vertices[0] if poses.ndim == 1 else vertices
 
-    def vertex_jacobian(self, pose: np.ndarray, subset: np.ndarray, joints: Iterable[int] | None = None) -> np.ndarray:
+    def vertex_jacobian(self, pose: np.ndarray, subset: np.ndarray, joints: Iterable[int] | None = None,
+                        transforms: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:  # fmt: skip
         """``(len(subset), 3, POSE_SIZE)``: d v'/d pose of the skinned vertices ``subset`` at ``pose``, analytic
-        (only the root position's and ``joints``' rotation columns when given, the others left 0).
+        (only the root position's and ``joints``' rotation columns when given, the others left 0; ``transforms``:
+        the pose's `bone_transforms`, when the caller has them).
 
         The root's position moves every vertex as it moves (the weights sum to 1). Turning joint j's rotation vector
         r_j by dr turns every bone below it (j included) about the world axis ``a = F_j J_r(r_j) dr`` through j's
@@ -136,7 +142,7 @@ class BodyMesh:
         ``sum over those bones b of w_b a x (p_b - h'_j)``, with ``p_b = R_b (v - h_b) + h'_b`` the vertex as bone b
         alone would carry it."""
         pose = np.asarray(pose, dtype=np.float64)
-        rotations, heads = self.bone_transforms(pose)
+        rotations, heads = transforms or self.bone_transforms(pose)
         from_t_pose = rotations @ np.transpose(self.t_pose_alignment, (0, 2, 1))  # F_j
         subset = np.asarray(subset)
         vertices, weights = self.rest_vertices[subset], self.weights[subset]
