@@ -177,42 +177,69 @@ class GroundPlacement:
 
 def nearest_to_rays(origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
     """The point nearest (least squares) to every ray ``origins[k] + t directions[k]``: ``sum_k (I - d_k d_k^T)``
-    solved against ``sum_k (I - d_k d_k^T) o_k``. Needs two rays that are not parallel."""
-    directions = directions / np.linalg.norm(directions, axis=1, keepdims=True)
-    projectors = np.eye(3)[None] - directions[:, :, None] * directions[:, None, :]
-    return np.linalg.solve(projectors.sum(axis=0), np.einsum("kij,kj->i", projectors, origins))
+    solved against ``sum_k (I - d_k d_k^T) o_k``; for ``(n, k, 3)`` bundles of rays, ``(n, 3)``. Needs two rays
+    that are not parallel."""
+    directions = directions / np.linalg.norm(directions, axis=-1, keepdims=True)
+    projectors = np.eye(3) - directions[..., :, None] * directions[..., None, :]
+    right = np.einsum("...kij,...kj->...i", projectors, np.broadcast_to(origins, directions.shape))
+    return np.linalg.solve(projectors.sum(axis=-3), right[..., None])[..., 0]
+
+
+def centroid_rays(cameras: Sequence[Camera], centroids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each view's ray through its silhouette's centroid, ``centroids`` ``(..., views, 2)`` in finest-level
+    pixels: the cameras' positions ``(views, 3)`` and the directions ``(..., views, 3)``."""
+    pixels = np.array([camera.width / LEVEL_RESOLUTIONS[-1][0] for camera in cameras])[:, None]
+    full = centroids * pixels  # in the camera's own pixels
+    intrinsics = np.array([(camera.cx, camera.cy, camera.fx, camera.fy) for camera in cameras])
+    local = np.stack([(full[..., 0] - intrinsics[:, 0]) / intrinsics[:, 2],
+                      (full[..., 1] - intrinsics[:, 1]) / intrinsics[:, 3], np.ones(full.shape[:-1])],
+                     axis=-1)  # fmt: skip
+    rotations = np.stack([camera.rotation for camera in cameras])
+    return np.array([camera.position for camera in cameras]), np.einsum("kab,...kb->...ka", rotations, local)
+
+
+def sample_spots(cameras: Sequence[Camera], samples: SampleViews) -> np.ndarray:
+    """``(n, 3)``: where each sample's views' centroid rays cross (its spot; the samples' roots stand over one point,
+    but a posture's spot moves with its limbs: arms raised to one side move it that way)."""
+    centroids = []
+    for stack in samples.silhouettes(LEVEL_RESOLUTIONS[-1]):
+        u0, v0, u1, v1 = stack.window
+        columns, rows = np.meshgrid(np.arange(u0, u1, dtype=np.float64), np.arange(v0, v1, dtype=np.float64))
+        count = stack.runs.sums(np.ones(columns.size))
+        centroids.append(np.stack([stack.runs.sums(columns.ravel()), stack.runs.sums(rows.ravel())], axis=1)
+                         / count[:, None])  # fmt: skip
+    return nearest_to_rays(*centroid_rays(cameras, np.stack(centroids, axis=1)))
+
+
+def spot_pixels(cameras: Sequence[Camera], spots: np.ndarray, resolution: tuple[int, int]) -> np.ndarray:
+    """``(n, views, 2)``: where each view sees each of ``spots`` ``(n, 3)``, in pixels of ``resolution``. A sample
+    is scored as if it stood where the observation is placed: moved by the reference's pixel minus its own
+    (`tracker.tbf.filter.TreeFilter`)."""
+    seen = []
+    for camera in cameras:
+        uv, _ = camera.project(spots)
+        seen.append(uv * (resolution[0] / camera.width))
+    return np.stack(seen, axis=1)
 
 
 class ViewsPlacement:
     """``align="ground"`` from two or more calibrated views (see the module docstring). ``reference``: the sample
-    whose centroids' rays give the samples' spot (the last estimate's; at first the initial prior's)."""
+    whose spot the observation is placed on (the last estimate's; at first the initial prior's); ``spots``: every
+    sample's (`sample_spots`)."""
 
-    def __init__(self, cameras: Sequence[Camera], samples: SampleViews, reference: int) -> None:
+    def __init__(self, cameras: Sequence[Camera], samples: SampleViews, reference: int,
+                 spots: np.ndarray | None = None) -> None:  # fmt: skip
         self.cameras, self.samples, self.reference = tuple(cameras), samples, reference
-        self.stacks = samples.silhouettes(LEVEL_RESOLUTIONS[-1])
+        self.spots = sample_spots(self.cameras, samples) if spots is None else spots
         self.pixels = [camera.width / LEVEL_RESOLUTIONS[-1][0] for camera in self.cameras]
-        self._spots: dict[int, np.ndarray] = {}
 
     def spot(self, sample: int) -> np.ndarray:
         """Where the rays through a sample's silhouette centroids cross."""
-        if sample not in self._spots:
-            centroids = []
-            for stack in self.stacks:
-                v, u = np.nonzero(stack.mask(sample))
-                centroids.append(np.array([u.mean() + stack.window[0], v.mean() + stack.window[1]]))
-            self._spots[sample] = nearest_to_rays(*self._rays(centroids))
-        return self._spots[sample]
-
-    def _rays(self, centroids: Sequence[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-        """Each view's ray through its centroid (finest-level pixels): origins and directions."""
-        directions = [camera.rotation @ np.array([(pixel * u - camera.cx) / camera.fx,
-                                                  (pixel * v - camera.cy) / camera.fy, 1.0])
-                      for camera, pixel, (u, v) in zip(self.cameras, self.pixels, centroids, strict=True)]  # fmt: skip
-        return np.array([camera.position for camera in self.cameras]), np.array(directions)
+        return self.spots[sample]
 
     def place(self, observed: Sequence[np.ndarray]) -> tuple[list[np.ndarray], np.ndarray] | None:
-        """Each view's silhouette (finest level) as if the person stood on the samples' spot, and his offset from
-        it across the floor (None: someone is out of a view)."""
+        """Each view's silhouette (finest level) as if the person stood on the reference's spot, and his offset
+        from it across the floor (None: someone is out of a view)."""
         centroids = []
         for mask in observed:
             v, u = np.nonzero(mask)
@@ -220,7 +247,7 @@ class ViewsPlacement:
                 return None
             centroids.append(np.array([u.mean(), v.mean()]))
         spot = self.spot(self.reference)
-        offset = np.array([*(nearest_to_rays(*self._rays(centroids)) - spot)[:2], 0.0])  # his height: the samples'
+        offset = np.array([*(nearest_to_rays(*centroid_rays(self.cameras, np.array(centroids))) - spot)[:2], 0.0])
         placed = []
         for camera, pixel, mask in zip(self.cameras, self.pixels, observed, strict=True):
             (there, here), depths = camera.project(np.array([spot + offset, spot]))
@@ -229,8 +256,10 @@ class ViewsPlacement:
         return placed, offset
 
     def pose(self, sample: int, offset: np.ndarray) -> np.ndarray:
-        """The estimate: sample ``sample`` moved across the floor by ``offset``; it becomes the next reference."""
+        """The estimate: sample ``sample`` moved across the floor until its spot is the person's (``offset`` from
+        the reference's spot, as `place` gave it); it becomes the next reference."""
+        own = self.spot(self.reference) - self.spot(sample)
         self.reference = sample
         pose = np.asarray(self.samples.poses[sample], dtype=np.float64).copy()
-        pose[:3] += offset
+        pose[:2] += offset[:2] + own[:2]  # his height: the sample's
         return pose

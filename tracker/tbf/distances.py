@@ -231,6 +231,33 @@ class SilhouetteRuns:
         index, owner = self.runs_of(rows)
         return np.bincount(owner, weights=prefix[self.ends[index]] - prefix[self.starts[index]], minlength=len(rows))
 
+    def shifted_sums(self, values: np.ndarray, width: int, rows: np.ndarray, shifts: np.ndarray) -> np.ndarray:
+        """As `sums` over silhouettes ``rows`` of a window ``width`` pixels wide, each moved by its whole-pixel
+        ``shifts`` ``(len(rows), 2)`` ``(du, dv)`` first: pixels moved out of the window count nothing."""
+        height = len(values) // width
+        index, owner = self.runs_of(rows)
+        starts, ends = self.starts[index].astype(np.int64), self.ends[index].astype(np.int64)
+        # A run along the flattened window can go on into the next row (a silhouette touching both sides of the
+        # window): cut it at the row's end until every piece lies on one row.
+        while True:
+            row_end = (starts // width + 1) * width
+            wraps = ends > row_end
+            if not wraps.any():
+                break
+            starts, ends = np.r_[starts, row_end[wraps]], np.r_[np.minimum(ends, row_end), ends[wraps]]
+            owner = np.r_[owner, owner[wraps]]
+        du, dv = shifts[owner, 0], shifts[owner, 1]
+        row = starts // width + dv
+        first = np.clip(starts % width + du, 0, width)
+        last = np.clip((ends - 1) % width + 1 + du, 0, width)
+        inside = (row >= 0) & (row < height)
+        row = np.where(inside, row, 0)
+        prefix = np.empty(len(values) + 1)
+        prefix[0] = 0.0
+        np.cumsum(values, out=prefix[1:])
+        pieces = np.where(inside, prefix[row * width + last] - prefix[row * width + first], 0.0)
+        return np.bincount(owner, weights=pieces, minlength=len(rows))
+
     def subset(self, rows: np.ndarray) -> SilhouetteRuns:
         """The runs of silhouettes ``rows``, in that order (e.g. a tree level's representatives by node)."""
         index, owner = self.runs_of(rows)
@@ -277,6 +304,58 @@ class RunBoundaries:
         prefix[0] = 0.0
         np.cumsum(values, out=prefix[1:])
         return (self.matrix if rows is None else self.matrix[np.asarray(rows)]) @ prefix
+
+
+class ShiftedRunBoundaries:
+    """`RunBoundaries` of silhouettes each moved, frame by frame, by whole pixels: silhouette i by ``reference -
+    pixels[i]`` for the frame's ``reference`` pixel (each sample scored as if it stood where the observation was
+    placed: `tracker.tbf.filter.TreeFilter`'s spot pixels). The window is framed by the pixels' spread, so that
+    no shift takes a silhouette out of it; along the flattened frame a move by ``reference - pixels[i]`` adds
+    ``flat(reference) - flat(pixels[i])`` to every index, so each row's boundaries are stored already moved by
+    ``-flat(pixels[i])``, and a frame's sums are one sparse product with the prefix sums slid by
+    ``flat(reference)``."""
+
+    def __init__(self, images: np.ndarray, pixels: np.ndarray) -> None:
+        """From ``(n, h, w)`` silhouettes and their ``(n, 2)`` int pixels ``(u, v)``."""
+        images, pixels = np.asarray(images), np.asarray(pixels, dtype=np.int64).reshape(-1, 2)
+        self.shape = images.shape[1:]
+        self.low = pixels.min(axis=0) if len(pixels) else np.zeros(2, np.int64)
+        spread = pixels.max(axis=0) - self.low if len(pixels) else np.zeros(2, np.int64)
+        self.margin = (int(spread[0]), int(spread[1]))  # (u, v)
+        mu, mv = self.margin
+        framed = RunBoundaries(np.pad(images, ((0, 0), (mv, mv), (mu, mu))))
+        self.by_columns = framed.by_columns
+        self.framed_shape = (self.shape[0] + 2 * mv, self.shape[1] + 2 * mu)
+        moved = self.flat(pixels - self.low)  # >= 0
+        self.reach = int(moved.max()) if len(moved) else 0  # the farthest a row's boundaries were moved back
+        matrix = framed.matrix
+        indices = matrix.indices.astype(np.int64) - np.repeat(moved, np.diff(matrix.indptr)) + self.reach
+        self.matrix = sparse.csr_matrix((matrix.data, indices, matrix.indptr),
+                                        shape=(matrix.shape[0], matrix.shape[1] + self.reach))  # fmt: skip
+
+    def flat(self, pixels: np.ndarray) -> np.ndarray:
+        """Whole-pixel moves ``(..., 2)`` ``(du, dv)`` as moves along the flattened frame (its rows, or columns)."""
+        height, width = self.framed_shape
+        pixels = np.asarray(pixels, dtype=np.int64)
+        return pixels[..., 0] * height + pixels[..., 1] if self.by_columns else pixels[..., 1] * width + pixels[..., 0]
+
+    def __len__(self) -> int:
+        return self.matrix.shape[0]
+
+    def sums(self, values: np.ndarray, reference: np.ndarray) -> np.ndarray:
+        """Per silhouette, the sum of ``values`` (one per pixel of the window, row-major) over its pixels once
+        moved by ``reference`` minus its own pixel; ``reference`` within the pixels' range (a sample's)."""
+        mu, mv = self.margin
+        framed = np.pad(np.asarray(values).reshape(self.shape), ((mv, mv), (mu, mu)))
+        flat = (framed.T if self.by_columns else framed).ravel()
+        # prefix[reach + j] is the sum of the first j values; held flat beyond both ends
+        prefix = np.zeros(len(flat) + 1 + 2 * self.reach)
+        np.cumsum(flat, out=prefix[self.reach + 1 : self.reach + 1 + len(flat)])
+        prefix[self.reach + 1 + len(flat) :] = prefix[self.reach + len(flat)]
+        start = int(self.flat(np.asarray(reference) - self.low))
+        if not 0 <= start <= self.reach:
+            raise ValueError(f"reference pixel {reference} is outside the silhouettes' pixels")
+        return self.matrix @ prefix[start : start + self.matrix.shape[1]]
 
 
 @dataclass(frozen=True, eq=False)
@@ -327,3 +406,12 @@ class ObservationScorer:
     def scores_of_runs(self, runs: SilhouetteRuns | RunBoundaries, rows: np.ndarray | None = None) -> np.ndarray:
         """The same for silhouettes given by their runs over the scorer's window (or their `RunBoundaries`)."""
         return (self._constant + runs.sums(self._slope, rows)) / self._pixels
+
+    def scores_of_shifted(self, runs: SilhouetteRuns, rows: np.ndarray, shifts: np.ndarray) -> np.ndarray:
+        """The distance to silhouettes ``rows`` of ``runs``, each moved by its ``(du, dv)`` of ``shifts`` first."""
+        width = self.window[2] - self.window[0]
+        return (self._constant + runs.shifted_sums(self._slope, width, rows, shifts)) / self._pixels
+
+    def scores_of_placed(self, boundaries: ShiftedRunBoundaries, reference: np.ndarray) -> np.ndarray:
+        """The distance to every silhouette of ``boundaries``, each moved by ``reference`` minus its own pixel."""
+        return (self._constant + boundaries.sums(self._slope, reference)) / self._pixels

@@ -41,12 +41,14 @@ from tracker.tbf.alignment import (
     Placement,
     ViewsPlacement,
     feet_anchor,
+    sample_spots,
     samples_anchor,
     shifted,
+    spot_pixels,
     world_offset,
 )
 from tracker.tbf.arm_dictionary import ArmDictionary, ArmGridSpec, arm_floor
-from tracker.tbf.distances import Cost, EmptySilhouette, ObservationScorer
+from tracker.tbf.distances import Cost, EmptySilhouette
 from tracker.tbf.filter import FilterResult, FilterSettings, TreeFilter
 from tracker.tbf.motion import BODY_SPACE, RandomWalk
 from tracker.tbf.sample_build import BuildSettings, load_or_build
@@ -153,16 +155,20 @@ class TbfTracker(Tracker):
         if settings.node_shares is not None:
             self.thresholds = thresholds_for_shares(self.samples, settings.node_shares)
         self.tree = load_or_build_tree(self.samples, self.thresholds, cache_dir / "trees")
+        placed_by_views = settings.align == "ground" and len(self.cameras) > 1  # where the views' rays cross
+        spots = sample_spots(self.cameras, self.samples) if placed_by_views else None
         self.filter = TreeFilter(self.samples, self.tree, self.cost, self.motion, settings.filter, self.transitions,
-                                 space)  # fmt: skip
+                                 space, None if spots is None else [spot_pixels(self.cameras, spots, level.resolution)
+                                                                    for level in self.tree.levels])  # fmt: skip
         self.anchors = [samples_anchor(view) for view in self.samples.sets] if settings.align == "feet" else None
-        self._seen: dict[int, list[np.ndarray]] = {}  # frame -> the silhouettes the filter saw (finest level), packed
+        # frame -> the silhouettes the filter saw (finest level, packed) and the sample whose spot they were placed on
+        self._seen: dict[int, tuple[list[np.ndarray], int | None]] = {}
         self.filter.start(initial)
         self.placement = self.views_placement = None
         if settings.align == "ground" and len(self.cameras) == 1:  # the feet to place on at first: the initial
             self.placement = GroundPlacement(self.cameras[0], self.samples.sets[0], self.filter.initial_sample)
-        if settings.align == "ground" and len(self.cameras) > 1:  # the rays of the views cross where he stands
-            self.views_placement = ViewsPlacement(self.cameras, self.samples, self.filter.initial_sample)
+        if placed_by_views:
+            self.views_placement = ViewsPlacement(self.cameras, self.samples, self.filter.initial_sample, spots)
         self._estimate = self.estimate_of(np.asarray(self.samples.poses[0]))
         self.setup_s = time.perf_counter() - start
         sigmas = ["/".join(f"{sigma:.3g}" for sigma in views) for views in self.filter.level_sigmas]
@@ -233,17 +239,16 @@ class TbfTracker(Tracker):
         ``nearest``, the sample nearest the truth in 3-D: then the cost itself prefers a pose no nearer the truth,
         and no filter would have done better there. A frame whose estimate is the floor's sample, or that failed,
         is not ambiguous."""
-        stacks = self.samples.silhouettes(self.tree.levels[-1].resolution)
         width, height = self.tree.levels[-1].resolution
         flags = []
         for frame, estimate, floor_sample in zip(frames, estimates, nearest, strict=True):
             if frame not in self._seen or not np.isfinite(estimate) or int(estimate) == int(floor_sample):
                 flags.append(False)
                 continue
-            rows = np.array([int(estimate), int(floor_sample)])
-            distances = [ObservationScorer(self.cost, np.unpackbits(packed, count=width * height).reshape(height, width)
-                                           > 0, stack.window).scores_of_runs(stack.runs.subset(rows))
-                         for packed, stack in zip(self._seen[frame], stacks, strict=True)]  # fmt: skip
+            packed, reference = self._seen[frame]
+            seen = tuple(np.unpackbits(view, count=width * height).reshape(height, width) > 0 for view in packed)
+            distances = self.filter.score_samples(len(self.tree.levels) - 1, seen,
+                                                  np.array([int(estimate), int(floor_sample)]), reference)  # fmt: skip
             likelihood = self.filter.log_likelihood(len(self.tree.levels) - 1, distances)
             flags.append(bool(likelihood[0] >= likelihood[1]))
         return {"ambiguous_frames": int(sum(flags)), "ambiguous_per_frame": flags}
@@ -267,12 +272,14 @@ class TbfTracker(Tracker):
         seen = tuple(shifted(silhouette, *shift) if any(shift) else silhouette
                      for silhouette, shift in zip(observed, shifts, strict=True))  # fmt: skip
         self.last_observation = seen  # what the filter sees (benchmarks score it again)
+        reference = None if self.views_placement is None else self.views_placement.reference
         try:
-            found = self.filter.step(seen)
+            found = self.filter.step(seen, reference)
         except EmptySilhouette as error:  # nobody in view: keep the last estimate, say why
             return TbfResult.of(self.part_names, None, frame=frame.frame, estimate=self._estimate.copy(),
                                 timings_ms={"filter": elapsed_ms(start)}, failure=f"{error}")  # fmt: skip
-        self._seen[frame.frame] = [np.packbits(self.filter.observation_at(finest, view)) for view in seen]
+        self._seen[frame.frame] = ([np.packbits(self.filter.observation_at(finest, view)) for view in seen],
+                                   reference)
         estimate = self._placed_estimate(found, shifts, placed, offset)
         self._estimate = estimate
         result = TbfResult.of(self.part_names, found, frame=frame.frame, estimate=estimate,

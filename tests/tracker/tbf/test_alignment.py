@@ -11,6 +11,7 @@ from tracker.motion.posture import arms_pose
 from tracker.tbf.alignment import (
     GroundPlacement,
     ViewsPlacement,
+    centroid_rays,
     feet_anchor,
     ground_point,
     nearest_to_rays,
@@ -143,3 +144,20 @@ def test_several_views_place_a_walking_person_without_a_reference(body, tmp_path
             sample[v0:v1, u0:u1] = stack.mask(index)
             iou = np.count_nonzero(silhouette & sample) / np.count_nonzero(silhouette | sample)
             assert iou > 0.8, iou  # measured 0.81-1.0: off the samples' spot a view sees him from another side
+    # Each sample's spot, from all of them at once, is where the rays through its own silhouettes' centroids cross.
+    for index in (0, 3, 6):
+        centroids = []
+        for stack in samples.silhouettes((320, 240)):
+            v, u = np.nonzero(stack.mask(index))
+            centroids.append([u.mean() + stack.window[0], v.mean() + stack.window[1]])
+        np.testing.assert_allclose(placement.spot(index), nearest_to_rays(*centroid_rays(rig, np.array(centroids))),
+                                   atol=1e-12)  # fmt: skip
+    # Placed on another posture's spot, the estimate is still moved until its own spot is his.
+    person = postures[6].copy()
+    person[:2] += (0.3, 0.5)
+    seen = [_silhouette(body, camera, person, tmp_path / f"other{camera.name}") for camera in rig]
+    placement = ViewsPlacement(rig, samples, reference=1)
+    assert np.linalg.norm(placement.spot(1)[:2] - placement.spot(6)[:2]) > 0.03  # the postures' spots differ
+    _, offset = placement.place(seen)
+    np.testing.assert_allclose(placement.pose(6, offset)[:2], person[:2], atol=0.03)
+    assert placement.reference == 6

@@ -8,8 +8,10 @@ from tracker.tbf.distances import (
     EmptySilhouette,
     ObservationScorer,
     RunBoundaries,
+    ShiftedRunBoundaries,
     SilhouetteRuns,
     SilhouetteStack,
+    full_window,
     silhouette_distance,
     weight_map,
 )
@@ -99,6 +101,48 @@ def test_runs_hold_exactly_the_inside_pixels():
         assert len(boundaries) == 7 and by_columns in (None, boundaries.by_columns)
         np.testing.assert_allclose(boundaries.sums(values), shapes.reshape(7, -1) @ values, atol=1e-12)
         np.testing.assert_allclose(boundaries.sums(values, rows), shapes.reshape(7, -1)[rows] @ values, atol=1e-12)
+
+
+def _moved(mask, du, dv):
+    """``mask`` moved by whole pixels, what leaves the image lost (the naive reference)."""
+    height, width = mask.shape
+    moved = np.zeros_like(mask)
+    kept = mask[max(0, -dv) : height - max(0, dv), max(0, -du) : width - max(0, du)]
+    moved[max(0, dv) : max(0, dv) + kept.shape[0], max(0, du) : max(0, du) + kept.shape[1]] = kept
+    return moved
+
+
+@pytest.mark.parametrize("tall", [False, True])  # runs along the rows, or down the columns
+def test_silhouettes_moved_by_whole_pixels_score_as_if_moved_first(tall):
+    """Each silhouette moved by its own shift before scoring: from its runs (any rows) and from its run boundaries
+    (all, moved by a reference pixel minus its own), against the distance to the moved mask; some shifts take
+    pixels out of the window, and two silhouettes touch both sides of it (runs that wrap into the next row)."""
+    rng = np.random.default_rng(5)
+    height, width, count = 23, 17, 40
+    masks = np.zeros((count, height, width), bool)
+    for mask in masks:
+        row, column = rng.integers(0, height - 5), rng.integers(0, width - 5)
+        mask[row : row + rng.integers(2, 8), column : column + rng.integers(2, 9)] = True
+    masks[0, 5:7, :] = True
+    masks[1, 3:, 0], masks[1, 3:10, -1] = True, True
+    for mask, column in zip(masks, rng.integers(0, width, count), strict=True) if tall else ():
+        mask[1:22, column] = True  # a pole down each: fewer runs down the columns than along the rows
+    observed = box((height, width), (4, 15), (3, 12))
+    pixels = rng.integers(-3, 4, (count, 2))
+    reference = pixels[7]
+    rows = np.array([3, 0, 1, 39, 3])
+    for cost in COSTS.names():
+        scorer = ObservationScorer(cost, observed, full_window((height, width)))
+        expected = np.array([silhouette_distance(cost, observed, _moved(mask, *(reference - pixel)))
+                             for mask, pixel in zip(masks, pixels, strict=True)])  # fmt: skip
+        by_runs = scorer.scores_of_shifted(SilhouetteRuns.from_masks(masks), rows, reference - pixels[rows])
+        np.testing.assert_allclose(by_runs, expected[rows], rtol=1e-12, atol=1e-15)
+        boundaries = ShiftedRunBoundaries(masks, pixels)
+        np.testing.assert_allclose(scorer.scores_of_placed(boundaries, reference), expected, rtol=1e-12, atol=1e-15)
+        assert boundaries.by_columns == tall
+    assert len({round(value, 9) for value in expected}) > 20  # the shifts change the scores: not a vacuous test
+    with pytest.raises(ValueError, match="outside the silhouettes' pixels"):
+        ShiftedRunBoundaries(masks, pixels).sums(np.ones(height * width), pixels.max(axis=0) + 1)
 
 
 def test_an_empty_observation_has_no_weighted_distance():
