@@ -15,7 +15,13 @@ import time
 import numpy as np
 
 from experiments.components import build, compose
-from tracker.tbf.distances import ObservationScorer, RunBoundaries, SilhouetteRuns, window_pixels
+from tracker.tbf.distances import (
+    ObservationScorer,
+    RunBoundaries,
+    ShiftedRunBoundaries,
+    SilhouetteRuns,
+    window_pixels,
+)
 from tracker.tol import ZERO_LENGTH
 
 log = logging.getLogger(__name__)
@@ -86,7 +92,13 @@ def _level1_ways(filter_, top_runs: list[SilhouetteRuns], silhouettes: tuple[np.
         scores = []
         for way, runs in enumerate((top_runs[view], filter_.level_runs[0][view])):
             start = time.perf_counter()
-            scores.append(scorer.scores_of_runs(runs))
+            if filter_.spot_pixels is None:
+                scores.append(scorer.scores_of_runs(runs))
+            elif way == 0:  # each node moved from its spot to the reference's, run by run
+                shifts = filter_.shifts(0, view, filter_.tree.levels[0].representatives, filter_.reference)
+                scores.append(scorer.scores_of_shifted(runs, np.arange(len(runs)), shifts))
+            else:
+                scores.append(filter_.scores_from(scorer, 0, view))
             seconds[way] += time.perf_counter() - start
         np.testing.assert_allclose(scores[1], scores[0], rtol=1e-9, atol=1e-12)
     return seconds
@@ -116,12 +128,16 @@ def _compare_view_scoring(filter_, level: int, view: int, silhouette: np.ndarray
     weights_s = time.perf_counter() - start
     runs = filter_.level_runs[level][view]
     start = time.perf_counter()
-    scores = scorer.scores_of_runs(runs, None if len(nodes) == len(runs) else nodes)
+    scores = filter_.scores_from(scorer, level, view, None if len(nodes) == len(runs) else nodes)
     vectorised_s = time.perf_counter() - start
     read = _bytes_read(runs, nodes) + 8 * (window_pixels(stack.window) + 1)  # and the weights' prefix sums
     u0, v0, u1, v1 = stack.window
     weights, inside = scorer.weights, observed[v0:v1, u0:u1]
-    models = [stack.mask(rep) for rep in tree_level.representatives[nodes]]  # as bool masks before the clock
+    representatives = tree_level.representatives[nodes]
+    models = [stack.mask(rep) for rep in representatives]  # as bool masks before the clock
+    if filter_.spot_pixels is not None:  # each moved from its spot to the reference's, as the filter scores it
+        shifts = filter_.shifts(level, view, representatives, filter_.reference)
+        models = [_moved(model, du, dv) for model, (du, dv) in zip(models, shifts, strict=True)]
     start = time.perf_counter()
     naive = np.array([(weights * (inside ^ model)).sum() / inside.size for model in models])
     naive_s = time.perf_counter() - start
@@ -129,10 +145,19 @@ def _compare_view_scoring(filter_, level: int, view: int, silhouette: np.ndarray
     return np.array([weights_s, vectorised_s, naive_s, read]), difference
 
 
-def _bytes_read(runs: SilhouetteRuns | RunBoundaries, nodes: np.ndarray) -> int:
+def _moved(mask: np.ndarray, du: int, dv: int) -> np.ndarray:
+    """``mask`` moved by whole pixels ``(du, dv)``, what leaves the window lost."""
+    height, width = mask.shape
+    moved = np.zeros_like(mask)
+    kept = mask[max(0, -dv) : height - max(0, dv), max(0, -du) : width - max(0, du)]
+    moved[max(0, dv) : max(0, dv) + kept.shape[0], max(0, du) : max(0, du) + kept.shape[1]] = kept
+    return moved
+
+
+def _bytes_read(runs: SilhouetteRuns | RunBoundaries | ShiftedRunBoundaries, nodes: np.ndarray) -> int:
     """The bytes of ``nodes``' runs that scoring reads: each run's start, end and owner, or its two boundaries'
     columns and signs."""
-    if isinstance(runs, RunBoundaries):
+    if isinstance(runs, RunBoundaries | ShiftedRunBoundaries):
         matrix = runs.matrix
         return int((matrix.indptr[nodes + 1] - matrix.indptr[nodes]).sum()) * (matrix.indices.itemsize
                                                                                 + matrix.data.itemsize)  # fmt: skip

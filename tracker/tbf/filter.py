@@ -32,7 +32,7 @@ import numpy as np
 from tracker.observe.silhouettes import resize_silhouette
 from tracker.ranges import Positive, Range
 from tracker.settings import validate
-from tracker.tbf.distances import Cost, ObservationScorer, RunBoundaries, ShiftedRunBoundaries, SilhouetteRuns
+from tracker.tbf.distances import Cost, ObservationScorer, RunBoundaries, ShiftedRunBoundaries
 from tracker.tbf.motion import BODY_SPACE, PosePrior, PoseSpace, RandomWalk
 from tracker.tbf.samples import PoseSampleSet, SampleViews
 from tracker.tbf.tree import PoseTree
@@ -118,7 +118,7 @@ class TreeFilter:
     is placed on one sample's spot (the reference's, given to `step`); each sample is scored moved by whole pixels,
     the reference's spot pixel minus its own, as if the observation had been placed on its own spot. Scored where
     they stand, the samples whose limbs put their spot where the reference's is would win (the cost preferred a
-    pose farther from the truth than the dictionary's nearest in 41 of 143_33's 45 frames; 16 when each sample is
+    pose farther from the truth than the dictionary's nearest in 41 of 143_33's 45 frames; 17 when each sample is
     moved). The top level, scored whole, moves a sample by the difference of the two pixels each rounded, which
     makes it one sparse product (`ShiftedRunBoundaries`); the levels below by the difference rounded."""
 
@@ -229,6 +229,11 @@ class TreeFilter:
             timings[f"level{k + 1}"] = elapsed_ms(start)
         return survivors, node_likelihood, evaluated, kept
 
+    @property
+    def reference(self) -> int | None:
+        """The sample on whose spot the last step's observation was placed (with spot pixels)."""
+        return self._reference
+
     def observation_at(self, level: int, observed: np.ndarray) -> np.ndarray:
         """The observed silhouette at ``level``'s resolution."""
         resolution = tuple(self.tree.levels[level].resolution)
@@ -237,37 +242,47 @@ class TreeFilter:
     def score_level(self, level: int, observations: tuple[np.ndarray, ...],
                     nodes: np.ndarray | None = None) -> list[np.ndarray]:  # fmt: skip
         """Per view, the distances of its observation (at ``level``'s resolution) to the representatives of
-        ``nodes`` of ``level`` (all of them for None); with spot pixels, each moved from its spot to the reference's."""
+        ``nodes`` of ``level`` (all of them for None)."""
+        return [self.score_view(level, view, observation, nodes) for view, observation in enumerate(observations)]
+
+    def score_view(self, level: int, view: int, observation: np.ndarray, nodes: np.ndarray | None = None) -> np.ndarray:
+        """View ``view``'s `score_level`."""
+        return self.scores_from(ObservationScorer(self.cost, observation, self._stacks[level][view].window), level,
+                                view, nodes)  # fmt: skip
+
+    def scores_from(self, scorer: ObservationScorer, level: int, view: int,
+                    nodes: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
+        """`score_view` with the observation's scorer made; with spot pixels, each representative moved from its
+        spot to the reference's (`shifts`)."""
+        runs = self.level_runs[level][view]
         if self.spot_pixels is None:
-            return [ObservationScorer(self.cost, observation, stack.window).scores_of_runs(runs, nodes)
-                    for observation, stack, runs in zip(observations, self._stacks[level], self.level_runs[level],
-                                                        strict=True)]  # fmt: skip
-        if level == 0:  # every node at once, each moved by the reference's whole pixel minus its own
-            reference = np.rint(self.spot_pixels[0][self._reference])
-            scores = [ObservationScorer(self.cost, observation, stack.window).scores_of_placed(runs, pixel)
-                      for observation, stack, runs, pixel in zip(observations, self._stacks[0], self.level_runs[0],
-                                                                 reference, strict=True)]  # fmt: skip
-            return scores if nodes is None else [view_scores[nodes] for view_scores in scores]
-        nodes = np.arange(len(self.tree.levels[level])) if nodes is None else nodes
-        return self.score_samples(level, observations, self.tree.levels[level].representatives[nodes],
-                                  self._reference, self.level_runs[level], nodes)  # fmt: skip
+            return scorer.scores_of_runs(runs, nodes)
+        if level == 0:  # every node at once (ShiftedRunBoundaries)
+            scores = scorer.scores_of_placed(runs, np.rint(self.spot_pixels[0][self._reference, view]))
+            return scores if nodes is None else scores[nodes]
+        nodes = np.arange(len(runs)) if nodes is None else nodes
+        samples = self.tree.levels[level].representatives[nodes]
+        return scorer.scores_of_shifted(runs, nodes, self.shifts(level, view, samples, self._reference))
+
+    def shifts(self, level: int, view: int, samples: np.ndarray, reference: int) -> np.ndarray:
+        """``(len(samples), 2)`` the whole pixels ``(du, dv)`` by which ``samples`` are moved at ``level`` in view
+        ``view`` when the observation is on sample ``reference``'s spot: the difference of the two spot pixels
+        rounded; at the top level, the difference of the two each rounded (what makes it one sparse product)."""
+        pixels = self.spot_pixels[level][:, view]
+        if level == 0:
+            return (np.rint(pixels[reference]) - np.rint(pixels[samples])).astype(np.int64)
+        return np.rint(pixels[reference] - pixels[samples]).astype(np.int64)
 
     def score_samples(self, level: int, observations: tuple[np.ndarray, ...], samples: np.ndarray,
-                      reference: int | None = None, runs: tuple[SilhouetteRuns, ...] | None = None,
-                      rows: np.ndarray | None = None) -> list[np.ndarray]:  # fmt: skip
-        """Per view, the distances of its observation (at ``level``'s resolution) to ``samples``; with spot pixels,
-        each moved from its spot to that of sample ``reference`` (the observation's). ``runs``, ``rows``: where
-        their runs are, if not in the level's stacks at ``samples``."""
+                      reference: int | None = None) -> list[np.ndarray]:  # fmt: skip
+        """Per view, the distances of its observation (at ``level``'s resolution) to ``samples``; with spot
+        pixels, each moved from its spot to that of sample ``reference`` (the observation's)."""
         scores = []
         for view, (observation, stack) in enumerate(zip(observations, self._stacks[level], strict=True)):
             scorer = ObservationScorer(self.cost, observation, stack.window)
-            view_runs, view_rows = (stack.runs, samples) if runs is None else (runs[view], rows)
-            if self.spot_pixels is None:
-                scores.append(scorer.scores_of_runs(view_runs, view_rows))
-                continue
-            pixels = self.spot_pixels[level][:, view]
-            shifts = np.rint(pixels[reference] - pixels[samples]).astype(np.int64)
-            scores.append(scorer.scores_of_shifted(view_runs, view_rows, shifts))
+            scores.append(scorer.scores_of_runs(stack.runs, samples) if self.spot_pixels is None else
+                          scorer.scores_of_shifted(stack.runs, samples, self.shifts(level, view, samples,
+                                                                                    reference)))  # fmt: skip
         return scores
 
     def log_likelihood(self, level: int, distances: list[np.ndarray]) -> np.ndarray:

@@ -104,11 +104,11 @@ def test_runs_hold_exactly_the_inside_pixels():
 
 
 def _moved(mask, du, dv):
-    """``mask`` moved by whole pixels, what leaves the image lost (the naive reference)."""
-    height, width = mask.shape
+    """``mask`` moved by whole pixels pixel by pixel, what leaves the image lost (the naive reference)."""
     moved = np.zeros_like(mask)
-    kept = mask[max(0, -dv) : height - max(0, dv), max(0, -du) : width - max(0, du)]
-    moved[max(0, dv) : max(0, dv) + kept.shape[0], max(0, du) : max(0, du) + kept.shape[1]] = kept
+    for v, u in zip(*np.nonzero(mask), strict=True):
+        if 0 <= v + dv < mask.shape[0] and 0 <= u + du < mask.shape[1]:
+            moved[v + dv, u + du] = True
     return moved
 
 
