@@ -235,7 +235,8 @@ class TbfTracker(Tracker):
 
     def ambiguity(self, frames: np.ndarray, estimates: np.ndarray, nearest: np.ndarray) -> dict[str, Any]:
         """Per frame, whether the silhouettes the filter saw are at least as likely (by the run's cost at the finest
-        level; with several views, the product of their likelihoods) under the estimate's sample as under
+        level; with several views, the product of their likelihoods, each sample moved onto the spot the
+        silhouettes were placed on, as the filter scores it) under the estimate's sample as under
         ``nearest``, the sample nearest the truth in 3-D: then the cost itself prefers a pose no nearer the truth,
         and no filter would have done better there. A frame whose estimate is the floor's sample, or that failed,
         is not ambiguous."""
