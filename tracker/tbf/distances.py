@@ -352,9 +352,10 @@ class ShiftedRunBoundaries:
         prefix = np.zeros(len(flat) + 1 + 2 * self.reach)
         np.cumsum(flat, out=prefix[self.reach + 1 : self.reach + 1 + len(flat)])
         prefix[self.reach + 1 + len(flat) :] = prefix[self.reach + len(flat)]
-        start = int(self.flat(np.asarray(reference) - self.low))
-        if not 0 <= start <= self.reach:
-            raise ValueError(f"reference pixel {reference} is outside the silhouettes' pixels")
+        reference = np.asarray(reference, dtype=np.int64)
+        if np.any(reference < self.low) or np.any(reference > self.low + self.margin):
+            raise ValueError(f"reference pixel {reference.tolist()} is outside the silhouettes' pixels")
+        start = int(self.flat(reference - self.low))
         return self.matrix @ prefix[start : start + self.matrix.shape[1]]
 
 
