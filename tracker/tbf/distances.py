@@ -236,26 +236,28 @@ class SilhouetteRuns:
         ``shifts`` ``(len(rows), 2)`` ``(du, dv)`` first: pixels moved out of the window count nothing."""
         height = len(values) // width
         index, owner = self.runs_of(rows)
-        starts, ends = self.starts[index].astype(np.int64), self.ends[index].astype(np.int64)
-        # A run along the flattened window can go on into the next row (a silhouette touching both sides of the
-        # window): cut it at the row's end until every piece lies on one row.
-        while True:
-            row_end = (starts // width + 1) * width
-            wraps = ends > row_end
-            if not wraps.any():
-                break
-            starts, ends = np.r_[starts, row_end[wraps]], np.r_[np.minimum(ends, row_end), ends[wraps]]
-            owner = np.r_[owner, owner[wraps]]
+        starts, ends = self.starts[index], self.ends[index]
+        row, first = np.divmod(starts, width)
+        last = ends - row * width  # one past the run's last column, beyond the width if it wraps
+        if np.any(last > width):
+            # A run along the flattened window can go on into the next row (a silhouette touching both sides of
+            # the window): cut it at each row's end until every piece lies on one row.
+            starts, ends = starts.astype(np.int64), ends.astype(np.int64)
+            while np.any(wraps := ends > (row_end := (starts // width + 1) * width)):
+                starts, ends = np.r_[starts, row_end[wraps]], np.r_[np.minimum(ends, row_end), ends[wraps]]
+                owner = np.r_[owner, owner[wraps]]
+            row, first = np.divmod(starts, width)
+            last = ends - row * width
         du, dv = shifts[owner, 0], shifts[owner, 1]
-        row = starts // width + dv
-        first = np.clip(starts % width + du, 0, width)
-        last = np.clip((ends - 1) % width + 1 + du, 0, width)
+        row = row + dv
+        first, last = np.clip(first + du, 0, width), np.clip(last + du, 0, width)
         inside = (row >= 0) & (row < height)
-        row = np.where(inside, row, 0)
+        base = np.where(inside, row, 0) * width
         prefix = np.empty(len(values) + 1)
         prefix[0] = 0.0
         np.cumsum(values, out=prefix[1:])
-        pieces = np.where(inside, prefix[row * width + last] - prefix[row * width + first], 0.0)
+        pieces = prefix[base + last] - prefix[base + first]
+        pieces[~inside] = 0.0
         return np.bincount(owner, weights=pieces, minlength=len(rows))
 
     def subset(self, rows: np.ndarray) -> SilhouetteRuns:
@@ -329,7 +331,7 @@ class ShiftedRunBoundaries:
         moved = self.flat(pixels - self.low)  # >= 0
         self.reach = int(moved.max()) if len(moved) else 0  # the farthest a row's boundaries were moved back
         matrix = framed.matrix
-        indices = matrix.indices.astype(np.int64) - np.repeat(moved, np.diff(matrix.indptr)) + self.reach
+        indices = (matrix.indices - np.repeat(moved, np.diff(matrix.indptr)) + self.reach).astype(matrix.indices.dtype)
         self.matrix = sparse.csr_matrix((matrix.data, indices, matrix.indptr),
                                         shape=(matrix.shape[0], matrix.shape[1] + self.reach))  # fmt: skip
 
