@@ -214,8 +214,10 @@ def sample_spots(cameras: Sequence[Camera], samples: SampleViews) -> np.ndarray:
         u0, v0, u1, v1 = stack.window
         columns, rows = np.meshgrid(np.arange(u0, u1, dtype=np.float64), np.arange(v0, v1, dtype=np.float64))
         count = stack.runs.sums(np.ones(columns.size))
-        centroids.append(np.stack([stack.runs.sums(columns.ravel()), stack.runs.sums(rows.ravel())], axis=1)
-                         / count[:, None])  # fmt: skip
+        sums = np.stack([stack.runs.sums(columns.ravel()), stack.runs.sums(rows.ravel())], axis=1)
+        seen = count > 0  # a sample this view does not see at all: the mean centroid (its silhouette is empty anyway)
+        sums[~seen] = (sums[seen].sum(axis=0) / count[seen].sum()) if seen.any() else [(u0 + u1) / 2, (v0 + v1) / 2]
+        centroids.append(sums / np.where(seen, count, 1.0)[:, None])
     return nearest_to_rays(*centroid_rays(cameras, np.stack(centroids, axis=1)))
 
 
