@@ -24,7 +24,7 @@ on the held-out walk 69_20; scaling by the silhouettes' areas instead did worse,
 
 From two or more calibrated views (`ViewsPlacement`) the person stands where the rays through his silhouettes'
 centroids cross (his spot), and each sample where its own cross (`sample_spots`): a posture's spot moves with its
-limbs (on 143_33, the estimate's and the dictionary's nearest posture's lay 1-8 cm apart). His silhouettes are
+limbs (on 143_33, the estimate's and the dictionary's nearest posture's lay 0.7-8.5 cm apart). His silhouettes are
 scaled and moved as if he stood on a reference sample's spot (the last estimate's); the filter then scores each
 sample moved by whole pixels from where each view sees its own spot to where it sees the reference's
 (`spot_pixels`), as if he had been placed on that sample's spot, and the estimate is moved across the floor until
