@@ -15,6 +15,7 @@ import time
 import numpy as np
 
 from experiments.components import build, compose
+from tracker.tbf.alignment import shifted
 from tracker.tbf.distances import (
     ObservationScorer,
     RunBoundaries,
@@ -137,21 +138,12 @@ def _compare_view_scoring(filter_, level: int, view: int, silhouette: np.ndarray
     models = [stack.mask(rep) for rep in representatives]  # as bool masks before the clock
     if filter_.spot_pixels is not None:  # each moved from its spot to the reference's, as the filter scores it
         shifts = filter_.shifts(level, view, representatives, filter_.reference)
-        models = [_moved(model, du, dv) for model, (du, dv) in zip(models, shifts, strict=True)]
+        models = [shifted(model, du, dv) for model, (du, dv) in zip(models, shifts, strict=True)]
     start = time.perf_counter()
     naive = np.array([(weights * (inside ^ model)).sum() / inside.size for model in models])
     naive_s = time.perf_counter() - start
     difference = float(np.max(np.abs(naive - scores) / np.maximum(np.abs(scores), ZERO_LENGTH))) if len(nodes) else 0.0
     return np.array([weights_s, vectorised_s, naive_s, read]), difference
-
-
-def _moved(mask: np.ndarray, du: int, dv: int) -> np.ndarray:
-    """``mask`` moved by whole pixels ``(du, dv)``, what leaves the window lost."""
-    height, width = mask.shape
-    moved = np.zeros_like(mask)
-    kept = mask[max(0, -dv) : height - max(0, dv), max(0, -du) : width - max(0, du)]
-    moved[max(0, dv) : max(0, dv) + kept.shape[0], max(0, du) : max(0, du) + kept.shape[1]] = kept
-    return moved
 
 
 def _bytes_read(runs: SilhouetteRuns | RunBoundaries | ShiftedRunBoundaries, nodes: np.ndarray) -> int:
