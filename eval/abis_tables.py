@@ -33,13 +33,19 @@ def abis_runs(directories: list[Path]) -> pd.DataFrame:
             tracker = metrics["config"]["tracker"]
             table = pd.read_parquet(path.parent / "frames.parquet")
             part = table[table["part"] == table["part"].drop_duplicates().iloc[PAPER_PART]]
-            rows.append({"scene": metrics["choices"]["scene"], "optimiser": tracker["fit"]["optimizer"],
-                         "selection": tracker["selection"], "seed": metrics["seed"],
-                         "b1_percent": 100 * metrics["part2_b1_rms"] / metrics["part2_b1_range"],
-                         "r2_deg": metrics["part2_r2_rms_deg"], "failed_frames": metrics["failed_frames"],
-                         "surface_distance_mm": metrics["mean_surface_distance_mm"],
-                         **{count: int(part[count].sum()) for count in ("discarded_occlusion", "lost",
-                                                                         "discarded_error")}})  # fmt: skip
+            rows.append(
+                {
+                    "scene": metrics["choices"]["scene"],
+                    "optimiser": tracker["fit"]["optimizer"],
+                    "selection": tracker["selection"],
+                    "seed": metrics["seed"],
+                    "b1_percent": 100 * metrics["part2_b1_rms"] / metrics["part2_b1_range"],
+                    "r2_deg": metrics["part2_r2_rms_deg"],
+                    "failed_frames": metrics["failed_frames"],
+                    "surface_distance_mm": metrics["mean_surface_distance_mm"],
+                    **{count: int(part[count].sum()) for count in ("discarded_occlusion", "lost", "discarded_error")},
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -49,14 +55,21 @@ def seeds_table(runs: pd.DataFrame) -> pd.DataFrame:
     rows = []
     for (scene, optimiser, selection), group in runs.groupby(["scene", "optimiser", "selection"], sort=False):
         reached = (group["b1_percent"] <= B1_TARGET_PERCENT) & (group["r2_deg"] <= R2_TARGET_DEG)
-        rows.append({"scene": scene, "optimiser": optimiser, "selection": selection,
-                     "seeds at Fig 8's targets": f"{int(reached.sum())}/{len(group)}",
-                     "b1 RMS % of range (median, worst)": _median_worst(group["b1_percent"], 1),
-                     "r2 RMS deg (median, worst)": _median_worst(group["r2_deg"], 2),
-                     "failed frames": int(group["failed_frames"].sum()),
-                     "point-to-surface mm (median)": round(float(group["surface_distance_mm"].median()), 1),
-                     "part 2 pairs per run: occlusion / lost / false": " / ".join(
-                         f"{group[count].mean():.0f}" for count in ("discarded_occlusion", "lost", "discarded_error"))})
+        rows.append(
+            {
+                "scene": scene,
+                "optimiser": optimiser,
+                "selection": selection,
+                "seeds at Fig 8's targets": f"{int(reached.sum())}/{len(group)}",
+                "b1 RMS % of range (median, worst)": _median_worst(group["b1_percent"], 1),
+                "r2 RMS deg (median, worst)": _median_worst(group["r2_deg"], 2),
+                "failed frames": int(group["failed_frames"].sum()),
+                "point-to-surface mm (median)": round(float(group["surface_distance_mm"].median()), 1),
+                "part 2 pairs per run: occlusion / lost / false": " / ".join(
+                    f"{group[count].mean():.0f}" for count in ("discarded_occlusion", "lost", "discarded_error")
+                ),
+            }
+        )
     return pd.DataFrame(rows)
 
 

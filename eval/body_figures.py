@@ -39,16 +39,21 @@ def swing_traces(runs: Mapping[str, Path], out: Path, bound_deg: float = SwingRu
     for axis, (label, run_dir) in zip(axes[:, 0], runs.items(), strict=True):
         frames = pd.read_parquet(run_dir / "frames.parquet").drop_duplicates("frame")
         details = json.loads((run_dir / "metrics.json").read_text())["swing_details"]
-        verdicts = [outcome(followed, error, bound_deg)
-                    for followed, error in zip(details["followed"], details["max_error_deg"], strict=True)]
+        verdicts = [
+            outcome(followed, error, bound_deg)
+            for followed, error in zip(details["followed"], details["max_error_deg"], strict=True)
+        ]
         for start, stop, verdict in zip(details["start"], details["stop"], verdicts, strict=True):
             axis.axvspan(start - 0.5, stop - 0.5, color=VERDICT_COLORS[verdict], alpha=0.18, linewidth=0)
         axis.plot(frames["frame"], frames["swing_truth_deg"], color="black", linewidth=1.0, label="truth")
         axis.plot(frames["frame"], frames["swing_est_deg"], color="#1f77b4", linewidth=1.0, label="estimate")
         counts = {verdict: verdicts.count(verdict) for verdict in VERDICT_COLORS}
         axis.set_ylabel("deg")
-        axis.set_title(f"{label}: success {counts['success']}, error {counts['error']}, fail {counts['fail']}",
-                       fontsize=9, loc="left")  # fmt: skip
+        axis.set_title(
+            f"{label}: success {counts['success']}, error {counts['error']}, fail {counts['fail']}",
+            fontsize=9,
+            loc="left",
+        )
     axes[0, 0].legend(loc="upper right", fontsize=8, ncol=2)
     axes[-1, 0].set_xlabel("frame (shading: each swing's verdict, green success / orange error / red fail)")
     return save_png(plt, figure, out)
@@ -125,14 +130,19 @@ def competing_samples(runs: Mapping[str, Path], out: Path) -> Path:
         tracker, table = _restarted_tracker(run_dir)
         frame = int((table["swing_est_deg"] - table["swing_truth_deg"]).abs().idxmax())
         observed = read_images(run_dir / "run.rrd", f"/world/cameras/{tracker.cameras[0].name}/image/silhouette")[frame]
-        du, dv = (int(table.loc[frame, c]) if c in table and pd.notna(table.loc[frame, c]) else 0
-                  for c in ("align_du_px", "align_dv_px"))  # fmt: skip
+        du, dv = (
+            int(table.loc[frame, c]) if c in table and pd.notna(table.loc[frame, c]) else 0
+            for c in ("align_du_px", "align_dv_px")
+        )
         observed = shifted(observed.astype(bool), du, dv)
         stack = tracker.samples.sets[0].silhouettes(LEVEL_RESOLUTIONS[-1])  # experiment A: one camera
         scores = ObservationScorer(tracker.cost, observed, stack.window).scores(stack)
         chosen = int(table.loc[frame, "est_sample"])
-        nearest = int(nearest_in_3d(tracker.subject, np.asarray(table.loc[frame, "truth_pose"])[None], tracker.body,
-                                    tracker.samples.poses)[0][0])  # fmt: skip
+        nearest = int(
+            nearest_in_3d(
+                tracker.subject, np.asarray(table.loc[frame, "truth_pose"])[None], tracker.body, tracker.samples.poses
+            )[0][0]
+        )
         axes[row, 0].imshow(weight_map(tracker.cost, observed, stack.window), cmap="magma")
         axes[row, 0].set_title(f"{label}, frame {frame}: observed, d_P", fontsize=8)
         for column, (name, index) in enumerate((("chosen", chosen), ("nearest in 3-D", nearest)), start=1):
@@ -145,8 +155,10 @@ def competing_samples(runs: Mapping[str, Path], out: Path) -> Path:
             overlay[~observed & model] = (40, 90, 220)
             axes[row, column].imshow(overlay)
             swing = tracker.body.right_arm_swing_deg(tracker.samples.poses[index])
-            axes[row, column].set_title(f"{name}: arm {swing:.0f}° (truth {table.loc[frame, 'swing_truth_deg']:.0f}°)"
-                                        f", d = {scores[index]:.4g}", fontsize=8)  # fmt: skip
+            axes[row, column].set_title(
+                f"{name}: arm {swing:.0f}° (truth {table.loc[frame, 'swing_truth_deg']:.0f}°), d = {scores[index]:.4g}",
+                fontsize=8,
+            )
         for axis in axes[row]:
             axis.set_xticks([]), axis.set_yticks([])
             axis.set_xlim(stack.window[0], stack.window[2]), axis.set_ylim(stack.window[3], stack.window[1])
@@ -163,6 +175,7 @@ def _restarted_tracker(run_dir: Path):
     metrics = json.loads((run_dir / "metrics.json").read_text())
     components = build(OmegaConf.create(metrics["config"]))
     table = pd.read_parquet(run_dir / "frames.parquet").drop_duplicates("frame").set_index("frame")
-    components.tracker.start(components.model, components.cameras, np.asarray(table.iloc[0]["truth_pose"]),
-                             np.random.default_rng(0))  # fmt: skip
+    components.tracker.start(
+        components.model, components.cameras, np.asarray(table.iloc[0]["truth_pose"]), np.random.default_rng(0)
+    )
     return components.tracker, table

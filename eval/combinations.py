@@ -16,14 +16,24 @@ def body_table(root: Path, rows: dict[str, str]) -> pd.DataFrame:
     """One row per clip and build (``rows``: folder -> what the row says) of the runs under ``root/<clip>/``."""
     table = []
     for clip, label, run in runs_by_clip(root, rows):
-        table.append({"clip": clip, "tracker and views": label, "frames": run.frames,
-                      "MPJPE mm": round(run.mpjpe_mm, 1), "root-aligned mm": round(run.mpjpe_root_aligned_mm, 1),
-                      "floor mm": _rounded(run, "mpjpe_floor_mm", 1),
-                      "aligned / floor": _rounded(run, "mpjpe_floor_mm", 2, run.mpjpe_root_aligned_mm),
-                      "joint angle °": round(run.joint_angle_error_deg, 1),
-                      "ambiguous frames": (f"{int(run.ambiguous_frames)} of {run.frames}"
-                                           if pd.notna(getattr(run, "ambiguous_frames", np.nan)) else "—"),
-                      "estimation ms (median)": round(getattr(run, "estimate_ms_median", np.nan), 1)})  # fmt: skip
+        table.append(
+            {
+                "clip": clip,
+                "tracker and views": label,
+                "frames": run.frames,
+                "MPJPE mm": round(run.mpjpe_mm, 1),
+                "root-aligned mm": round(run.mpjpe_root_aligned_mm, 1),
+                "floor mm": _rounded(run, "mpjpe_floor_mm", 1),
+                "aligned / floor": _rounded(run, "mpjpe_floor_mm", 2, run.mpjpe_root_aligned_mm),
+                "joint angle °": round(run.joint_angle_error_deg, 1),
+                "ambiguous frames": (
+                    f"{int(run.ambiguous_frames)} of {run.frames}"
+                    if pd.notna(getattr(run, "ambiguous_frames", np.nan))
+                    else "—"
+                ),
+                "estimation ms (median)": round(getattr(run, "estimate_ms_median", np.nan), 1),
+            }
+        )
     return pd.DataFrame(table)
 
 
@@ -33,14 +43,19 @@ def arm_table(runs: dict[str, Path]) -> pd.DataFrame:
     table = []
     for name, folder in runs.items():
         run = collected.loc[str(folder)]
-        table.append({"tracker": name, "frames": run["frames"],
-                      "b1 RMS": round(run["part2_b1_rms"], 4),
-                      "b1 RMS % of range": round(100 * run["part2_b1_rms"] / run["part2_b1_range"], 1),
-                      "r2 RMS °": round(run["part2_r2_rms_deg"], 2),
-                      "floor b1 RMS": _value(run, "floor_part2_b1_rms", 4),
-                      "floor r2 RMS °": _value(run, "floor_part2_r2_rms_deg", 2),
-                      "surface error mm": round(run["mean_surface_error_mm"], 1),
-                      "estimation ms (median)": round(run["estimate_ms_median"], 1)})  # fmt: skip
+        table.append(
+            {
+                "tracker": name,
+                "frames": run["frames"],
+                "b1 RMS": round(run["part2_b1_rms"], 4),
+                "b1 RMS % of range": round(100 * run["part2_b1_rms"] / run["part2_b1_range"], 1),
+                "r2 RMS °": round(run["part2_r2_rms_deg"], 2),
+                "floor b1 RMS": _value(run, "floor_part2_b1_rms", 4),
+                "floor r2 RMS °": _value(run, "floor_part2_r2_rms_deg", 2),
+                "surface error mm": round(run["mean_surface_error_mm"], 1),
+                "estimation ms (median)": round(run["estimate_ms_median"], 1),
+            }
+        )
     return pd.DataFrame(table)
 
 

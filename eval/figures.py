@@ -65,8 +65,10 @@ def fig6_fig7_sheets(run_dir: str | Path, frames: Sequence[int] | None = None) -
     with SceneRenderer(cameras[0].width, cameras[0].height) as renderer:
         estimated = {frame: renderer.render(cameras, model.surface_meshes(table[frame])) for frame in frames}
     images = {camera.name: {frame: views[camera.name].rgb for frame, views in estimated.items()} for camera in cameras}
-    return [views_sheet(run_dir, frames, run_dir / "fig6_input_views.png"),
-            _sheet(images, frames, run_dir / "fig7_estimated_views.png")]
+    return [
+        views_sheet(run_dir, frames, run_dir / "fig6_input_views.png"),
+        _sheet(images, frames, run_dir / "fig7_estimated_views.png"),
+    ]
 
 
 def _estimates(run_dir: Path, model) -> dict[int, np.ndarray]:
@@ -77,8 +79,10 @@ def _estimates(run_dir: Path, model) -> dict[int, np.ndarray]:
 
     table = pd.read_parquet(run_dir / "frames.parquet")
     columns = [f"est_{name}" for name in PARAM_NAMES]
-    return {int(frame): np.stack([rows[rows["part"] == part][columns].to_numpy()[0] for part in model.part_names])
-            for frame, rows in table.groupby("frame")}  # fmt: skip
+    return {
+        int(frame): np.stack([rows[rows["part"] == part][columns].to_numpy()[0] for part in model.part_names])
+        for frame, rows in table.groupby("frame")
+    }
 
 
 def fig8_part2_b1_r2(run_dir: str | Path, out: str | Path | None = None) -> Path:
@@ -96,9 +100,12 @@ def fig8_part2_b1_r2(run_dir: str | Path, out: str | Path | None = None) -> Path
     turn.set_xlabel("frame")
     _shade_hidden(bend, rows), _shade_hidden(turn, rows)
     metrics = json.loads((run_dir / "metrics.json").read_text())
-    bend.set_title(f"part 2 ({rows['part'].iloc[0]}): b1 RMS {metrics['part2_b1_rms'] * 1e3:.1f} mm "
-                   f"(range {metrics['part2_b1_range'] * 1e3:.0f} mm), r2 RMS {metrics['part2_r2_rms_deg']:.2f} deg, "
-                   f"{_tracker_name(metrics)}", fontsize=9)  # fmt: skip
+    bend.set_title(
+        f"part 2 ({rows['part'].iloc[0]}): b1 RMS {metrics['part2_b1_rms'] * 1e3:.1f} mm "
+        f"(range {metrics['part2_b1_range'] * 1e3:.0f} mm), r2 RMS {metrics['part2_r2_rms_deg']:.2f} deg, "
+        f"{_tracker_name(metrics)}",
+        fontsize=9,
+    )
     bend.legend(loc="upper right", fontsize=8)
     return save_png(plt, figure, Path(out) if out else run_dir / "fig8_part2_b1_r2.png")
 
@@ -110,8 +117,13 @@ def fig9_part2_correspondences(run_dir: str | Path, out: str | Path | None = Non
     run_dir = Path(run_dir)
     rows = _paper_part_rows(run_dir)
     views = json.loads((run_dir / "metrics.json").read_text())["views"]
-    figure, axes = plt.subplots(1 + len(views), 1, figsize=(7, 3.8 + 1.6 * len(views)), sharex=True,
-                                gridspec_kw={"height_ratios": [2.2] + [1] * len(views)})  # fmt: skip
+    figure, axes = plt.subplots(
+        1 + len(views),
+        1,
+        figsize=(7, 3.8 + 1.6 * len(views)),
+        sharex=True,
+        gridspec_kw={"height_ratios": [2.2] + [1] * len(views)},
+    )
     styles = {"tracked": "C2-", "new": "C0-", "discarded_occlusion": "C3-", "discarded_error": "C1--", "lost": "C7:"}
     for axis, view in zip(axes, [None, *views], strict=True):
         suffix = "" if view is None else f"_{view}"
@@ -171,10 +183,11 @@ def save_png(plt, figure, out: Path) -> Path:
 
 
 # Each figure and the frames.parquet columns it draws: a run gets every figure its table has the columns of.
-FIGURES = ((fig6_fig7_sheets, {"est_a", "est_b1", "est_r2"}),
-           (fig8_part2_b1_r2, {"truth_b1", "est_b1", "truth_r2", "est_r2"}),
-           (fig9_part2_correspondences, {"est_b1", "tracked", "new", "discarded_occlusion", "discarded_error",
-                                         "lost"}))  # fmt: skip
+FIGURES = (
+    (fig6_fig7_sheets, {"est_a", "est_b1", "est_r2"}),
+    (fig8_part2_b1_r2, {"truth_b1", "est_b1", "truth_r2", "est_r2"}),
+    (fig9_part2_correspondences, {"est_b1", "tracked", "new", "discarded_occlusion", "discarded_error", "lost"}),
+)
 
 
 def write_figures(run_dir: str | Path) -> list[Path]:

@@ -36,15 +36,22 @@ def real_motion_table(root: Path, variants: dict[str, str]) -> pd.DataFrame:
     """One row per clip and variant (``variants``: folder -> what the row says), in the variants' order."""
     rows = []
     for clip, label, run in runs_by_clip(root, variants):
-        rows.append({"clip": clip, "build": label, "frames": run.frames, "samples": run.samples,
-                     "MPJPE mm": round(run.mpjpe_mm, 1), "root-aligned mm": round(run.mpjpe_root_aligned_mm, 1),
-                     "floor mm": round(run.mpjpe_floor_mm, 1),
-                     "aligned / floor": round(run.mpjpe_root_aligned_mm / run.mpjpe_floor_mm, 2),
-                     "joint angle °": round(run.joint_angle_error_deg, 1),
-                     "floor joint angle °": round(run.joint_angle_floor_deg, 1),
-                     "ambiguous frames": f"{run.ambiguous_frames} of {run.frames}",
-                     "estimation ms (median)": round(getattr(run, "estimate_ms_median", np.nan), 1),
-                     })  # fmt: skip
+        rows.append(
+            {
+                "clip": clip,
+                "build": label,
+                "frames": run.frames,
+                "samples": run.samples,
+                "MPJPE mm": round(run.mpjpe_mm, 1),
+                "root-aligned mm": round(run.mpjpe_root_aligned_mm, 1),
+                "floor mm": round(run.mpjpe_floor_mm, 1),
+                "aligned / floor": round(run.mpjpe_root_aligned_mm / run.mpjpe_floor_mm, 2),
+                "joint angle °": round(run.joint_angle_error_deg, 1),
+                "floor joint angle °": round(run.joint_angle_floor_deg, 1),
+                "ambiguous frames": f"{run.ambiguous_frames} of {run.frames}",
+                "estimation ms (median)": round(getattr(run, "estimate_ms_median", np.nan), 1),
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -59,16 +66,24 @@ def error_against_floor(run_dir: Path, out: Path) -> Path:
         if ambiguous:
             axis.axvspan(frame - 0.5, frame + 0.5, color="#d62728", alpha=0.12, linewidth=0)
     axis.plot(table["frame"], table["joint_error_mm"], color="#1f77b4", linewidth=1.0, label="MPJPE")
-    axis.plot(table["frame"], table["joint_error_aligned_mm"], color="#ff7f0e", linewidth=1.0,
-              label="root-aligned")  # fmt: skip
-    axis.plot(table["frame"], metrics["floor_per_frame_mm"], color="black", linewidth=1.0, linestyle="--",
-              label="floor (3-D nearest sample)")  # fmt: skip
+    axis.plot(table["frame"], table["joint_error_aligned_mm"], color="#ff7f0e", linewidth=1.0, label="root-aligned")
+    axis.plot(
+        table["frame"],
+        metrics["floor_per_frame_mm"],
+        color="black",
+        linewidth=1.0,
+        linestyle="--",
+        label="floor (3-D nearest sample)",
+    )
     axis.set_xlabel("frame (shaded: the silhouette cost prefers the estimate to the floor's sample)")
     axis.set_ylabel("mm")
-    axis.set_title(f"{run_dir.parent.name}: MPJPE {metrics['mpjpe_mm']:.0f} mm, root-aligned "
-                   f"{metrics['mpjpe_root_aligned_mm']:.0f} mm, floor {metrics['mpjpe_floor_mm']:.0f} mm; "
-                   f"{metrics['ambiguous_frames']} of {metrics['frames_done']} frames ambiguous",
-                   fontsize=9, loc="left")  # fmt: skip
+    axis.set_title(
+        f"{run_dir.parent.name}: MPJPE {metrics['mpjpe_mm']:.0f} mm, root-aligned "
+        f"{metrics['mpjpe_root_aligned_mm']:.0f} mm, floor {metrics['mpjpe_floor_mm']:.0f} mm; "
+        f"{metrics['ambiguous_frames']} of {metrics['frames_done']} frames ambiguous",
+        fontsize=9,
+        loc="left",
+    )
     axis.legend(loc="upper right", fontsize=8, ncol=3)
     return save_png(plt, figure, out)
 

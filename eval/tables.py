@@ -27,13 +27,17 @@ from tracker.evaluation.body import OUTCOMES, count_outcomes
 from tracker.registry import REGISTRIES
 
 # Fig 4(c) of paper 2: swings out of 24 (fail, error, success).
-PAPER_4C = {("wxor", "dm1"): (24, 0, 0), ("wxor", "dm2"): (24, 0, 0), ("nwxor", "dm1"): (7, 7, 10),
-            ("nwxor", "dm2"): (0, 10, 14)}  # fmt: skip
+PAPER_4C = {
+    ("wxor", "dm1"): (24, 0, 0),
+    ("wxor", "dm2"): (24, 0, 0),
+    ("nwxor", "dm1"): (7, 7, 10),
+    ("nwxor", "dm2"): (0, 10, 14),
+}
 # Fig 6(d): ms per frame (min, max, average).
-PAPER_6D = {"PC (2x Opteron 280, 4 cores)": {"capture": (21, 29, 22), "estimation": (21, 236, 104),
-                                              "total": (43, 261, 127)},
-            "Cell (3.2 GHz, 7 SPE)": {"capture": (20, 53, 23), "estimation": (17, 169, 62),
-                                      "total": (39, 202, 86)}}  # fmt: skip
+PAPER_6D = {
+    "PC (2x Opteron 280, 4 cores)": {"capture": (21, 29, 22), "estimation": (21, 236, 104), "total": (43, 261, 127)},
+    "Cell (3.2 GHz, 7 SPE)": {"capture": (20, 53, 23), "estimation": (17, 169, 62), "total": (39, 202, 86)},
+}
 
 
 _NOT_METRICS = {"seed", "frames", "frames_done"}
@@ -47,18 +51,32 @@ def collect(directories: list[Path]) -> pd.DataFrame:
         for path in sorted(Path(directory).rglob("metrics.json")):
             metrics = json.loads(path.read_text())
             swings = metrics.get("swings", {})
-            numbers = {k: v for k, v in metrics.items()
-                       if isinstance(v, int | float) and not isinstance(v, bool) and k not in _NOT_METRICS}  # fmt: skip
+            numbers = {
+                k: v
+                for k, v in metrics.items()
+                if isinstance(v, int | float) and not isinstance(v, bool) and k not in _NOT_METRICS
+            }
             timings_path = path.parent / "timings.json"
             timings = json.loads(timings_path.read_text()) if timings_path.exists() else {}
-            rows.append({**metrics.get("choices", {}), "overrides": " ".join(_overrides(path.parent)),
-                         "seed": metrics.get("seed"), "status": metrics.get("status"),
-                         "frames": metrics.get("frames_done"), **numbers, "fail": swings.get("fail"),
-                         "error": swings.get("error"), "success": swings.get("success"),
-                         "samples": metrics.get("samples"), **timings, "run": str(path.parent),
-                         "floor_success": metrics.get("swings_floor", {}).get("success"),
-                         "swing_followed": metrics.get("swing_details", {}).get("followed", []),
-                         "swing_max_error_deg": metrics.get("swing_details", {}).get("max_error_deg", [])})  # fmt: skip
+            rows.append(
+                {
+                    **metrics.get("choices", {}),
+                    "overrides": " ".join(_overrides(path.parent)),
+                    "seed": metrics.get("seed"),
+                    "status": metrics.get("status"),
+                    "frames": metrics.get("frames_done"),
+                    **numbers,
+                    "fail": swings.get("fail"),
+                    "error": swings.get("error"),
+                    "success": swings.get("success"),
+                    "samples": metrics.get("samples"),
+                    **timings,
+                    "run": str(path.parent),
+                    "floor_success": metrics.get("swings_floor", {}).get("success"),
+                    "swing_followed": metrics.get("swing_details", {}).get("followed", []),
+                    "swing_max_error_deg": metrics.get("swing_details", {}).get("max_error_deg", []),
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -85,8 +103,13 @@ def sweep_table(runs: pd.DataFrame) -> pd.DataFrame:
     for key, group in runs.fillna({k: "" for k in keys}).groupby(keys, sort=True, dropna=False):
         finished = group[group["status"] == "ok"]
         row = dict(zip(keys, key, strict=True))
-        row.update({"runs": len(group), "ok": len(finished),
-                    "seeds": ",".join(str(s) for s in sorted(group["seed"].dropna().astype(int)))})  # fmt: skip
+        row.update(
+            {
+                "runs": len(group),
+                "ok": len(finished),
+                "seeds": ",".join(str(s) for s in sorted(group["seed"].dropna().astype(int))),
+            }
+        )
         for column in metrics:
             values = finished[column].dropna()
             if len(values) == 1:
@@ -123,13 +146,18 @@ def table_4c(runs: pd.DataFrame) -> pd.DataFrame:
         row.update({outcome: _mean_std(group[outcome]) for outcome in OUTCOMES})
         if "floor_success" in group and group["floor_success"].notna().all():
             row["floor_success"] = _mean_std(group["floor_success"])
-        row.update({"mpjpe_mm": round(float(group["mpjpe_mm"].mean()), 1),
-                    "mpjpe_aligned_mm": _mean_of(group, "mpjpe_root_aligned_mm"),
-                    "mpjpe_floor_mm": _mean_of(group, "mpjpe_floor_mm"),
-                    "max_err_median_deg": round(float(np.median(errors)), 1) if len(errors) else None,
-                    "max_err_p90_deg": round(float(np.percentile(errors, 90)), 1) if len(errors) else None,
-                    "paper_fail": paper[0] if paper else None, "paper_error": paper[1] if paper else None,
-                    "paper_success": paper[2] if paper else None})  # fmt: skip
+        row.update(
+            {
+                "mpjpe_mm": round(float(group["mpjpe_mm"].mean()), 1),
+                "mpjpe_aligned_mm": _mean_of(group, "mpjpe_root_aligned_mm"),
+                "mpjpe_floor_mm": _mean_of(group, "mpjpe_floor_mm"),
+                "max_err_median_deg": round(float(np.median(errors)), 1) if len(errors) else None,
+                "max_err_p90_deg": round(float(np.percentile(errors, 90)), 1) if len(errors) else None,
+                "paper_fail": paper[0] if paper else None,
+                "paper_error": paper[1] if paper else None,
+                "paper_success": paper[2] if paper else None,
+            }
+        )
         rows.append(row)
     table = pd.DataFrame(rows)
     for column in ("paper_fail", "paper_error", "paper_success"):
@@ -149,11 +177,18 @@ def table_4c_bounds(runs: pd.DataFrame, bounds: tuple[float, ...] = SWING_BOUNDS
         return pd.DataFrame()
     rows = []
     for (experiment, cost, motion), group in _cells(scored):
-        row = {"experiment": experiment, "cost": cost, "motion": motion, "runs": len(group),
-               "followed": round(float(np.mean([sum(f) for f in group["swing_followed"]])), 1)}  # fmt: skip
+        row = {
+            "experiment": experiment,
+            "cost": cost,
+            "motion": motion,
+            "runs": len(group),
+            "followed": round(float(np.mean([sum(f) for f in group["swing_followed"]])), 1),
+        }
         for bound in bounds:
-            counts = [count_outcomes({"followed": f, "max_error_deg": e}, bound)["success"]
-                      for f, e in zip(group["swing_followed"], group["swing_max_error_deg"], strict=True)]
+            counts = [
+                count_outcomes({"followed": f, "max_error_deg": e}, bound)["success"]
+                for f, e in zip(group["swing_followed"], group["swing_max_error_deg"], strict=True)
+            ]
             row[f"success <= {bound:g} deg"] = round(float(np.mean(counts)), 1)
         rows.append(row)
     return pd.DataFrame(rows)
@@ -192,15 +227,31 @@ def table_6d(runs: pd.DataFrame) -> pd.DataFrame:
         return pd.DataFrame()
     rows = []
     for samples, group in timed.groupby(timed["samples"].fillna(0).astype(int), sort=True):
-        every = pd.concat([pd.read_parquet(Path(run) / "frames.parquet").drop_duplicates("frame")[
-            ["capture_ms", "estimate_ms"]] for run in group["run"]])  # fmt: skip
+        every = pd.concat(
+            [
+                pd.read_parquet(Path(run) / "frames.parquet").drop_duplicates("frame")[["capture_ms", "estimate_ms"]]
+                for run in group["run"]
+            ]
+        )
         every["total_ms"] = every["capture_ms"] + every["estimate_ms"]
         for name, column in (("capture", "capture_ms"), ("estimation", "estimate_ms"), ("total", "total_ms")):
             values = every[column]
-            rows.append({"samples": samples or None, "runs": len(group), "frames": len(every), "stage": name,
-                         "min": values.min(), "max": values.max(), "avg": values.mean(),
-                         **{f"{machine} {stat}": figures[name][k] for machine, figures in PAPER_6D.items()
-                            for k, stat in enumerate(("min", "max", "avg"))}})  # fmt: skip
+            rows.append(
+                {
+                    "samples": samples or None,
+                    "runs": len(group),
+                    "frames": len(every),
+                    "stage": name,
+                    "min": values.min(),
+                    "max": values.max(),
+                    "avg": values.mean(),
+                    **{
+                        f"{machine} {stat}": figures[name][k]
+                        for machine, figures in PAPER_6D.items()
+                        for k, stat in enumerate(("min", "max", "avg"))
+                    },
+                }
+            )
     table = pd.DataFrame(rows)
     table["samples"] = table["samples"].astype("Int64")
     return table
@@ -217,21 +268,26 @@ def write_reports(runs: pd.DataFrame, out: Path) -> list[Path]:
     if not four_c.empty:
         with atomic_path(out / "table4c.csv") as temporary:
             four_c.to_csv(temporary, index=False)
-        text = ("# Fig 4(c): right-arm swings tracked (of the swings in each run)\n\n"
-                f"Machine: {machine()}. Swings are scored by the rule of `tracker/evaluation/body.py` "
-                "(the paper counted by eye); counts are mean ± std over a cell's runs.\n\n" + markdown(four_c)
-                + "\n\n## Success at other bounds of a swing's largest error (the rule's: 20 degrees)\n\n"
-                + markdown(table_4c_bounds(runs)) + "\n")  # fmt: skip
+        text = (
+            "# Fig 4(c): right-arm swings tracked (of the swings in each run)\n\n"
+            f"Machine: {machine()}. Swings are scored by the rule of `tracker/evaluation/body.py` "
+            "(the paper counted by eye); counts are mean ± std over a cell's runs.\n\n"
+            + markdown(four_c)
+            + "\n\n## Success at other bounds of a swing's largest error (the rule's: 20 degrees)\n\n"
+            + markdown(table_4c_bounds(runs))
+            + "\n"
+        )
         with atomic_path(out / "table4c.md") as temporary:
             temporary.write_text(text)
         written += [out / "table4c.md", out / "table4c.csv"]
     six_d = table_6d(runs)
     if not six_d.empty:
-        text = ("# Fig 6(d): processing time (ms per frame)\n\n"
-                f"Ours: {machine()}, over every frame of the runs, grouped by the number of pose samples "
-                "(capture = silhouette extraction at 320x240; estimation = the tracker's step). The paper's "
-                "columns are its own machines, for its 57,136 samples.\n\n"
-                + markdown(six_d.round(2)) + "\n")  # fmt: skip
+        text = (
+            "# Fig 6(d): processing time (ms per frame)\n\n"
+            f"Ours: {machine()}, over every frame of the runs, grouped by the number of pose samples "
+            "(capture = silhouette extraction at 320x240; estimation = the tracker's step). The paper's "
+            "columns are its own machines, for its 57,136 samples.\n\n" + markdown(six_d.round(2)) + "\n"
+        )
         with atomic_path(out / "table6d.md") as temporary:
             temporary.write_text(text)
         written.append(out / "table6d.md")

@@ -112,10 +112,10 @@ def bench_abis(frames: int, width: int, height: int) -> dict[str, dict[str, floa
         results[optimizer] = {
             "estimate_ms": statistics.median(per_frame),
             **{f"{stage}_ms": statistics.median(values) for stage, values in stages.items()},
-            "part2_b1_rms_pct": 100 * float(np.sqrt(np.mean((estimates[:, 1, b1] - truths[:, 1, b1]) ** 2))
-                                        / np.ptp(truths[:, 1, b1])),
+            "part2_b1_rms_pct": 100
+            * float(np.sqrt(np.mean((estimates[:, 1, b1] - truths[:, 1, b1]) ** 2)) / np.ptp(truths[:, 1, b1])),
             "part2_r2_rms_deg": float(np.degrees(np.sqrt(np.mean((estimates[:, 1, r2] - truths[:, 1, r2]) ** 2)))),
-        }  # fmt: skip
+        }
     return results
 
 
@@ -132,8 +132,13 @@ def bench_silhouettes(samples: int) -> dict[str, float]:
     scene = build(compose(["model=body_mesh"]))  # the body, side-on, with its capture setting
     body, rig, render = scene.model, scene.cameras, scene.settings.render
     left = (0.0, -30.0, 30.0, 60.0, 90.0, -60.0, 120.0)
-    poses = arm_grid(body, np.arange(-60.0, 121.0, 6.0), np.arange(0.0, 61.0, 10.0), np.arange(0.0, 101.0, 10.0),
-                     left_swing_deg=left[: max(1, -(-samples // 2387))])  # fmt: skip
+    poses = arm_grid(
+        body,
+        np.arange(-60.0, 121.0, 6.0),
+        np.arange(0.0, 61.0, 10.0),
+        np.arange(0.0, 101.0, 10.0),
+        left_swing_deg=left[: max(1, -(-samples // 2387))],
+    )
     start = time.perf_counter()
     kept = remove_near_duplicates(poses)[:samples]
     dedupe_s = time.perf_counter() - start
@@ -146,22 +151,30 @@ def bench_silhouettes(samples: int) -> dict[str, float]:
         with render.renderer(320, 240) as renderer:
             capture = SilhouetteCapture.learn(background_frames(rig, renderer, 20, nuisance, rng))
             view = renderer.render(rig, body.surface_meshes(scene.scene.params(body, 10)))["main"]
-        captured = [capture.step({"main": nuisance.apply(view.rgb, 10, rng)}, {"main": view.labels > 0})
-                    for _ in range(20)]  # fmt: skip
+        captured = [
+            capture.step({"main": nuisance.apply(view.rgb, 10, rng)}, {"main": view.labels > 0}) for _ in range(20)
+        ]
         observed = resize_silhouette(captured[-1].silhouettes["main"], 80, 60)
         assert len(stack.runs) == len(stack)  # the runs are found once per sample set, not timed
-        results = {"samples": len(sample_set), "grid_poses": len(poses), "dedupe_s": dedupe_s,
-                   "build_s_per_1000": 1e3 * build_s / len(sample_set), "window_80x60": stack.window,
-                   "capture_ms": statistics.median(c.ms for c in captured),
-                   "capture_iou": captured[-1].iou["main"]}  # fmt: skip
+        results = {
+            "samples": len(sample_set),
+            "grid_poses": len(poses),
+            "dedupe_s": dedupe_s,
+            "build_s_per_1000": 1e3 * build_s / len(sample_set),
+            "window_80x60": stack.window,
+            "capture_ms": statistics.median(c.ms for c in captured),
+            "capture_iou": captured[-1].iou["main"],
+        }
         for cost in COSTS.names():
             times = []
             for _ in range(7):
                 start = time.perf_counter()
                 scores = ObservationScorer(cost, observed, stack.window).scores(stack)
                 times.append(1e3 * (time.perf_counter() - start))
-            reference = [silhouette_distance(cost, observed, np.pad(mask, _padding(stack.window, (80, 60))),
-                                             stack.window) for mask in stack.images[:100] != 0]  # fmt: skip
+            reference = [
+                silhouette_distance(cost, observed, np.pad(mask, _padding(stack.window, (80, 60))), stack.window)
+                for mask in stack.images[:100] != 0
+            ]
             results[f"{cost}_ms"] = statistics.median(times)
             relative = np.abs(scores[:100] - reference) / np.maximum(np.abs(reference), TINY)
             results[f"{cost}_max_relative_difference"] = float(relative.max())
@@ -177,15 +190,25 @@ def report_abis(results: dict[str, dict[str, float]], frames: int, width: int, h
     log.info("AbIS estimation, paper-1 arm, 3 views at %dx%d, median over frames 1..%d:", width, height, frames - 1)
     for optimizer, figures in results.items():
         stages = ", ".join(f"{k[:-3]} {v:.1f}" for k, v in figures.items() if k.endswith("_ms") and k != "estimate_ms")
-        log.info("  %s  %6.1f ms/frame  (%s)  part2 b1 RMS %.1f%% of range, r2 RMS %.2f deg", optimizer,
-                 figures["estimate_ms"], stages, figures["part2_b1_rms_pct"], figures["part2_r2_rms_deg"])
+        log.info(
+            "  %s  %6.1f ms/frame  (%s)  part2 b1 RMS %.1f%% of range, r2 RMS %.2f deg",
+            optimizer,
+            figures["estimate_ms"],
+            stages,
+            figures["part2_b1_rms_pct"],
+            figures["part2_r2_rms_deg"],
+        )
     log.info("  sd / lm time ratio: %.2f", results["sd"]["estimate_ms"] / results["lm"]["estimate_ms"])
 
 
 def _report_machine() -> None:
-    log.info("machine: %s, %d cores, %s; OpenGL platform %s", platform.processor() or platform.machine(),
-             os.cpu_count(), platform.python_implementation() + " " + platform.python_version(),
-             os.environ.get("PYOPENGL_PLATFORM"))
+    log.info(
+        "machine: %s, %d cores, %s; OpenGL platform %s",
+        platform.processor() or platform.machine(),
+        os.cpu_count(),
+        platform.python_implementation() + " " + platform.python_version(),
+        os.environ.get("PYOPENGL_PLATFORM"),
+    )
 
 
 def main() -> None:
@@ -195,8 +218,9 @@ def main() -> None:
     parser.add_argument("--build", action="store_true", help="samples: also build the whole set and tree cold")
     parser.add_argument("--frames", type=int, default=60)
     parser.add_argument("--samples", type=int, default=10_000, help="pose samples (silhouettes)")
-    parser.add_argument("--experiment", default="tbf_table4c", help="tbf: the experiment preset (tbf_table4c, "
-                        "tbf_paper_scale)")
+    parser.add_argument(
+        "--experiment", default="tbf_table4c", help="tbf: the experiment preset (tbf_table4c, tbf_paper_scale)"
+    )
     parser.add_argument("overrides", nargs="*", help="tbf: config overrides on top of the experiment")
     parser.add_argument("--size", default="320x240", help="WIDTHxHEIGHT of every view")
     args = parser.parse_args()
@@ -218,14 +242,28 @@ def main() -> None:
         figures = bench_silhouettes(args.samples)
         _report_machine()
         log.info("paper 2 body, side-on camera:")
-        log.info("  sample set: %d samples (of %d grid poses, de-duplicated in %.1f s), built in %.2f s per 1,000",
-                 figures["samples"], figures["grid_poses"], figures["dedupe_s"], figures["build_s_per_1000"])
-        log.info("  silhouette extraction 320x240: %.2f ms (median of 20), IoU %.4f against the render mask",
-                 figures["capture_ms"], figures["capture_iou"])
+        log.info(
+            "  sample set: %d samples (of %d grid poses, de-duplicated in %.1f s), built in %.2f s per 1,000",
+            figures["samples"],
+            figures["grid_poses"],
+            figures["dedupe_s"],
+            figures["build_s_per_1000"],
+        )
+        log.info(
+            "  silhouette extraction 320x240: %.2f ms (median of 20), IoU %.4f against the render mask",
+            figures["capture_ms"],
+            figures["capture_iou"],
+        )
         for cost in COSTS.names():
-            log.info("  %-5s one observation vs %d samples at 80x60 (window %s): %.2f ms; max relative difference "
-                     "to the per-pair function %.1e", cost, figures["samples"], figures["window_80x60"],
-                     figures[f"{cost}_ms"], figures[f"{cost}_max_relative_difference"])
+            log.info(
+                "  %-5s one observation vs %d samples at 80x60 (window %s): %.2f ms; max relative difference "
+                "to the per-pair function %.1e",
+                cost,
+                figures["samples"],
+                figures["window_80x60"],
+                figures[f"{cost}_ms"],
+                figures[f"{cost}_max_relative_difference"],
+            )
         return
     if args.target == "abis":
         results = bench_abis(args.frames, width, height)
@@ -234,15 +272,21 @@ def main() -> None:
         return
     result = bench_render(args.frames, width, height)
     _report_machine()
-    log.info("render, paper-1 arm, %d views at %dx%d, median of %d frames:", result["views"], width, height,
-             args.frames)
+    log.info(
+        "render, paper-1 arm, %d views at %dx%d, median of %d frames:", result["views"], width, height, args.frames
+    )
     log.info("  pose + mesh        %7.2f ms/frame", result["pose_ms_per_frame"])
     log.info("  render (all views) %7.2f ms/frame", result["render_ms_per_frame"])
-    log.info("  render per view    %7.2f ms  = lit RGB + depth pass %.2f ms + label pass %.2f ms (ratio %.2f)",
-             result["render_ms_per_view"], result["rgb_depth_pass_ms_per_view"], result["label_pass_ms_per_view"],
-             result["rgb_depth_pass_ms_per_view"] / result["label_pass_ms_per_view"])
-    log.info("  resident memory    %+7.1f MB over the %d frames after warm-up",
-             result["resident_growth_mb"], args.frames)
+    log.info(
+        "  render per view    %7.2f ms  = lit RGB + depth pass %.2f ms + label pass %.2f ms (ratio %.2f)",
+        result["render_ms_per_view"],
+        result["rgb_depth_pass_ms_per_view"],
+        result["label_pass_ms_per_view"],
+        result["rgb_depth_pass_ms_per_view"] / result["label_pass_ms_per_view"],
+    )
+    log.info(
+        "  resident memory    %+7.1f MB over the %d frames after warm-up", result["resident_growth_mb"], args.frames
+    )
 
 
 if __name__ == "__main__":

@@ -39,10 +39,13 @@ log = logging.getLogger(__name__)
 def per_part_meshes(body, pose: np.ndarray) -> list[SurfaceMesh]:
     """The label pass's meshes as sample sets were rendered before: one unlit mesh per body part."""
     vertices = body.posed_vertices(pose)
-    return [SurfaceMesh(key=f"body_{name}", label=k + 1, vertices=vertices[used], faces=faces, normals=None,
-                        color=(255, 255, 255))
-            for k, (name, (used, faces)) in enumerate(zip(body.part_names, body.part_topology, strict=True))
-            if len(faces)]  # fmt: skip
+    return [
+        SurfaceMesh(
+            key=f"body_{name}", label=k + 1, vertices=vertices[used], faces=faces, normals=None, color=(255, 255, 255)
+        )
+        for k, (name, (used, faces)) in enumerate(zip(body.part_names, body.part_topology, strict=True))
+        if len(faces)
+    ]
 
 
 def bench_rendering(poses: np.ndarray, body, camera, window, near: float, repeats: int = 3) -> dict[str, float]:
@@ -52,11 +55,14 @@ def bench_rendering(poses: np.ndarray, body, camera, window, near: float, repeat
         renderer.render_depth_labels([camera], per_part_meshes(body, poses[0]))  # warm-up
         for _ in range(repeats):
             start = time.perf_counter()
-            before = [renderer.render_depth_labels([camera], per_part_meshes(body, pose))[camera.name].labels
-                      for pose in poses]  # fmt: skip
+            before = [
+                renderer.render_depth_labels([camera], per_part_meshes(body, pose))[camera.name].labels
+                for pose in poses
+            ]
             old.append(1e3 * (time.perf_counter() - start) / len(poses))
-    with LabelRenderer(body.faces, body.face_parts + 1, len(body.rest_vertices), u1 - u0, v1 - v0,
-                       closed=body.closed) as renderer:  # fmt: skip
+    with LabelRenderer(
+        body.faces, body.face_parts + 1, len(body.rest_vertices), u1 - u0, v1 - v0, closed=body.closed
+    ) as renderer:
         for _ in range(repeats + 1):  # the first: warm-up
             start = time.perf_counter()
             after = []
@@ -66,8 +72,12 @@ def bench_rendering(poses: np.ndarray, body, camera, window, near: float, repeat
             after = np.concatenate(after)
             new.append(1e3 * (time.perf_counter() - start) / len(poses))
     differing = (after != np.array(before)[:, v0:v1, u0:u1]).sum(axis=(1, 2))
-    return {"per_part_ms": statistics.median(old), "batched_ms": statistics.median(new[1:]),
-            "differing_px_mean": float(differing.mean()), "differing_px_max": int(differing.max())}  # fmt: skip
+    return {
+        "per_part_ms": statistics.median(old),
+        "batched_ms": statistics.median(new[1:]),
+        "differing_px_mean": float(differing.mean()),
+        "differing_px_max": int(differing.max()),
+    }
 
 
 def reduce_by_counting(labels: np.ndarray, factor: int, n_parts: int) -> np.ndarray:
@@ -99,8 +109,7 @@ def bench_set_images(poses: np.ndarray, body, camera) -> dict[str, float]:
             for factor in before:
                 before[factor].append(reduce_by_counting(image[v0:v1, u0:u1], factor, len(body.part_names)))
     before_ms = 1e3 * (time.perf_counter() - start) / len(poses)
-    return {"before_ms": before_ms, "now_ms": now_ms,
-            "differing_px_80x60": int((coarse != np.array(before[4])).sum())}  # fmt: skip
+    return {"before_ms": before_ms, "now_ms": now_ms, "differing_px_80x60": int((coarse != np.array(before[4])).sum())}
 
 
 def bench_build(overrides: list[str]) -> dict[str, float]:
@@ -121,8 +130,9 @@ def bench_build(overrides: list[str]) -> dict[str, float]:
         for name in ("first", "second"):
             again = build(compose([*overrides, f"tracker.cache_dir={cache}"]))
             started = time.perf_counter()
-            again.tracker.start(again.model, again.cameras, again.scene.params(again.model, 0),
-                                np.random.default_rng(0))  # fmt: skip
+            again.tracker.start(
+                again.model, again.cameras, again.scene.params(again.model, 0), np.random.default_rng(0)
+            )
             times[f"{name}_start_s"] = time.perf_counter() - started
         times["samples"] = len(samples)
     return times
@@ -135,25 +145,59 @@ def run(poses_count: int, build_too: bool, overrides: list[str]) -> None:
     poses, _ = sample_poses(tracker.settings.samples, composed.model)
     chosen = poses[np.linspace(0, len(poses) - 1, poses_count).astype(int)]
     camera = composed.cameras[0]
-    layout = sample_build._layout(Path(tempfile.mkdtemp()), composed.model, camera, poses, [slice(0, len(poses))], 4,
-                                  sample_build.BuildSettings(jobs=1))  # fmt: skip
+    layout = sample_build._layout(
+        Path(tempfile.mkdtemp()),
+        composed.model,
+        camera,
+        poses,
+        [slice(0, len(poses))],
+        4,
+        sample_build.BuildSettings(jobs=1),
+    )
     figures = bench_rendering(chosen, composed.model, camera, layout.tile, layout.near)
-    log.info("label rendering, %d poses of %s (window %s of %dx%d):", poses_count, " ".join(overrides),
-             layout.window, camera.width, camera.height)
-    log.info("  per-part pass (before) %.2f ms/pose, batched %.2f ms/pose: %.1fx; pixels differing per pose: "
-             "mean %.2f, max %d", figures["per_part_ms"], figures["batched_ms"],
-             figures["per_part_ms"] / figures["batched_ms"], figures["differing_px_mean"], figures["differing_px_max"])
+    log.info(
+        "label rendering, %d poses of %s (window %s of %dx%d):",
+        poses_count,
+        " ".join(overrides),
+        layout.window,
+        camera.width,
+        camera.height,
+    )
+    log.info(
+        "  per-part pass (before) %.2f ms/pose, batched %.2f ms/pose: %.1fx; pixels differing per pose: "
+        "mean %.2f, max %d",
+        figures["per_part_ms"],
+        figures["batched_ms"],
+        figures["per_part_ms"] / figures["batched_ms"],
+        figures["differing_px_mean"],
+        figures["differing_px_max"],
+    )
     chosen = poses[np.linspace(0, len(poses) - 1, 4 * poses_count).astype(int)]
     images = bench_set_images(chosen, composed.model, camera)
-    log.info("a set's images (3 resolutions, areas) of %d poses: before %.2f ms/pose (one process), now %.2f "
-             "ms/pose (%s): %.1fx; pixels differing at 80x60 in all: %d", len(chosen), images["before_ms"],
-             images["now_ms"], f"shards over {os.cpu_count()} cores", images["before_ms"] / images["now_ms"],
-             images["differing_px_80x60"])
+    log.info(
+        "a set's images (3 resolutions, areas) of %d poses: before %.2f ms/pose (one process), now %.2f "
+        "ms/pose (%s): %.1fx; pixels differing at 80x60 in all: %d",
+        len(chosen),
+        images["before_ms"],
+        images["now_ms"],
+        f"shards over {os.cpu_count()} cores",
+        images["before_ms"] / images["now_ms"],
+        images["differing_px_80x60"],
+    )
     if build_too:
         log.info("building the set cold (%d poses), then starting on the cached set ...", len(poses))
         times = bench_build(overrides)
-        log.info("  poses %.1f s, sample set (%d, cold) %.1f s, tree %.1f s: %.1f s in all", times["poses_s"],
-                 times["samples"], times["samples_s"], times["tree_s"],
-                 times["poses_s"] + times["samples_s"] + times["tree_s"])
-        log.info("  tracker start on them: %.1f s the first time (the likelihood calibration, then cached), %.1f s "
-                 "the second", times["first_start_s"], times["second_start_s"])
+        log.info(
+            "  poses %.1f s, sample set (%d, cold) %.1f s, tree %.1f s: %.1f s in all",
+            times["poses_s"],
+            times["samples"],
+            times["samples_s"],
+            times["tree_s"],
+            times["poses_s"] + times["samples_s"] + times["tree_s"],
+        )
+        log.info(
+            "  tracker start on them: %.1f s the first time (the likelihood calibration, then cached), %.1f s "
+            "the second",
+            times["first_start_s"],
+            times["second_start_s"],
+        )

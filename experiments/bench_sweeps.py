@@ -28,8 +28,15 @@ JOBS = 6
 
 
 def sweep_command(sweep_dir: Path, launcher: str) -> list[str]:
-    return [sys.executable, "-m", "experiments.run", "-m", *SWEEP, f"hydra/launcher={launcher}",
-            f"hydra.sweep.dir={sweep_dir}"]  # fmt: skip
+    return [
+        sys.executable,
+        "-m",
+        "experiments.run",
+        "-m",
+        *SWEEP,
+        f"hydra/launcher={launcher}",
+        f"hydra.sweep.dir={sweep_dir}",
+    ]
 
 
 def metrics_files(sweep_dir: Path) -> dict[str, Path]:
@@ -42,8 +49,9 @@ def speed(out: Path, launchers: list[str]) -> None:
         sweep_dir = out / launcher
         subprocess.run(["rm", "-rf", str(sweep_dir)], check=True)
         start = time.perf_counter()
-        subprocess.run(sweep_command(sweep_dir, launcher), check=True, stdout=subprocess.DEVNULL,
-                       stderr=subprocess.DEVNULL)  # fmt: skip
+        subprocess.run(
+            sweep_command(sweep_dir, launcher), check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+        )
         times[launcher] = time.perf_counter() - start
         contents[launcher] = {job: path.read_bytes() for job, path in metrics_files(sweep_dir).items()}
         print(f"{launcher:>7}: {times[launcher]:6.1f} s for {len(contents[launcher])} jobs", flush=True)
@@ -56,8 +64,9 @@ def speed(out: Path, launchers: list[str]) -> None:
 def resume(out: Path, finished: int) -> None:
     sweep_dir = out / "resume"
     subprocess.run(["rm", "-rf", str(sweep_dir)], check=True)
-    process = subprocess.Popen(sweep_command(sweep_dir, "joblib"), stdout=subprocess.DEVNULL,
-                               stderr=subprocess.DEVNULL, start_new_session=True)  # fmt: skip
+    process = subprocess.Popen(
+        sweep_command(sweep_dir, "joblib"), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+    )
     while len(metrics_files(sweep_dir)) < finished:
         if process.poll() is not None:
             raise SystemExit("the sweep ended before it could be killed")
@@ -67,16 +76,20 @@ def resume(out: Path, finished: int) -> None:
     process.wait()
     before = {job: (path.stat().st_mtime_ns, path.read_bytes()) for job, path in metrics_files(sweep_dir).items()}
     temporaries = len(list(sweep_dir.glob("*/.*.tmp")))
-    print(f"killed with {len(before)} of {JOBS} jobs finished ({', '.join(sorted(before))}), {temporaries} "
-          "temporaries left", flush=True)
+    print(
+        f"killed with {len(before)} of {JOBS} jobs finished ({', '.join(sorted(before))}), {temporaries} "
+        "temporaries left",
+        flush=True,
+    )
     start = time.perf_counter()
-    subprocess.run(sweep_command(sweep_dir, "joblib"), check=True, stdout=subprocess.DEVNULL,
-                   stderr=subprocess.DEVNULL)  # fmt: skip
+    subprocess.run(sweep_command(sweep_dir, "joblib"), check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     after = metrics_files(sweep_dir)
     recomputed = sum(after[job].stat().st_mtime_ns != stamp for job, (stamp, _) in before.items() if job in after)
     lost = sum(job not in after for job in before)
-    print(f"re-run: {time.perf_counter() - start:.0f} s; {len(after)} of {JOBS} complete, {lost} lost, {recomputed} "
-          f"finished jobs recomputed, {len(list(sweep_dir.glob('*/.*.tmp')))} temporaries left")
+    print(
+        f"re-run: {time.perf_counter() - start:.0f} s; {len(after)} of {JOBS} complete, {lost} lost, {recomputed} "
+        f"finished jobs recomputed, {len(list(sweep_dir.glob('*/.*.tmp')))} temporaries left"
+    )
 
 
 def main() -> None:

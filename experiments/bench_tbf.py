@@ -43,15 +43,18 @@ def bench_tbf(frames: int, experiment: str, overrides: list[str]) -> dict[str, o
     nuisance, rng = render.nuisance(), np.random.default_rng(1)
     with render.renderer(rig[0].width, rig[0].height) as renderer:
         capture = SilhouetteCapture.learn(background_frames(rig, renderer, 20, nuisance, rng))
-        observed = [dataclasses.replace(f, silhouettes=capture.step({c.name: f.views[c.name].rgb for c in rig})
-                                        .silhouettes) for f in simulate(body, scene, rig, renderer, frames, nuisance,
-                                                                        rng)]  # fmt: skip
+        observed = [
+            dataclasses.replace(f, silhouettes=capture.step({c.name: f.views[c.name].rgb for c in rig}).silhouettes)
+            for f in simulate(body, scene, rig, renderer, frames, nuisance, rng)
+        ]
     filter_ = tracker.filter
     estimate_ms, first_ms, evaluated, worst = [], [], [], 0.0
     frame_scoring, level1_scoring = [], []  # per frame: (weights, vectorised, naive) seconds, bytes
     level1_ways = []  # per frame: all of level 1 scored from its runs, from its run boundaries (seconds)
-    top_runs = [stack.runs.subset(filter_.tree.levels[0].representatives)
-                for stack in filter_.samples.silhouettes(filter_.tree.levels[0].resolution)]  # fmt: skip
+    top_runs = [
+        stack.runs.subset(filter_.tree.levels[0].representatives)
+        for stack in filter_.samples.silhouettes(filter_.tree.levels[0].resolution)
+    ]
     for frame in observed:
         start = time.perf_counter()
         result = tracker.step(frame)  # the tracker's whole step: placing the silhouette, then the filter
@@ -72,15 +75,27 @@ def bench_tbf(frames: int, experiment: str, overrides: list[str]) -> dict[str, o
         level1_ways.append(_level1_ways(filter_, top_runs, silhouettes))
     frame_scoring, level1_scoring = np.median(frame_scoring, axis=0), np.median(level1_scoring, axis=0)
     level1_ways = np.median(level1_ways, axis=0)
-    return {"samples": len(filter_.samples), "nodes": filter_.tree.node_counts, "frames": frames, "views": len(rig),
-            "estimate_ms": statistics.median(estimate_ms), "estimate_ms_max": max(estimate_ms),
-            "nodes_evaluated": statistics.median(evaluated),
-            "weights_ms": 1e3 * frame_scoring[0], "scoring_vectorised_ms": 1e3 * frame_scoring[1],
-            "scoring_naive_ms": 1e3 * frame_scoring[2], "bytes_per_frame": frame_scoring[3],
-            "level1_vectorised_ms": 1e3 * level1_scoring[1], "level1_naive_ms": 1e3 * level1_scoring[2],
-            "level1_bytes": level1_scoring[3], "bandwidth_gb_s": _memory_bandwidth_gb_s(),
-            "level1_runs_ms": 1e3 * level1_ways[0], "level1_boundaries_ms": 1e3 * level1_ways[1],
-            "max_relative_difference": worst, "first_frame_ms": first_ms[0]}  # fmt: skip
+    return {
+        "samples": len(filter_.samples),
+        "nodes": filter_.tree.node_counts,
+        "frames": frames,
+        "views": len(rig),
+        "estimate_ms": statistics.median(estimate_ms),
+        "estimate_ms_max": max(estimate_ms),
+        "nodes_evaluated": statistics.median(evaluated),
+        "weights_ms": 1e3 * frame_scoring[0],
+        "scoring_vectorised_ms": 1e3 * frame_scoring[1],
+        "scoring_naive_ms": 1e3 * frame_scoring[2],
+        "bytes_per_frame": frame_scoring[3],
+        "level1_vectorised_ms": 1e3 * level1_scoring[1],
+        "level1_naive_ms": 1e3 * level1_scoring[2],
+        "level1_bytes": level1_scoring[3],
+        "bandwidth_gb_s": _memory_bandwidth_gb_s(),
+        "level1_runs_ms": 1e3 * level1_ways[0],
+        "level1_boundaries_ms": 1e3 * level1_ways[1],
+        "max_relative_difference": worst,
+        "first_frame_ms": first_ms[0],
+    }
 
 
 def _level1_ways(filter_, top_runs: list[SilhouetteRuns], silhouettes: tuple[np.ndarray, ...]) -> np.ndarray:
@@ -105,8 +120,9 @@ def _level1_ways(filter_, top_runs: list[SilhouetteRuns], silhouettes: tuple[np.
     return seconds
 
 
-def _compare_scoring(filter_, level: int, silhouettes: tuple[np.ndarray, ...],
-                     nodes: np.ndarray) -> tuple[np.ndarray, float]:  # fmt: skip
+def _compare_scoring(
+    filter_, level: int, silhouettes: tuple[np.ndarray, ...], nodes: np.ndarray
+) -> tuple[np.ndarray, float]:
     """Scores ``nodes`` of ``level`` against each view's silhouette as the filter does (from the representatives'
     runs) and naively (per node: XOR of the two masks, times the weights, summed), after computing the
     observation's weight map once for both. Returns (weight-map s, vectorised s, naive s, bytes the vectorised
@@ -118,8 +134,9 @@ def _compare_scoring(filter_, level: int, silhouettes: tuple[np.ndarray, ...],
     return figures, worst
 
 
-def _compare_view_scoring(filter_, level: int, view: int, silhouette: np.ndarray,
-                          nodes: np.ndarray) -> tuple[np.ndarray, float]:  # fmt: skip
+def _compare_view_scoring(
+    filter_, level: int, view: int, silhouette: np.ndarray, nodes: np.ndarray
+) -> tuple[np.ndarray, float]:
     """`_compare_scoring` for one view."""
     tree_level = filter_.tree.levels[level]
     stack = filter_.samples.sets[view].silhouettes(tree_level.resolution)
@@ -151,10 +168,12 @@ def _bytes_read(runs: SilhouetteRuns | RunBoundaries | ShiftedRunBoundaries, nod
     columns and signs."""
     if isinstance(runs, RunBoundaries | ShiftedRunBoundaries):
         matrix = runs.matrix
-        return int((matrix.indptr[nodes + 1] - matrix.indptr[nodes]).sum()) * (matrix.indices.itemsize
-                                                                                + matrix.data.itemsize)  # fmt: skip
-    return int((runs.ptr[nodes + 1] - runs.ptr[nodes]).sum()) * (runs.starts.itemsize + runs.ends.itemsize
-                                                                  + runs.owner.itemsize)  # fmt: skip
+        return int((matrix.indptr[nodes + 1] - matrix.indptr[nodes]).sum()) * (
+            matrix.indices.itemsize + matrix.data.itemsize
+        )
+    return int((runs.ptr[nodes + 1] - runs.ptr[nodes]).sum()) * (
+        runs.starts.itemsize + runs.ends.itemsize + runs.owner.itemsize
+    )
 
 
 def _memory_bandwidth_gb_s() -> float:
@@ -174,23 +193,52 @@ def _timed(function) -> float:
 def run(frames: int, experiment: str, overrides: list[str]) -> None:
     """Bench the filter and log what it measured."""
     figures = bench_tbf(frames, experiment, overrides)
-    log.info("TBF, experiment=%s %s: %d samples, tree %s nodes per level, %d view(s)", experiment,
-             " ".join(overrides), figures["samples"], figures["nodes"], figures["views"])
-    log.info("  estimation %.2f ms/frame median (max %.1f) over %d frames", figures["estimate_ms"],
-             figures["estimate_ms_max"], figures["frames"])
-    log.info("  per frame, the observation's weight maps %.2f ms (shared), then scoring the %.0f nodes it "
-             "evaluated: from runs %.3f ms, naive per-node loop %.2f ms: %.1fx", figures["weights_ms"],
-             figures["nodes_evaluated"], figures["scoring_vectorised_ms"], figures["scoring_naive_ms"],
-             figures["scoring_naive_ms"] / figures["scoring_vectorised_ms"])
-    log.info("  scoring all %d level-1 nodes: from runs %.3f ms, naive per-node loop %.2f ms: %.1fx (%.2f MB read)",
-             figures["nodes"][0], figures["level1_vectorised_ms"], figures["level1_naive_ms"],
-             figures["level1_naive_ms"] / figures["level1_vectorised_ms"], figures["level1_bytes"] / 1e6)
-    log.info("  all of level 1, every view: from its runs %.3f ms, from its run boundaries (as the filter scores "
-             "it) %.3f ms: %.1fx", figures["level1_runs_ms"], figures["level1_boundaries_ms"],
-             figures["level1_runs_ms"] / figures["level1_boundaries_ms"])
-    log.info("  naive and vectorised scores agree to %.1e (relative); frame 0 stages (ms): %s",
-             figures["max_relative_difference"],
-             ", ".join(f"{k} {v:.1f}" for k, v in figures["first_frame_ms"].items()))
-    log.info("  bytes read by the vectorised scoring: %.2f MB/frame = %.3f ms at the measured %.1f GB/s",
-             figures["bytes_per_frame"] / 1e6, 1e3 * figures["bytes_per_frame"] / (figures["bandwidth_gb_s"] * 1e9),
-             figures["bandwidth_gb_s"])
+    log.info(
+        "TBF, experiment=%s %s: %d samples, tree %s nodes per level, %d view(s)",
+        experiment,
+        " ".join(overrides),
+        figures["samples"],
+        figures["nodes"],
+        figures["views"],
+    )
+    log.info(
+        "  estimation %.2f ms/frame median (max %.1f) over %d frames",
+        figures["estimate_ms"],
+        figures["estimate_ms_max"],
+        figures["frames"],
+    )
+    log.info(
+        "  per frame, the observation's weight maps %.2f ms (shared), then scoring the %.0f nodes it "
+        "evaluated: from runs %.3f ms, naive per-node loop %.2f ms: %.1fx",
+        figures["weights_ms"],
+        figures["nodes_evaluated"],
+        figures["scoring_vectorised_ms"],
+        figures["scoring_naive_ms"],
+        figures["scoring_naive_ms"] / figures["scoring_vectorised_ms"],
+    )
+    log.info(
+        "  scoring all %d level-1 nodes: from runs %.3f ms, naive per-node loop %.2f ms: %.1fx (%.2f MB read)",
+        figures["nodes"][0],
+        figures["level1_vectorised_ms"],
+        figures["level1_naive_ms"],
+        figures["level1_naive_ms"] / figures["level1_vectorised_ms"],
+        figures["level1_bytes"] / 1e6,
+    )
+    log.info(
+        "  all of level 1, every view: from its runs %.3f ms, from its run boundaries (as the filter scores "
+        "it) %.3f ms: %.1fx",
+        figures["level1_runs_ms"],
+        figures["level1_boundaries_ms"],
+        figures["level1_runs_ms"] / figures["level1_boundaries_ms"],
+    )
+    log.info(
+        "  naive and vectorised scores agree to %.1e (relative); frame 0 stages (ms): %s",
+        figures["max_relative_difference"],
+        ", ".join(f"{k} {v:.1f}" for k, v in figures["first_frame_ms"].items()),
+    )
+    log.info(
+        "  bytes read by the vectorised scoring: %.2f MB/frame = %.3f ms at the measured %.1f GB/s",
+        figures["bytes_per_frame"] / 1e6,
+        1e3 * figures["bytes_per_frame"] / (figures["bandwidth_gb_s"] * 1e9),
+        figures["bandwidth_gb_s"],
+    )

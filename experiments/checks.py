@@ -35,8 +35,9 @@ def check_config(cfg: DictConfig, choices: dict[str, str]) -> None:
             check_values(entry.fields, plain[group], f"{group}.")
         for group, entry in entries.items():
             if entry.check is not None:
-                entry.check(entry.settings_of(plain[group]), frames=plain["frames"], key=group,
-                            model=entries["model"].name)  # fmt: skip
+                entry.check(
+                    entry.settings_of(plain[group]), frames=plain["frames"], key=group, model=entries["model"].name
+                )
         check_combination(entries, choices, plain)
     except ValueError as error:
         raise ConfigError(str(error).splitlines()[0]) from None
@@ -78,8 +79,9 @@ def check_combination(entries: dict[str, Entry], choices: dict[str, str], plain:
     model, tracker = entries["model"].name, entries["tracker"]
     for group, entry in entries.items():
         if entry.models is not None and model not in entry.models:
-            raise ValueError(f"{group}={choices[group]} needs model={'|'.join(entry.models)}, "
-                             f"not model={choices['model']}")  # fmt: skip
+            raise ValueError(
+                f"{group}={choices[group]} needs model={'|'.join(entry.models)}, not model={choices['model']}"
+            )
     fit = fit_of(tracker.name, model)
     try:
         views = len(entries["rig"].build(plain["rig"]))
@@ -87,12 +89,15 @@ def check_combination(entries: dict[str, Entry], choices: dict[str, str], plain:
         raise ValueError(f"rig={choices['rig']}: {error}") from None
     if fit is not None and not fit.allows(views):
         advice = f"; add rig={fit.rig}" if fit.rig else ""
-        raise ValueError(f"tracker={choices['tracker']} tracks model={choices['model']} from {fit.says}: "
-                         f"rig={choices['rig']} has {views}{advice}")  # fmt: skip
+        raise ValueError(
+            f"tracker={choices['tracker']} tracks model={choices['model']} from {fit.says}: "
+            f"rig={choices['rig']} has {views}{advice}"
+        )
     for key, value in () if fit is None else fit.sets:
         if _dotted(plain, key) is None:
-            raise ValueError(f"tracker={choices['tracker']} tracks model={choices['model']} with {key} set: "
-                             f"add {key}={value}")  # fmt: skip
+            raise ValueError(
+                f"tracker={choices['tracker']} tracks model={choices['model']} with {key} set: add {key}={value}"
+            )
     missing = [group for group in tracker.needs if group not in entries]
     if missing:
         allowed = ", ".join(f"{group}={'|'.join(REGISTRIES[group].names())}" for group in missing)
@@ -100,8 +105,10 @@ def check_combination(entries: dict[str, Entry], choices: dict[str, str], plain:
         raise ValueError(f"tracker={choices['tracker']} needs {' and '.join(missing)}: add {add} (allowed {allowed})")
     for group in entries.keys() - {"model", "scene", "rig", "tracker"} - tracker.needs.keys():
         users = [e.name for e in REGISTRIES["tracker"] if group in e.needs]
-        raise ValueError(f"{group}={choices[group]} serves {' and '.join(f'tracker={u}' for u in users)} only, "
-                         f"not tracker={choices['tracker']}: add tracker={users[0]}")  # fmt: skip
+        raise ValueError(
+            f"{group}={choices[group]} serves {' and '.join(f'tracker={u}' for u in users)} only, "
+            f"not tracker={choices['tracker']}: add tracker={users[0]}"
+        )
 
 
 def unknown_key(key: str, schema: type) -> str:

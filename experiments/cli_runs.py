@@ -24,8 +24,15 @@ def run_experiment(name: str, run_dir: Path, *overrides: str) -> Path:
 
 def run_sweep(name: str, sweep_dir: Path, *overrides: str) -> None:
     """A Hydra multirun of ``experiment=<name>`` into ``sweep_dir`` (one folder per job); fail if a job failed."""
-    command = [sys.executable, "-m", "experiments.run", "-m", f"experiment={name}", f"hydra.sweep.dir={sweep_dir}",
-               *overrides]  # fmt: skip
+    command = [
+        sys.executable,
+        "-m",
+        "experiments.run",
+        "-m",
+        f"experiment={name}",
+        f"hydra.sweep.dir={sweep_dir}",
+        *overrides,
+    ]
     subprocess.run(command, check=True)
     for metrics_path in sorted(sweep_dir.glob("*/metrics.json")):
         status = json.loads(metrics_path.read_text())["status"]

@@ -31,15 +31,18 @@ from tracker.motion.mocap import available_frames, read_clip
 
 CAMERA_COUNTS = (1, 2, 3)  # the first views of rig=body_multi
 ABIS_DENSE_FPS = 60.0
-ARM_TRACKERS = {"AbIS (Levenberg-Marquardt), 3 views": (),
-                "tree filtering (nwXOR, DM2), 3 views": ("tracker=tbf", "cost=nwxor", "motion=dm2")}  # fmt: skip
+ARM_TRACKERS = {
+    "AbIS (Levenberg-Marquardt), 3 views": (),
+    "tree filtering (nwXOR, DM2), 3 views": ("tracker=tbf", "cost=nwxor", "motion=dm2"),
+}
 
 
 def first_views(count: int) -> str:
     """The override that cuts rig=body_multi to its first ``count`` cameras."""
     views = OmegaConf.load(CONFIG_DIR / "rig" / "body_multi.yaml")["views"][:count]
-    return "rig.views=[" + ",".join(f"{{name:{v.name},position:[{','.join(map(str, v.position))}]}}"
-                                    for v in views) + "]"  # fmt: skip
+    return (
+        "rig.views=[" + ",".join(f"{{name:{v.name},position:[{','.join(map(str, v.position))}]}}" for v in views) + "]"
+    )
 
 
 @dataclass(frozen=True)
@@ -56,13 +59,16 @@ def body_runs() -> dict[str, BodyRow]:
     """Folder -> its row, for every row of the held-out clips."""
     rows = {"tbf_paper_1_view": BodyRow("tree filtering, 1 camera (experiment=tbf_paper_scale)", "tbf_paper_scale")}
     for count in CAMERA_COUNTS:
-        rows[f"tbf_{count}_views"] = BodyRow(f"tree filtering, {count} camera{'s' * (count > 1)} (experiment="
-                                             f"tbf_multi_view)", "tbf_multi_view", (first_views(count),))  # fmt: skip
+        rows[f"tbf_{count}_views"] = BodyRow(
+            f"tree filtering, {count} camera{'s' * (count > 1)} (experiment=tbf_multi_view)",
+            "tbf_multi_view",
+            (first_views(count),),
+        )
     rows["abis_3_views"] = BodyRow("AbIS, 3 cameras at 640x480 (experiment=abis_body)", "abis_body")
     # The same clip 4 times as densely sampled in time: how much of AbIS's error is the limbs' motion per frame.
-    rows[f"abis_3_views_{ABIS_DENSE_FPS:.0f}fps"] = BodyRow(f"AbIS, 3 cameras, at {ABIS_DENSE_FPS:.0f} fps",
-                                                            "abis_body", (f"scene.fps={ABIS_DENSE_FPS}",),
-                                                            ABIS_DENSE_FPS)  # fmt: skip
+    rows[f"abis_3_views_{ABIS_DENSE_FPS:.0f}fps"] = BodyRow(
+        f"AbIS, 3 cameras, at {ABIS_DENSE_FPS:.0f} fps", "abis_body", (f"scene.fps={ABIS_DENSE_FPS}",), ABIS_DENSE_FPS
+    )
     return rows
 
 
@@ -77,8 +83,14 @@ def combinations(reports: Path) -> tuple[str, str]:
         for folder, row in body_rows.items():
             frames = available_frames(read_clip(path), 0.0, row.fps)
             print(f"combinations: {clip} ({frames} frames), {row.label} ...", flush=True)
-            run_experiment(row.experiment, root / clip / folder, f"scene.path={path}", f"frames={frames}",
-                           *row.overrides, *LIGHT_RECORDING)  # fmt: skip
+            run_experiment(
+                row.experiment,
+                root / clip / folder,
+                f"scene.path={path}",
+                f"frames={frames}",
+                *row.overrides,
+                *LIGHT_RECORDING,
+            )
     arm_runs = {}
     for label, overrides in ARM_TRACKERS.items():
         print(f"combinations: paper 1's arm by {label} ...", flush=True)
@@ -101,5 +113,6 @@ def combinations(reports: Path) -> tuple[str, str]:
         "KLT features on a textured skin, the parts' joints fitted top-down; it starts at the truth, as paper 1 "
         "does, and has no floor: it searches no dictionary), at 15 fps and at 60 fps; and paper 1's arm in its "
         "elbow swing by AbIS and by tree filtering over a grid of its parameters (the floor: the grid's sample "
-        "nearest the truth).\n\n" + text + "\n\n")  # fmt: skip
+        "nearest the truth).\n\n" + text + "\n\n"
+    )
     return console, section

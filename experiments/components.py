@@ -57,9 +57,14 @@ def build(cfg: DictConfig) -> Components:
         return REGISTRIES[group].build(entries[group].name, plain[group], **needed)
 
     needed = {group: make(group) for group in entries["tracker"].needs}
-    return Components(model=make("model"), scene=make("scene"), cameras=tuple(make("rig")),
-                      tracker=make("tracker", **needed), entries=entries,
-                      settings=from_plain(RunSettings, {s.name: plain[s.name] for s in RUN_SETTINGS}))  # fmt: skip
+    return Components(
+        model=make("model"),
+        scene=make("scene"),
+        cameras=tuple(make("rig")),
+        tracker=make("tracker", **needed),
+        entries=entries,
+        settings=from_plain(RunSettings, {s.name: plain[s.name] for s in RUN_SETTINGS}),
+    )
 
 
 def import_plugins(modules: Iterable[str]) -> None:

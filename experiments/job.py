@@ -64,9 +64,15 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
     return metrics
 
 
-def write_outputs(cfg: DictConfig, choices: dict[str, str], components: Components | None, output_dir: Path,
-                  rows: list[dict[str, Any]], timings: list[dict[str, float]],
-                  status: str) -> dict[str, Any]:  # fmt: skip
+def write_outputs(
+    cfg: DictConfig,
+    choices: dict[str, str],
+    components: Components | None,
+    output_dir: Path,
+    rows: list[dict[str, Any]],
+    timings: list[dict[str, float]],
+    status: str,
+) -> dict[str, Any]:
     """``frames.parquet``, ``timings.json`` and, last, ``metrics.json``; returns the metrics."""
     table = pd.DataFrame(rows)
     write_parquet(output_dir / "frames.parquet", table)

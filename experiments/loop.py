@@ -19,8 +19,13 @@ from tracker.sequence import background_frames, simulate
 from tracker.timing import elapsed_ms
 
 
-def run_frames(components: Components, recording: RunRecording, stop: Any, rows: list[dict[str, Any]],
-               timings: list[dict[str, float]]) -> None:  # fmt: skip
+def run_frames(
+    components: Components,
+    recording: RunRecording,
+    stop: Any,
+    rows: list[dict[str, Any]],
+    timings: list[dict[str, float]],
+) -> None:
     """Start the tracker, then run every frame, appending its table rows and stage timings (``stop.requested``
     ends the loop after the current frame)."""
     settings, model, cameras, tracker = components.settings, components.model, components.cameras, components.tracker
@@ -50,8 +55,10 @@ def capture_frame(capture: SilhouetteCapture | None, frame: FrameInput) -> tuple
     """The frame with its silhouettes extracted from the RGB (their IoU against the render's masks kept apart)."""
     if capture is None:
         return frame, None
-    captured = capture.step({name: view.rgb for name, view in frame.views.items()},
-                            {name: view.labels > 0 for name, view in frame.views.items()})  # fmt: skip
+    captured = capture.step(
+        {name: view.rgb for name, view in frame.views.items()},
+        {name: view.labels > 0 for name, view in frame.views.items()},
+    )
     frame.timings_ms["capture"] = captured.ms
     return dataclasses.replace(frame, silhouettes=captured.silhouettes), captured
 
@@ -73,8 +80,13 @@ def evaluate(components: Components, frame: FrameInput, result: StepResult | Non
     return components.evaluation.columns(components.model, frame.truth, None if result is None else result.estimate)
 
 
-def record_frame(recording: RunRecording, frame: FrameInput, captured: CapturedFrame | None,
-                 result: StepResult | None, evaluated: tuple[dict, dict]) -> None:  # fmt: skip
+def record_frame(
+    recording: RunRecording,
+    frame: FrameInput,
+    captured: CapturedFrame | None,
+    result: StepResult | None,
+    evaluated: tuple[dict, dict],
+) -> None:
     """Everything of the frame into the recording, timed as ``record``."""
     start = time.perf_counter()
     recording.log_frame(frame)

@@ -22,8 +22,11 @@ BEGIN, END = "<!-- options: made by python -m experiments.options --write -->", 
 
 def option_entries() -> list[tuple[str, str, Entry]]:
     """(group, option, the component it builds) for every option file, in group order."""
-    return [(group, path.stem, REGISTRIES[group][_schema_of(path)])
-            for group in GROUPS for path in sorted((CONFIG_DIR / group).glob("*.yaml"))]  # fmt: skip
+    return [
+        (group, path.stem, REGISTRIES[group][_schema_of(path)])
+        for group in GROUPS
+        for path in sorted((CONFIG_DIR / group).glob("*.yaml"))
+    ]
 
 
 def _schema_of(path) -> str:
@@ -72,8 +75,10 @@ def table() -> str:
 
 def readme_with_table(text: str) -> str:
     head, rest = text.split(BEGIN, 1)
-    made = (f"{table()}\n\nWhich tracker tracks which model, from how many camera views (a rig with another number "
-            f"fails at start, in one line; `tracker/compatibility.py`):\n\n{compatibility_table()}")
+    made = (
+        f"{table()}\n\nWhich tracker tracks which model, from how many camera views (a rig with another number "
+        f"fails at start, in one line; `tracker/compatibility.py`):\n\n{compatibility_table()}"
+    )
     return f"{head}{BEGIN}\n{made}\n{END}{rest.split(END, 1)[1]}"
 
 
@@ -89,4 +94,3 @@ def main() -> None:
 
 if __name__ == "__main__":
     main()
-

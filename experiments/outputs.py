@@ -26,8 +26,13 @@ from tracker.observe.silhouettes import CapturedFrame
 from tracker.protocol import FrameInput, StepResult
 
 
-def frame_rows(frame: FrameInput, components: Components, result: StepResult | None,
-               captured: CapturedFrame | None = None, evaluated: tuple[dict, dict] = ({}, {})) -> list[dict[str, Any]]:
+def frame_rows(
+    frame: FrameInput,
+    components: Components,
+    result: StepResult | None,
+    captured: CapturedFrame | None = None,
+    evaluated: tuple[dict, dict] = ({}, {}),
+) -> list[dict[str, Any]]:
     """One row per part for ``frame``, the tracker's ``result`` for it (None: nothing estimated) and the model's
     evaluation of it (``evaluated``: per-part and per-frame columns)."""
     part_columns: dict[str, Any] = dict(evaluated[0])
@@ -47,8 +52,14 @@ def frame_rows(frame: FrameInput, components: Components, result: StepResult | N
     return rows
 
 
-def summarize(cfg: DictConfig, choices: dict[str, str], components: Components | None, table: pd.DataFrame,
-              frames_done: int, status: str) -> dict[str, Any]:  # fmt: skip
+def summarize(
+    cfg: DictConfig,
+    choices: dict[str, str],
+    components: Components | None,
+    table: pd.DataFrame,
+    frames_done: int,
+    status: str,
+) -> dict[str, Any]:
     """The run's metrics.json content (see the module docstring)."""
     metrics: dict[str, Any] = {
         "status": status,
@@ -90,9 +101,16 @@ def silhouette_quality(table: pd.DataFrame) -> dict[str, Any]:
     """Per view, the mean and the worst IoU of the extracted silhouettes against the render masks."""
     columns = [c for c in table.columns if c.startswith("silhouette_iou_")]
     frames = table.drop_duplicates("frame")
-    return {"silhouette_iou": {c.removeprefix("silhouette_iou_"): {"mean": float(frames[c].mean()),
-                                                                  "min": float(frames[c].min())} for c in columns}
-            } if columns else {}  # fmt: skip
+    return (
+        {
+            "silhouette_iou": {
+                c.removeprefix("silhouette_iou_"): {"mean": float(frames[c].mean()), "min": float(frames[c].min())}
+                for c in columns
+            }
+        }
+        if columns
+        else {}
+    )
 
 
 def failed_frames(table: pd.DataFrame) -> dict[str, Any]:

@@ -22,16 +22,22 @@ FPS = 15.0  # the preset's scene.fps and tracker.samples.clip_fps
 # Folder -> (what the row says, the overrides that take that part of the build away).
 VARIANTS = {
     "full": ("the whole build", ()),
-    "narrow_dictionary": ("samples from 2 short CMU clips (12 s) at 30 fps, turned every 30° and jittered, as before",
-                          ("tracker.samples.clips=[mocap/143_23.bvh,mocap/79_92.bvh]",
-                           "tracker.samples.clip_fps=30.0", "tracker.samples.clip_mirror=false",
-                           "tracker.samples.clip_turns_deg=[-150,-120,-90,-60,-30,0,30,60,90,120,150,180]",
-                           "tracker.samples.clip_copies=9", "tracker.samples.clip_jitter_deg=8.0",
-                           "tracker.thresholds=[0.038,0.033,0.026]")),
+    "narrow_dictionary": (
+        "samples from 2 short CMU clips (12 s) at 30 fps, turned every 30° and jittered, as before",
+        (
+            "tracker.samples.clips=[mocap/143_23.bvh,mocap/79_92.bvh]",
+            "tracker.samples.clip_fps=30.0",
+            "tracker.samples.clip_mirror=false",
+            "tracker.samples.clip_turns_deg=[-150,-120,-90,-60,-30,0,30,60,90,120,150,180]",
+            "tracker.samples.clip_copies=9",
+            "tracker.samples.clip_jitter_deg=8.0",
+            "tracker.thresholds=[0.038,0.033,0.026]",
+        ),
+    ),
     "dm2": ("DM2's random walk instead of the learned transitions", ("motion=dm2",)),
     "no_placement": ("no root placement (the silhouette as it is)", ("tracker.align=none",)),
     "base_body": ("MakeHuman's base mesh instead of the nearest standard body", ("tracker.body=base",)),
-}  # fmt: skip
+}
 
 
 def real_motion(reports: Path) -> tuple[str, str]:
@@ -46,11 +52,14 @@ def real_motion(reports: Path) -> tuple[str, str]:
         for folder, (label, overrides) in VARIANTS.items():
             print(f"paper 2, real motion: {clip} ({frames} frames), {label} ...", flush=True)
             light = () if folder == "full" else LIGHT_RECORDING
-            run_experiment("tbf_paper_scale", root / clip / folder, f"scene.path={path}", f"frames={frames}",
-                           *overrides, *light)  # fmt: skip
+            run_experiment(
+                "tbf_paper_scale", root / clip / folder, f"scene.path={path}", f"frames={frames}", *overrides, *light
+            )
         full = root / clip / "full"
-        figures += [fig5_strip(full, reports / f"fig5_{clip}.png"),
-                    error_against_floor(full, reports / f"fig5_{clip}_error.png")]
+        figures += [
+            fig5_strip(full, reports / f"fig5_{clip}.png"),
+            error_against_floor(full, reports / f"fig5_{clip}_error.png"),
+        ]
     table = real_motion_table(root, {folder: label for folder, (label, _) in VARIANTS.items()})
     with atomic_path(reports / "tbf_real.csv") as temporary:
         table.to_csv(temporary, index=False)
@@ -65,6 +74,9 @@ def real_motion(reports: Path) -> tuple[str, str]:
         "every 90°, tracking each held-out clip whole at 15 fps from one camera. The floor is the 3-D nearest "
         "sample per frame (root-aligned): no filter over these samples can do better. A frame is ambiguous when "
         "the silhouette cost itself prefers the estimate's sample to the floor's. Each row below the whole build "
-        "takes one part of it away.\n\n" + text + "\n\n"
-        + "".join(f"![{figure.stem}]({figure.name})\n\n" for figure in figures))  # fmt: skip
+        "takes one part of it away.\n\n"
+        + text
+        + "\n\n"
+        + "".join(f"![{figure.stem}]({figure.name})\n\n" for figure in figures)
+    )
     return console, markdown_section

@@ -45,10 +45,13 @@ from tracker.tol import RIGID_MESH_M
 APPLICATION_ID = "articulated-tracking"
 TIMELINE = "frame"
 # Rows wait in memory (up to 64 MiB) and go out in large chunks: a whole run of a series in one.
-BATCHES = rr.ChunkBatcherConfig(flush_tick=datetime.timedelta(hours=1), flush_num_bytes=64 << 20,
-                                flush_num_rows=1 << 22)  # fmt: skip
-SILHOUETTE = [rr.AnnotationInfo(id=0, label="outside", color=(0, 0, 0, 0)),
-              rr.AnnotationInfo(id=1, label="silhouette", color=(255, 230, 0, 255))]  # fmt: skip
+BATCHES = rr.ChunkBatcherConfig(
+    flush_tick=datetime.timedelta(hours=1), flush_num_bytes=64 << 20, flush_num_rows=1 << 22
+)
+SILHOUETTE = [
+    rr.AnnotationInfo(id=0, label="outside", color=(0, 0, 0, 0)),
+    rr.AnnotationInfo(id=1, label="silhouette", color=(255, 230, 0, 255)),
+]
 
 
 @dataclass(frozen=True)
@@ -74,12 +77,19 @@ class RunRecording:
         looks = [presentation(name) for name in reversed(shown)]  # the tracker's colours over the model's
         self._state_colors = {state: colour for look in looks for state, colour in look.state_colors.items()}
         self._point_colors = {name: colour for look in looks for name, colour in look.point_colors.items()}
-        self._videos = {camera.name: VideoEncoder(camera.width, camera.height, record.video_quality)
-                        for camera in components.cameras} if record.images else {}  # fmt: skip
+        self._videos = (
+            {
+                camera.name: VideoEncoder(camera.width, camera.height, record.video_quality)
+                for camera in components.cameras
+            }
+            if record.images
+            else {}
+        )
         self._file: AtomicFile | None = AtomicFile(self.path)
         self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=self.recording_id, batcher_config=BATCHES)
-        blueprint = default_blueprint(components.views, self.model.part_names, shown, self.silhouettes,
-                                      self.weight_maps)  # fmt: skip
+        blueprint = default_blueprint(
+            components.views, self.model.part_names, shown, self.silhouettes, self.weight_maps
+        )
         self.stream.save(self._file.temporary, default_blueprint=blueprint)
         self._log_static(components.cameras)
         self._static: set[str] = set()  # entities whose static part (faces, colours, classes) is logged
@@ -97,15 +107,26 @@ class RunRecording:
         log = self.stream.log
         log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         classes = [rr.AnnotationInfo(id=0, label="background", color=(0, 0, 0))]
-        classes += [rr.AnnotationInfo(id=k + 1, label=name, color=tuple(color))
-                    for k, (name, color) in enumerate(zip(self.model.part_names, self.model.part_colors, strict=True))]
+        classes += [
+            rr.AnnotationInfo(id=k + 1, label=name, color=tuple(color))
+            for k, (name, color) in enumerate(zip(self.model.part_names, self.model.part_colors, strict=True))
+        ]
         log("world", rr.AnnotationContext(classes), static=True)
         for camera in cameras:
-            log(f"world/cameras/{camera.name}", rr.Transform3D(translation=camera.position, mat3x3=camera.rotation),
-                static=True)
-            log(f"world/cameras/{camera.name}/image",
-                rr.Pinhole(image_from_camera=camera.intrinsic_matrix, resolution=[camera.width, camera.height],
-                           camera_xyz=rr.ViewCoordinates.RDF), static=True)  # fmt: skip
+            log(
+                f"world/cameras/{camera.name}",
+                rr.Transform3D(translation=camera.position, mat3x3=camera.rotation),
+                static=True,
+            )
+            log(
+                f"world/cameras/{camera.name}/image",
+                rr.Pinhole(
+                    image_from_camera=camera.intrinsic_matrix,
+                    resolution=[camera.width, camera.height],
+                    camera_xyz=rr.ViewCoordinates.RDF,
+                ),
+                static=True,
+            )
             log(f"world/cameras/{camera.name}/image/silhouette", rr.AnnotationContext(SILHOUETTE), static=True)
 
     def log_frame(self, frame: FrameInput) -> None:
@@ -128,8 +149,10 @@ class RunRecording:
         log = self.stream.log
         for view, silhouette in captured.silhouettes.items():
             if self.record.images:
-                log(f"world/cameras/{view}/image/silhouette", rr.SegmentationImage(silhouette.astype(np.uint8),
-                                                                                   opacity=0.4))  # fmt: skip
+                log(
+                    f"world/cameras/{view}/image/silhouette",
+                    rr.SegmentationImage(silhouette.astype(np.uint8), opacity=0.4),
+                )
             if silhouette.any():
                 for cost in self.weight_maps:
                     log(f"capture/{view}/weights/{cost}", rr.Image(weight_map(cost, silhouette).astype(np.float32)))
@@ -148,8 +171,12 @@ class RunRecording:
         series = dict(result.series)
         for column in getattr(self.evaluation, "series", ()):
             if column in evaluated[0]:
-                series.update({f"error/{part}/{column}": value for part, value in
-                               zip(self.model.part_names, evaluated[0][column], strict=True)})  # fmt: skip
+                series.update(
+                    {
+                        f"error/{part}/{column}": value
+                        for part, value in zip(self.model.part_names, evaluated[0][column], strict=True)
+                    }
+                )
             elif column in evaluated[1]:
                 series[f"error/{column}"] = evaluated[1][column]
         for name, value in series.items():
@@ -169,8 +196,10 @@ class RunRecording:
             return
         if path not in self._static:  # the states' names and colours, once per entity
             colours = [self._state_colors.get(s, PALETTE[k % len(PALETTE)]) for k, s in enumerate(points.states)]
-            classes = [rr.AnnotationInfo(id=k, label=state, color=colour)
-                       for k, (state, colour) in enumerate(zip(points.states, colours, strict=True))]  # fmt: skip
+            classes = [
+                rr.AnnotationInfo(id=k, label=state, color=colour)
+                for k, (state, colour) in enumerate(zip(points.states, colours, strict=True))
+            ]
             self.stream.log(path, rr.AnnotationContext(classes), static=True)
             self._static.add(path)
         self.stream.log(path, rr.Points2D(points.uv, class_ids=points.state, radii=1.5))
@@ -185,8 +214,9 @@ class RunRecording:
             path = f"world/{kind}/{mesh.key}"
             if path not in self._static:
                 colour = rgba if rgba is not None else (*mesh.color, 255)
-                self.stream.log(path, rr.Mesh3D.from_fields(triangle_indices=mesh.faces, albedo_factor=colour),
-                                static=True)  # fmt: skip
+                self.stream.log(
+                    path, rr.Mesh3D.from_fields(triangle_indices=mesh.faces, albedo_factor=colour), static=True
+                )
                 self._static.add(path)
             logged = self._meshes.get(path)
             if logged is not None and np.array_equal(mesh.vertices, logged.shown):
@@ -223,8 +253,9 @@ class RunRecording:
     def _log_series(self) -> None:
         """Every series as one column (without a wall-clock time per row, which took half a series' bytes)."""
         for entity, (frames, values) in self._series.items():
-            self.stream.send_columns(entity, indexes=[rr.TimeColumn(TIMELINE, sequence=frames)],
-                                     columns=rr.Scalars.columns(scalars=values))  # fmt: skip
+            self.stream.send_columns(
+                entity, indexes=[rr.TimeColumn(TIMELINE, sequence=frames)], columns=rr.Scalars.columns(scalars=values)
+            )
 
     def _log_videos(self) -> None:
         """Each view's video, and which of its frames each run frame shows."""
@@ -234,9 +265,11 @@ class RunRecording:
             video = rr.AssetVideo(contents=encoder.finish(), media_type="video/mp4")
             entity = f"world/cameras/{view}/image/rgb"
             self.stream.log(entity, video, static=True)
-            self.stream.send_columns(entity, indexes=[rr.TimeColumn(TIMELINE, sequence=self._frames)],
-                                     columns=rr.VideoFrameReference.columns_nanos(
-                                         video.read_frame_timestamps_nanos()))  # fmt: skip
+            self.stream.send_columns(
+                entity,
+                indexes=[rr.TimeColumn(TIMELINE, sequence=self._frames)],
+                columns=rr.VideoFrameReference.columns_nanos(video.read_frame_timestamps_nanos()),
+            )
 
     def close(self) -> None:
         """Write the series and videos, flush, close the file and move it to ``path`` (idempotent)."""

@@ -78,8 +78,15 @@ def paper_2(paper_scale: bool) -> Section:
     run_sweep("tbf_table4c_clean", control_dir, *TBF_CELLS, *LIGHT_RECORDING)
     for level, directory in realism_dirs.items():
         print(f"paper 2: realism {level:g}, 3 costs with dm2 ...", flush=True)
-        run_sweep("tbf_table4c", directory, "cost=xor,wxor,nwxor", "motion=dm2", "scene.body.seed=0",
-                  *realism_overrides(level), *LIGHT_RECORDING)  # fmt: skip
+        run_sweep(
+            "tbf_table4c",
+            directory,
+            "cost=xor,wxor,nwxor",
+            "motion=dm2",
+            "scene.body.seed=0",
+            *realism_overrides(level),
+            *LIGHT_RECORDING,
+        )
     directories = [experiment_dir, control_dir]
     real_console, real_markdown = real_motion(REPORTS) if paper_scale else ("", "")
     if paper_scale:
@@ -88,22 +95,32 @@ def paper_2(paper_scale: bool) -> Section:
     written = write_reports(runs, REPORTS)
     figures = experiment_a_figures(runs, collect(list(realism_dirs.values())), REPORTS)
     four_c = table_4c(runs)
-    rows = "\n".join(f"  {r.experiment:>17} {r.cost:>5} + {r.motion}: fail {r.fail}, error {r.error}, "
-                     f"success {r.success}  "
-                     + ("(paper: no such row)" if pd.isna(r.paper_fail) else
-                        f"(paper: {r.paper_fail}, {r.paper_error}, {r.paper_success})") + f", MPJPE {r.mpjpe_mm} mm"
-                     for r in four_c.itertuples())  # fmt: skip
+    rows = "\n".join(
+        f"  {r.experiment:>17} {r.cost:>5} + {r.motion}: fail {r.fail}, error {r.error}, "
+        f"success {r.success}  "
+        + (
+            "(paper: no such row)"
+            if pd.isna(r.paper_fail)
+            else f"(paper: {r.paper_fail}, {r.paper_error}, {r.paper_success})"
+        )
+        + f", MPJPE {r.mpjpe_mm} mm"
+        for r in four_c.itertuples()
+    )
     seconds = time.perf_counter() - start
-    console = (f"\nPaper 2 (silhouette tree-based filtering), {len(runs)} runs in {seconds:.0f} s:\n{rows}\n"
-               + "\n".join(f"  {path}" for path in [*written, *figures.values()]) + real_console)  # fmt: skip
+    console = (
+        f"\nPaper 2 (silhouette tree-based filtering), {len(runs)} runs in {seconds:.0f} s:\n{rows}\n"
+        + "\n".join(f"  {path}" for path in [*written, *figures.values()])
+        + real_console
+    )
     return Section(console, paper_2_markdown(runs, seconds, figures, REPORTS) + real_markdown)
 
 
 def commit() -> str:
     try:
         head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=True)
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True,
-                               text=True, check=True).stdout.strip()  # fmt: skip
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True, text=True, check=True
+        ).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
         return "unknown (not a git checkout)"
     return head.stdout.strip() + (" with uncommitted changes" if dirty else "")
@@ -111,10 +128,12 @@ def commit() -> str:
 
 def write_report(sections: list[Section], seconds: float, scale: str) -> Path:
     when = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
-    text = ("# Reproduction report\n\n"
-            f"Machine: {machine()}. Commit: {commit()}. Made {when} by `make reproduce"
-            f"{' SCALE=paper' if scale == 'paper' else ''}` in {seconds / 60:.1f} min.\n\n"
-            + "\n".join(section.markdown for section in sections))  # fmt: skip
+    text = (
+        "# Reproduction report\n\n"
+        f"Machine: {machine()}. Commit: {commit()}. Made {when} by `make reproduce"
+        f"{' SCALE=paper' if scale == 'paper' else ''}` in {seconds / 60:.1f} min.\n\n"
+        + "\n".join(section.markdown for section in sections)
+    )
     path = REPORTS / "report.md"
     with atomic_path(path) as temporary:
         temporary.write_text(text)
@@ -123,8 +142,12 @@ def write_report(sections: list[Section], seconds: float, scale: str) -> Path:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--scale", choices=("default", "paper"), default="default",
-                        help="paper: also real held-out motion at the paper's scale (~52,000 samples)")  # fmt: skip
+    parser.add_argument(
+        "--scale",
+        choices=("default", "paper"),
+        default="default",
+        help="paper: also real held-out motion at the paper's scale (~52,000 samples)",
+    )
     args = parser.parse_args(argv)
     start = time.perf_counter()
     REPORTS.mkdir(exist_ok=True)

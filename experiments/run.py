@@ -54,8 +54,10 @@ def main(argv: list[str] | None = None) -> None:
         print(f"error: {error}", file=sys.stderr)
         sys.exit(2)
     if picked != argv:  # said once the run is sure to start
-        print(f"{' '.join(picked[len(argv):])}: what the tracker takes for this model (name another to override)",
-              file=sys.stderr)
+        print(
+            f"{' '.join(picked[len(argv) :])}: what the tracker takes for this model (name another to override)",
+            file=sys.stderr,
+        )
         sys.argv[1:] = picked  # what hydra.main reads
     hydra_main()
 

@@ -134,8 +134,11 @@ def _schema_default(setting: Setting) -> Any:
     if setting.required:
         return field(default=MISSING)
     value = _schema_value(setting.hint, setting.default)
-    return field(default_factory=lambda: _schema_value(setting.hint, setting.default)) \
-        if isinstance(value, list | dict) or dataclasses.is_dataclass(value) else field(default=value)  # fmt: skip
+    return (
+        field(default_factory=lambda: _schema_value(setting.hint, setting.default))
+        if isinstance(value, list | dict) or dataclasses.is_dataclass(value)
+        else field(default=value)
+    )
 
 
 def _schema_value(hint: Any, value: Any) -> Any:

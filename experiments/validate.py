@@ -28,8 +28,9 @@ from experiments.schemas import SCHEMA_PREFIX
 from tracker.compatibility import FITS, fit_of
 
 # Flags after which Hydra runs nothing (help, printing the config, shell completion): nothing to validate.
-_INFORMATIONAL_FLAGS = {"--help", "-h", "--hydra-help", "--cfg", "-c", "--info", "-i", "--version",
-                        "--shell-completion", "-sc", "--resolve", "--package", "-p"}  # fmt: skip
+_INFORMATIONAL_FLAGS = set(
+    "--help -h --hydra-help --cfg -c --info -i --version --shell-completion -sc --resolve --package -p".split()
+)
 _MULTIRUN_FLAGS = {"--multirun", "-m"}
 
 
@@ -49,13 +50,15 @@ def validate_command_line(argv: list[str], config_dir: Path, config_name: str) -
     overrides, multirun = jobs
     for combination in sweep_combinations(overrides):
         cfg = _compose(config_dir, config_name, combination)
-        check_output_dir("hydra.sweep.dir" if multirun else "hydra.run.dir",
-                         cfg.hydra.sweep.dir if multirun else cfg.hydra.run.dir)  # fmt: skip
+        check_output_dir(
+            "hydra.sweep.dir" if multirun else "hydra.run.dir", cfg.hydra.sweep.dir if multirun else cfg.hydra.run.dir
+        )
         choices = {k: v for k, v in cfg.hydra.runtime.choices.items() if not k.startswith("hydra") and v is not None}
         for group, option in choices.items():
             if option.startswith(SCHEMA_PREFIX):
-                raise ConfigError(f"{group}={option} is a schema, not an option: allowed "
-                                  f"{', '.join(_options(config_dir, group))}")
+                raise ConfigError(
+                    f"{group}={option} is a schema, not an option: allowed {', '.join(_options(config_dir, group))}"
+                )
         try:
             check_config(cfg, choices)
         except OmegaConfBaseException as error:
@@ -171,8 +174,10 @@ def _describe(error: OmegaConfBaseException) -> str:
         expected = next((f.type for f in dataclasses.fields(schema) if f.name == getattr(error, "key", None)), None)
         if dataclasses.is_dataclass(expected):
             names = [f.name for f in dataclasses.fields(expected) if not f.name.startswith("_")]
-            return f"{key}={getattr(error, 'value', '?')}: expects its settings ({', '.join(names)}), not a " \
-                   f"value; set one, e.g. {key}.{names[0]}=..."  # fmt: skip
+            return (
+                f"{key}={getattr(error, 'value', '?')}: expects its settings ({', '.join(names)}), not a "
+                f"value; set one, e.g. {key}.{names[0]}=..."
+            )
     message = getattr(error, "msg", None) or str(error)
     return f"{key}: {message.strip().splitlines()[0] if message.strip() else type(error).__name__}"
 

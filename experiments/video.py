@@ -38,7 +38,8 @@ class VideoEncoder:
 
     def add(self, rgb: np.ndarray) -> None:
         frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(rgb), format="rgb24").reformat(
-            format="yuv420p", dst_colorspace=COLORSPACE, dst_color_range=COLOR_RANGE)  # fmt: skip
+            format="yuv420p", dst_colorspace=COLORSPACE, dst_color_range=COLOR_RANGE
+        )
         frame.pts = self.frames
         self._container.mux(self._stream.encode(frame))
         self.frames += 1
@@ -53,5 +54,7 @@ def decode(video: bytes) -> list[np.ndarray]:
     """Every frame of an MP4 file's first video stream, in presentation order, as ``(h, w, 3)`` uint8 RGB."""
     with av.open(io.BytesIO(video)) as container:
         frames = sorted(container.decode(video=0), key=lambda frame: frame.pts)
-        return [frame.reformat(format="rgb24", src_colorspace=COLORSPACE, src_color_range=COLOR_RANGE).to_ndarray()
-                for frame in frames]  # fmt: skip
+        return [
+            frame.reformat(format="rgb24", src_colorspace=COLORSPACE, src_color_range=COLOR_RANGE).to_ndarray()
+            for frame in frames
+        ]

@@ -38,8 +38,7 @@ class Fit:
 FITS: dict[str, dict[str, Fit]] = {
     "render_only": {"dsq_arm": Fit((1, 4)), "body_mesh": Fit((1, 4))},
     # paper 1: 3 orthogonal views; the body by the features of its textured skin, from 3 or 4 views at 640x480
-    "abis": {"dsq_arm": Fit((1, 4)),
-             "body_mesh": Fit((3, 4), rig="body_multi_vga", sets=(("model.texture_seed", 0),))},  # fmt: skip
+    "abis": {"dsq_arm": Fit((1, 4)), "body_mesh": Fit((3, 4), rig="body_multi_vga", sets=(("model.texture_seed", 0),))},
     "tbf": {"body_mesh": Fit((1, 4)), "dsq_arm": Fit((1, 4))},  # paper 2: one camera; more: the views multiplied
 }
 

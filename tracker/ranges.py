@@ -75,6 +75,8 @@ ImageSide = Annotated[int, Range(16, 4096)]  # pixels
 Seed = Annotated[int, Range(0, 2**32 - 1)]
 Vector3 = tuple[Finite, Finite, Finite]
 # A grid axis: [start, stop, step], stop included (`tracker.tbf.sample_spec.span_values`).
-Span = Annotated[tuple[Finite, Finite, Positive], Rule(lambda span: span[0] <= span[1],
-                                                       "allowed [start, stop, step] with start <= stop")]  # fmt: skip
+Span = Annotated[
+    tuple[Finite, Finite, Positive],
+    Rule(lambda span: span[0] <= span[1], "allowed [start, stop, step] with start <= stop"),
+]
 RGB = tuple[Byte, Byte, Byte]

@@ -148,4 +148,3 @@ RIGS = Registry("rig")
 TRACKERS = Registry("tracker")
 COSTS = Registry("cost", configure=True)
 MOTION_MODELS = Registry("motion")
-

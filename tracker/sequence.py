@@ -36,8 +36,10 @@ def simulate(
         posed = time.perf_counter()
         views = renderer.render(cameras, meshes)
         if nuisance is not None:
-            views = {name: RenderedView(nuisance.apply(view.rgb, frame, rng), view.depth, view.labels)
-                     for name, view in views.items()}  # fmt: skip
+            views = {
+                name: RenderedView(nuisance.apply(view.rgb, frame, rng), view.depth, view.labels)
+                for name, view in views.items()
+            }
         rendered = time.perf_counter()
         yield FrameInput(
             frame=frame,
@@ -50,14 +52,21 @@ def simulate(
 
 
 def background_frames(
-    cameras: Sequence[Camera], renderer: SceneRenderer, count: int, nuisance: SensorNuisance | None,
+    cameras: Sequence[Camera],
+    renderer: SceneRenderer,
+    count: int,
+    nuisance: SensorNuisance | None,
     rng: np.random.Generator | None,
-) -> dict[str, np.ndarray]:  # fmt: skip
+) -> dict[str, np.ndarray]:
     """Per camera ``(count, h, w, 3)`` images of the empty scene (frames -count .. -1): what a background model
     learns from before the subject walks in."""
     empty = renderer.render(cameras, [])
-    return {name: np.stack([view.rgb if nuisance is None else nuisance.apply(view.rgb, frame, rng)
-                            for frame in range(-count, 0)]) for name, view in empty.items()}  # fmt: skip
+    return {
+        name: np.stack(
+            [view.rgb if nuisance is None else nuisance.apply(view.rgb, frame, rng) for frame in range(-count, 0)]
+        )
+        for name, view in empty.items()
+    }
 
 
 def label_areas(labels: np.ndarray, n_parts: int) -> np.ndarray:

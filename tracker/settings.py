@@ -49,8 +49,11 @@ def settings_of(factory: Callable[..., Any]) -> tuple[Setting, ...]:
     if dataclasses.is_dataclass(factory):
         return tuple(Setting(f.name, hints[f.name], _field_default(f)) for f in dataclasses.fields(factory) if f.init)
     parameters = inspect.signature(factory).parameters.values()
-    return tuple(Setting(p.name, hints.get(p.name, Any), REQUIRED if p.default is p.empty else p.default)
-                 for p in parameters if p.kind is p.KEYWORD_ONLY)  # fmt: skip
+    return tuple(
+        Setting(p.name, hints.get(p.name, Any), REQUIRED if p.default is p.empty else p.default)
+        for p in parameters
+        if p.kind is p.KEYWORD_ONLY
+    )
 
 
 def _field_default(spec: dataclasses.Field) -> Any:
@@ -156,4 +159,3 @@ def _plain_repr(value: Any) -> str:
 
 def _optional(hint: Any) -> bool:
     return hint is Any or (typing.get_origin(hint) in (Union, types.UnionType) and type(None) in typing.get_args(hint))
-

@@ -17,8 +17,12 @@ def test_fig8_and_fig9_are_written_from_an_abis_run(abis_run, tmp_path):
 
 def test_write_figures_knows_what_a_run_supports(abis_run, five_frame_run):
     assert [p.name for p in write_figures(abis_run)] == [
-        "views.png", "fig6_input_views.png", "fig7_estimated_views.png", "fig8_part2_b1_r2.png",
-        "fig9_part2_correspondences.png"]
+        "views.png",
+        "fig6_input_views.png",
+        "fig7_estimated_views.png",
+        "fig8_part2_b1_r2.png",
+        "fig9_part2_correspondences.png",
+    ]
     assert [p.name for p in write_figures(five_frame_run)] == ["views.png"]  # render_only: no estimates
 
 
@@ -27,8 +31,14 @@ def test_fig7_renders_the_estimate_where_fig6_shows_the_input(abis_run, arm, rig
     estimates = _estimates(abis_run, arm)
     table = pd.read_parquet(abis_run / "frames.parquet")
     frame = max(estimates)
-    truth = np.stack([table[(table["frame"] == frame) & (table["part"] == part)][
-        [f"truth_{name}" for name in PARAM_NAMES]].to_numpy()[0] for part in arm.part_names])  # fmt: skip
+    truth = np.stack(
+        [
+            table[(table["frame"] == frame) & (table["part"] == part)][
+                [f"truth_{name}" for name in PARAM_NAMES]
+            ].to_numpy()[0]
+            for part in arm.part_names
+        ]
+    )
     estimated = renderer.render(rig, arm.surface_meshes(estimates[frame]))
     true = renderer.render(rig, arm.surface_meshes(truth))
     for camera in rig:

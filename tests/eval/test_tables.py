@@ -7,10 +7,24 @@ def test_tables_collect_tbf_runs_next_to_the_papers_numbers(tbf_run, tmp_path):
     runs = collect([tbf_run.parent])
     assert len(runs) == 1 and runs.loc[0, "tracker"] == "tbf" and runs.loc[0, "status"] == "ok"
     four_c = table_4c(runs)
-    assert list(four_c.columns) == ["experiment", "cost", "motion", "runs", "fail", "error", "success",
-                                    "floor_success", "mpjpe_mm", "mpjpe_aligned_mm", "mpjpe_floor_mm",
-                                    "max_err_median_deg",
-                                    "max_err_p90_deg", "paper_fail", "paper_error", "paper_success"]  # fmt: skip
+    assert list(four_c.columns) == [
+        "experiment",
+        "cost",
+        "motion",
+        "runs",
+        "fail",
+        "error",
+        "success",
+        "floor_success",
+        "mpjpe_mm",
+        "mpjpe_aligned_mm",
+        "mpjpe_floor_mm",
+        "max_err_median_deg",
+        "max_err_p90_deg",
+        "paper_fail",
+        "paper_error",
+        "paper_success",
+    ]
     row = four_c.iloc[0]
     assert (row["cost"], row["motion"]) == ("nwxor", "dm2")
     assert (row["paper_fail"], row["paper_error"], row["paper_success"]) == PAPER_4C[("nwxor", "dm2")]
@@ -27,12 +41,34 @@ def test_tables_collect_tbf_runs_next_to_the_papers_numbers(tbf_run, tmp_path):
 
 def test_fig4c_counts_at_any_bound_follow_from_each_swings_largest_error():
     details = {"followed": [True, True, True, False], "max_error_deg": [5.0, 19.0, 25.0, 3.0]}
-    runs = pd.DataFrame([{"experiment": "x", "cost": "nwxor", "motion": "dm2", "status": "ok", "fail": 1, "error": 1,
-                          "success": 2, "mpjpe_mm": 10.0, "swing_followed": details["followed"],
-                          "swing_max_error_deg": details["max_error_deg"]},
-                         {"experiment": "x", "cost": "nwxor", "motion": "dm2", "status": "ok", "fail": 1, "error": 0,
-                          "success": 3, "mpjpe_mm": 20.0, "swing_followed": [True, True, True, False],
-                          "swing_max_error_deg": [1.0, 2.0, 3.0, 4.0]}])  # fmt: skip
+    runs = pd.DataFrame(
+        [
+            {
+                "experiment": "x",
+                "cost": "nwxor",
+                "motion": "dm2",
+                "status": "ok",
+                "fail": 1,
+                "error": 1,
+                "success": 2,
+                "mpjpe_mm": 10.0,
+                "swing_followed": details["followed"],
+                "swing_max_error_deg": details["max_error_deg"],
+            },
+            {
+                "experiment": "x",
+                "cost": "nwxor",
+                "motion": "dm2",
+                "status": "ok",
+                "fail": 1,
+                "error": 0,
+                "success": 3,
+                "mpjpe_mm": 20.0,
+                "swing_followed": [True, True, True, False],
+                "swing_max_error_deg": [1.0, 2.0, 3.0, 4.0],
+            },
+        ]
+    )
     bounds = table_4c_bounds(runs, bounds=(10.0, 20.0, 30.0)).iloc[0]
     # run 1: 1 / 2 / 3 swings within 10 / 20 / 30 degrees among those followed; run 2: 3 at every bound
     assert (bounds["success <= 10 deg"], bounds["success <= 20 deg"], bounds["success <= 30 deg"]) == (2.0, 2.5, 3.0)

@@ -32,11 +32,18 @@ class HoldStill(Tracker):
 
     def step(self, frame) -> StepResult:
         d = self.settings.marker_px
-        corners = {c.name: Points(np.array([[d, d], [c.width - d, c.height - d]]), np.array([0, 1]), ("near", "far"))
-                   for c in self.cameras}  # fmt: skip
-        return StepResult(frame=frame.frame, estimate=self.estimate, part_columns={"held": np.ones(self.parts, bool)},
-                          frame_columns={"frames_held": frame.frame}, series={"hold/frames": frame.frame},
-                          points={view: {"corners": points} for view, points in corners.items()})  # fmt: skip
+        corners = {
+            c.name: Points(np.array([[d, d], [c.width - d, c.height - d]]), np.array([0, 1]), ("near", "far"))
+            for c in self.cameras
+        }
+        return StepResult(
+            frame=frame.frame,
+            estimate=self.estimate,
+            part_columns={"held": np.ones(self.parts, bool)},
+            frame_columns={"frames_held": frame.frame},
+            series={"hold/frames": frame.frame},
+            points={view: {"corners": points} for view, points in corners.items()},
+        )
 
     def summarize(self, table) -> dict:
         return {"frames_held_max": int(np.max(table["frames_held"]))}

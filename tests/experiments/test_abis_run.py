@@ -20,8 +20,15 @@ def test_frames_table_has_estimates_counts_and_costs(abis_run):
     for count in COUNT_NAMES:
         assert count in table.columns and {f"{count}_{view}" for view in VIEWS} <= set(table.columns)
         np.testing.assert_array_equal(table[count], sum(table[f"{count}_{view}"] for view in VIEWS))
-    assert {"pairs", "cost", "iterations", "surface_error_mm", "surface_distance_mm", "estimate_ms",
-            "estimate_fit_ms"} <= set(table.columns)  # fmt: skip
+    assert {
+        "pairs",
+        "cost",
+        "iterations",
+        "surface_error_mm",
+        "surface_distance_mm",
+        "estimate_ms",
+        "estimate_fit_ms",
+    } <= set(table.columns)
     forearm = table[table["part"] == "forearm"]
     assert (forearm["iterations"].iloc[1:] > 0).all() and (forearm["cost"].iloc[1:] > 0).all()
 
@@ -67,8 +74,14 @@ def test_recorded_meshes_are_the_models_surfaces_at_every_frame(abis_run):
             params = rows.set_index("part").loc[list(PARTS), [prefix + name for name in PARAM_NAMES]].to_numpy()
             for mesh in model.surface_meshes(params):
                 np.testing.assert_allclose(recorded[mesh.key][frame], mesh.vertices, atol=1e-5)
-    chunks = [chunk.to_record_batch() for chunk in RrdReader(abis_run / "run.rrd").stream().to_chunks()
-              if chunk.entity_path == "/world/truth/upper_arm" and not chunk.is_static]  # fmt: skip
-    vertex_rows = sum(batch.column("Mesh3D:vertex_positions").null_count < batch.num_rows
-                      for batch in chunks if "Mesh3D:vertex_positions" in batch.schema.names)  # fmt: skip
+    chunks = [
+        chunk.to_record_batch()
+        for chunk in RrdReader(abis_run / "run.rrd").stream().to_chunks()
+        if chunk.entity_path == "/world/truth/upper_arm" and not chunk.is_static
+    ]
+    vertex_rows = sum(
+        batch.column("Mesh3D:vertex_positions").null_count < batch.num_rows
+        for batch in chunks
+        if "Mesh3D:vertex_positions" in batch.schema.names
+    )
     assert vertex_rows >= 1 and any("Transform3D:translation" in batch.schema.names for batch in chunks)

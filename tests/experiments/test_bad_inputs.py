@@ -35,16 +35,23 @@ def _with_nan(data: bytes) -> bytes:
 
 
 BVH_VARIANTS = {
-    "truncated.bvh": (_truncated, r"the file ends inside frame \d+ \(\d+ of 96 values; the header says 36\d frames\): "
-                                  r"truncated\?$"),
-    "short.bvh": (lambda data: data[: data.rindex(b"\n", 0, len(data) * 2 // 3) + 1],
-                  r"header says 36\d frames, the file holds \d+ \(truncated\?\)$"),
+    "truncated.bvh": (
+        _truncated,
+        r"the file ends inside frame \d+ \(\d+ of 96 values; the header says 36\d frames\): "
+        r"truncated\?$",
+    ),
+    "short.bvh": (
+        lambda data: data[: data.rindex(b"\n", 0, len(data) * 2 // 3) + 1],
+        r"header says 36\d frames, the file holds \d+ \(truncated\?\)$",
+    ),
     "nan.bvh": (_with_nan, r"the MOTION section holds NaN or infinite values$"),
     "binary.bvh": (lambda data: bytes(range(256)) * 4, r"it is not a BVH file \(not text\)$"),
     "hierarchy_only.bvh": (lambda data: data.split(b"MOTION")[0], r"it is not a BVH file: no MOTION section$"),
-    "not_cmu.bvh": (lambda data: data.replace(b"JOINT RightHand\n", b"JOINT RightPaw\n"),
-                    r"no retargeting table fits its skeleton \(31 joints rooted at 'Hips'\): the nearest, cmu, needs "
-                    r"joints RightHand; known skeletons: cmu, daz \(tracker/motion/retarget.py\)$"),
+    "not_cmu.bvh": (
+        lambda data: data.replace(b"JOINT RightHand\n", b"JOINT RightPaw\n"),
+        r"no retargeting table fits its skeleton \(31 joints rooted at 'Hips'\): the nearest, cmu, needs "
+        r"joints RightHand; known skeletons: cmu, daz \(tracker/motion/retarget.py\)$",
+    ),
 }
 
 BODY_TBF = ["model=body_mesh", "tracker=tbf", "cost=nwxor", "motion=dm2"]
@@ -64,28 +71,50 @@ AT_START = [
     (["scene.arm.period_frames=nan"], r"^scene\.arm\.period_frames=nan is out of range: allowed > 0$"),
     (["model=body_mesh", "scene=bvh"], r"^scene\.path: missing value"),
     (["scene=bvh", f"scene.path={CLIP}"], r"^scene=bvh needs model=body_mesh, not model=dsq_arm$"),
-    (["model=body_mesh", "scene=bvh", "scene.path=nope.bvh"],
-     r"^scene\.path=nope\.bvh: cannot read BVH file .*/nope\.bvh: No such file"),
-    (["model=body_mesh", "scene=bvh", f"scene.path={SHORT_CLIP}", "frames=1000"],
-     rf"^frames=1000: scene\.path={re.escape(str(SHORT_CLIP))} has 90 frames at 30 fps from scene\.start_s=0\.0; "
-     r"allowed at most 90$"),  # 360 steps of .0083333 s = 2.99999 s: 89 steps of 1/30 s
+    (
+        ["model=body_mesh", "scene=bvh", "scene.path=nope.bvh"],
+        r"^scene\.path=nope\.bvh: cannot read BVH file .*/nope\.bvh: No such file",
+    ),
+    (
+        ["model=body_mesh", "scene=bvh", f"scene.path={SHORT_CLIP}", "frames=1000"],
+        rf"^frames=1000: scene\.path={re.escape(str(SHORT_CLIP))} has 90 frames at 30 fps from scene\.start_s=0\.0; "
+        r"allowed at most 90$",
+    ),  # 360 steps of .0083333 s = 2.99999 s: 89 steps of 1/30 s
     (["model=body_mesh", "model.triangles=10"], r"^model\.triangles=10 is out of range"),
     (["cost=nwxor"], r"^cost=nwxor serves tracker=tbf only, not tracker=render_only: add tracker=tbf"),
-    (["tracker=tbf"], r"^tracker=tbf needs cost and motion: add cost=nwxor motion=dm2 \(allowed cost=xor\|wxor\|nwxor, "
-                      r"motion=dm1\|dm2\|learned\)$"),
-    (["tracker=abis", "model=body_mesh", "rig=body_side"],
-     r"^tracker=abis tracks model=body_mesh from 3 to 4 camera views: rig=body_side has 1; add rig=body_multi_vga$"),
-    (["tracker=abis", "model=body_mesh", "model.texture_seed=null"],
-     r"^tracker=abis tracks model=body_mesh with model\.texture_seed set: add model\.texture_seed=0$"),
-    (["model=dsq_arm", "tracker=tbf", "cost=nwxor", "motion=dm2", "tracker.align=feet"],
-     r"^tracker\.align=feet: the arm stands on no floor, allowed none$"),
-    (["model=body_mesh", "tracker=tbf", "motion=dm1"],
-     r"^tracker=tbf needs cost: add cost=nwxor \(allowed cost=xor\|wxor\|nwxor\)$"),
-    ([*BODY_TBF, "rig=body_multi", "rig.views=[" + ",".join(f"{{name:v{k},position:[{k},-4.5,0.9]}}" for k in range(5))
-      + "]"],
-     r"^tracker=tbf tracks model=body_mesh from 1 to 4 camera views: rig=body_multi has 5$"),
-    (["rig=body_multi", "rig.views=[{name:a,position:[0,-4.5,0.9]},{name:a,position:[4.5,0,0.9]}]"],
-     r"^rig\.views: names \['a', 'a'\] repeat; allowed distinct names$"),
+    (
+        ["tracker=tbf"],
+        r"^tracker=tbf needs cost and motion: add cost=nwxor motion=dm2 \(allowed cost=xor\|wxor\|nwxor, "
+        r"motion=dm1\|dm2\|learned\)$",
+    ),
+    (
+        ["tracker=abis", "model=body_mesh", "rig=body_side"],
+        r"^tracker=abis tracks model=body_mesh from 3 to 4 camera views: rig=body_side has 1; add rig=body_multi_vga$",
+    ),
+    (
+        ["tracker=abis", "model=body_mesh", "model.texture_seed=null"],
+        r"^tracker=abis tracks model=body_mesh with model\.texture_seed set: add model\.texture_seed=0$",
+    ),
+    (
+        ["model=dsq_arm", "tracker=tbf", "cost=nwxor", "motion=dm2", "tracker.align=feet"],
+        r"^tracker\.align=feet: the arm stands on no floor, allowed none$",
+    ),
+    (
+        ["model=body_mesh", "tracker=tbf", "motion=dm1"],
+        r"^tracker=tbf needs cost: add cost=nwxor \(allowed cost=xor\|wxor\|nwxor\)$",
+    ),
+    (
+        [
+            *BODY_TBF,
+            "rig=body_multi",
+            "rig.views=[" + ",".join(f"{{name:v{k},position:[{k},-4.5,0.9]}}" for k in range(5)) + "]",
+        ],
+        r"^tracker=tbf tracks model=body_mesh from 1 to 4 camera views: rig=body_multi has 5$",
+    ),
+    (
+        ["rig=body_multi", "rig.views=[{name:a,position:[0,-4.5,0.9]},{name:a,position:[4.5,0,0.9]}]"],
+        r"^rig\.views: names \['a', 'a'\] repeat; allowed distinct names$",
+    ),
     (["rig=body_multi", "rig.views=[]"], r"^rig\.views=\[\]: allowed one camera or more$"),
     (["model=body_mesh", "cost=wxor", "cost.w=-1"], r"^cost\.w=-1\.0 is out of range: allowed >= 0$"),
     (["model=body_mesh", "cost=xor", "cost.w=1"], r"^cost\.w: unknown key, allowed keys here: none$"),  # xor has no w
@@ -104,33 +133,47 @@ AT_START = [
     (["model=schema_dsq_arm"], r"^model=schema_dsq_arm is a schema, not an option"),
     (["frames=["], r"^cannot parse the overrides"),
     (["rig.target=${nope}"], r"^rig\.target: Interpolation key 'nope' not found$"),
-    (["rig=mono", "rig.position=[0.55,0,-0.2]"],
-     r"^rig=mono: camera 'main': position and target coincide \(\[0\.55, 0\.0, -0\.2\]\)$"),
-    (["experiment=nope"],
-     r"^experiment=nope: no such option, allowed abis_body, abis_fig8_fig9, abis_occlusion, arm_scene, tbf_multi_view, "
-     r"tbf_paper_scale, "
-     r"tbf_table4c, tbf_table4c_clean$"),
+    (
+        ["rig=mono", "rig.position=[0.55,0,-0.2]"],
+        r"^rig=mono: camera 'main': position and target coincide \(\[0\.55, 0\.0, -0\.2\]\)$",
+    ),
+    (
+        ["experiment=nope"],
+        r"^experiment=nope: no such option, allowed abis_body, abis_fig8_fig9, abis_occlusion, arm_scene, "
+        r"tbf_multi_view, tbf_paper_scale, "
+        r"tbf_table4c, tbf_table4c_clean$",
+    ),
     (["tracker=kalman"], r"^tracker=kalman: no such option, allowed abis, render_only, tbf$"),
     ([*BODY_TBF, "tracker.thresholds=[0.01,0.002]"], r"^tracker\.thresholds=.* has 2 values: allowed exactly 3$"),
     (["scene.arm.bend_amplitude=nan"], r"^scene\.arm\.bend_amplitude=nan is out of range: allowed a finite number$"),
     (["-m", "frames=2,0"], r"^frames=0 is out of range: allowed >= 1$"),
-    (["experiment=tbf_table4c_clean", "tracker.samples.grid.swing_deg=[60,-60,6]"],
-     r"^tracker\.samples\.grid\.swing_deg=\[60\.0, -60\.0, 6\.0\] is not allowed: allowed \[start, stop, step\] "
-     r"with start <= stop$"),
-    (["experiment=tbf_table4c_clean", "tracker.samples.grid.elbow_deg=[0,60,0]"],
-     r"^tracker\.samples\.grid\.elbow_deg\[2\]=0\.0 is out of range: allowed > 0$"),
-    (["experiment=tbf_table4c", "tracker.samples.clips=[mocap/nope.bvh]"],
-     r"^tracker\.samples\.clips\[0\]=mocap/nope\.bvh: cannot read BVH file .*mocap/nope\.bvh: No such file"),
-    (["experiment=tbf_table4c", "tracker.body=tallest"],
-     r"^tracker\.body='tallest' is not allowed: allowed base, nearest_standard$"),
+    (
+        ["experiment=tbf_table4c_clean", "tracker.samples.grid.swing_deg=[60,-60,6]"],
+        r"^tracker\.samples\.grid\.swing_deg=\[60\.0, -60\.0, 6\.0\] is not allowed: allowed \[start, stop, step\] "
+        r"with start <= stop$",
+    ),
+    (
+        ["experiment=tbf_table4c_clean", "tracker.samples.grid.elbow_deg=[0,60,0]"],
+        r"^tracker\.samples\.grid\.elbow_deg\[2\]=0\.0 is out of range: allowed > 0$",
+    ),
+    (
+        ["experiment=tbf_table4c", "tracker.samples.clips=[mocap/nope.bvh]"],
+        r"^tracker\.samples\.clips\[0\]=mocap/nope\.bvh: cannot read BVH file .*mocap/nope\.bvh: No such file",
+    ),
+    (
+        ["experiment=tbf_table4c", "tracker.body=tallest"],
+        r"^tracker\.body='tallest' is not allowed: allowed base, nearest_standard$",
+    ),
     (["experiment=tbf_table4c", "tracker.node_shares=[0.2,1.5,0.9]"], r"^tracker\.node_shares\[1\]=1\.5 is out of"),
     (["experiment=tbf_table4c", "model.shape.height=2"], r"^model\.shape\.height=2\.0 is out of range: allowed in"),
     (["experiment=tbf_table4c", "scene.body.variation=-0.5"], r"^scene\.body\.variation=-0\.5 is out of range"),
     (["hydra.run.dir=/proc/nope/run"], r"^hydra\.run\.dir=/proc/nope/run: cannot make it, /proc is not writable"),
     (["-m", "hydra.sweep.dir=/proc/nope", "seed=0,1"], r"^hydra\.sweep\.dir=/proc/nope: cannot make it"),
-    (["tracker=abis", "tracker.initial_noise=-1"],
-     r"^tracker\.initial_noise=-1: expects its settings \(translation_m, rotation_rad, scale_fraction\), not a "
-     r"value; set one, e\.g\. tracker\.initial_noise\.translation_m=\.\.\.$"),
+    (
+        ["tracker=abis", "tracker.initial_noise=-1"],
+        r"^tracker\.initial_noise=-1: expects its settings \(translation_m, rotation_rad, scale_fraction\), not a "
+        r"value; set one, e\.g\. tracker\.initial_noise\.translation_m=\.\.\.$",
+    ),
 ]
 
 
@@ -160,8 +203,13 @@ def test_a_bad_bvh_file_stops_at_start_with_one_line(name, tmp_path, monkeypatch
 
 def _run(tmp_path, *overrides):
     run_dir = tmp_path / "run"
-    result = subprocess.run([sys.executable, "-m", "experiments.run", f"hydra.run.dir={run_dir}", *overrides],
-                            cwd=tmp_path, capture_output=True, text=True, timeout=300)  # fmt: skip
+    result = subprocess.run(
+        [sys.executable, "-m", "experiments.run", f"hydra.run.dir={run_dir}", *overrides],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     return result, run_dir
 
 
@@ -183,8 +231,9 @@ def test_a_camera_looking_away_loses_every_feature_and_each_abis_frame_is_record
 
 
 def test_a_camera_looking_away_fails_the_tbf_run_with_its_reason(tmp_path):
-    result, run_dir = _run(tmp_path, *BODY_TBF, "rig.target=[0,9,0.9]", "frames=3", f"tracker.cache_dir={tmp_path}/c",
-                           *SMALL_GRID)  # fmt: skip
+    result, run_dir = _run(
+        tmp_path, *BODY_TBF, "rig.target=[0,9,0.9]", "frames=3", f"tracker.cache_dir={tmp_path}/c", *SMALL_GRID
+    )
     assert result.returncode == 1
     metrics, _, _ = _outputs_readable(run_dir)
     assert metrics["status"] == "failed: ValueError: the pose samples are not in the camera's view", metrics["status"]
@@ -193,8 +242,9 @@ def test_a_camera_looking_away_fails_the_tbf_run_with_its_reason(tmp_path):
 def test_a_subject_leaving_the_view_gives_failed_frames_and_the_run_goes_on(tmp_path):
     # 69_20 walks forward out of the side camera's view: those frames have no silhouette to score.
     walk = [f"scene.path={MOCAP_DIR / '69_20.bvh'}", "scene.fps=6", "frames=27"]
-    result, run_dir = _run(tmp_path, *BODY_TBF, "scene=bvh", *walk, f"tracker.cache_dir={tmp_path}/c",
-                           "record.images=false", *SMALL_GRID)  # fmt: skip
+    result, run_dir = _run(
+        tmp_path, *BODY_TBF, "scene=bvh", *walk, f"tracker.cache_dir={tmp_path}/c", "record.images=false", *SMALL_GRID
+    )
     assert result.returncode == 0, result.stderr
     metrics, frames, recorded = _outputs_readable(run_dir)
     per_frame = frames.drop_duplicates("frame")

@@ -16,9 +16,15 @@ def test_a_body_run_records_silhouettes_weight_maps_and_their_quality(body_swing
     assert metrics["status"] == "ok" and metrics["choices"]["rig"] == "body_side"  # the model picked its camera
     assert metrics["silhouette_iou"]["main"]["min"] >= 0.97
     frames = frames_by_entity(body_swing_run / "run.rrd")
-    for entity in ("/world/cameras/main/image/rgb", "/world/cameras/main/image/silhouette",
-                   "/capture/main/weights/wxor", "/capture/main/weights/nwxor", "/metrics/silhouette_iou/main",
-                   "/world/truth/body_right_upper_arm", "/metrics/params/joints/RightArm_deg/truth"):  # fmt: skip
+    for entity in (
+        "/world/cameras/main/image/rgb",
+        "/world/cameras/main/image/silhouette",
+        "/capture/main/weights/wxor",
+        "/capture/main/weights/nwxor",
+        "/metrics/silhouette_iou/main",
+        "/world/truth/body_right_upper_arm",
+        "/metrics/params/joints/RightArm_deg/truth",
+    ):
         assert frames[entity] == [0, 1, 2, 3], entity
     assert frames["/world/truth/body_left_foot"] == [0]  # only the right arm moves: a foot is written once
 
@@ -40,8 +46,16 @@ def test_recorded_weight_maps_are_those_of_the_recorded_silhouettes(body_swing_r
 
 
 def test_a_mocap_clip_runs_as_a_scene(tmp_path):
-    result = run_cli(tmp_path / "out", "model=body_mesh", "scene=bvh", f"scene.path={MOCAP_DIR / '69_20.bvh'}",
-                     "rig=body_front", "frames=3", "record.images=false", cwd=tmp_path)  # fmt: skip
+    result = run_cli(
+        tmp_path / "out",
+        "model=body_mesh",
+        "scene=bvh",
+        f"scene.path={MOCAP_DIR / '69_20.bvh'}",
+        "rig=body_front",
+        "frames=3",
+        "record.images=false",
+        cwd=tmp_path,
+    )
     assert result.returncode == 0, result.stderr
     metrics = json.loads((tmp_path / "out" / "metrics.json").read_text())
     assert metrics["status"] == "ok" and metrics["frames_done"] == 3

@@ -15,17 +15,30 @@ RIGS_OF_MODEL = {"dsq_arm": ("mono", "orthogonal3"), "body_mesh": ("body_side", 
 NEEDS = {"tbf": ("cost=nwxor", "motion=dm2")}
 SMALL_SAMPLES = {"body_mesh": tuple(SMALL_GRID), "dsq_arm": (SMALL_ARM_GRID,)}
 VIEWS = {rig: len(build(compose([f"rig={rig}"])).cameras) for rigs in RIGS_OF_MODEL.values() for rig in rigs}
-COMBINATIONS = [(tracker, model, rig) for tracker, fits in FITS.items() for model, fit in fits.items()
-                for rig in RIGS_OF_MODEL[model] if fit.allows(VIEWS[rig])]  # fmt: skip
+COMBINATIONS = [
+    (tracker, model, rig)
+    for tracker, fits in FITS.items()
+    for model, fit in fits.items()
+    for rig in RIGS_OF_MODEL[model]
+    if fit.allows(VIEWS[rig])
+]
 
 
 @pytest.mark.parametrize(("tracker", "model", "rig"), COMBINATIONS, ids=["-".join(c) for c in COMBINATIONS])
 def test_every_allowed_combination_runs_two_frames(tracker, model, rig, tmp_path):
     out = tmp_path / "out"
-    result = run_cli(out, f"tracker={tracker}", f"model={model}", f"rig={rig}", "frames=2", "record.images=false",
-                     f"tracker.cache_dir={tmp_path / 'cache'}" if tracker == "tbf" else "seed=0",
-                     *NEEDS.get(tracker, ()), *(SMALL_SAMPLES[model] if tracker == "tbf" else ()),
-                     cwd=tmp_path)  # fmt: skip
+    result = run_cli(
+        out,
+        f"tracker={tracker}",
+        f"model={model}",
+        f"rig={rig}",
+        "frames=2",
+        "record.images=false",
+        f"tracker.cache_dir={tmp_path / 'cache'}" if tracker == "tbf" else "seed=0",
+        *NEEDS.get(tracker, ()),
+        *(SMALL_SAMPLES[model] if tracker == "tbf" else ()),
+        cwd=tmp_path,
+    )
     assert result.returncode == 0, result.stderr
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["status"] == "ok" and metrics.get("failed_frames", 0) == 0  # render_only estimates nothing
@@ -49,14 +62,22 @@ def test_one_camera_tracks_as_it_did_before_several_views(tbf_run):
 def test_a_cameras_rig_of_one_view_is_the_one_camera_rig(tbf_run, tmp_path):
     """rig=body_multi cut to one camera where rig=body_side's stands tracks exactly as rig=body_side."""
     out = tmp_path / "out"
-    result = run_cli(out, *TBF_RUN, "rig=body_multi", "rig.views=[{name:main,position:[4.0,0.0,0.9]}]",
-                     "rig.focal_px=480", f"tracker.cache_dir={tmp_path / 'cache'}", cwd=tmp_path)  # fmt: skip
+    result = run_cli(
+        out,
+        *TBF_RUN,
+        "rig=body_multi",
+        "rig.views=[{name:main,position:[4.0,0.0,0.9]}]",
+        "rig.focal_px=480",
+        f"tracker.cache_dir={tmp_path / 'cache'}",
+        cwd=tmp_path,
+    )
     assert result.returncode == 0, result.stderr
     before, after = (pd.read_parquet(run / "frames.parquet") for run in (tbf_run, out))
     for column in ("est_sample", "entropy", "nodes_level3"):
         assert before[column].tolist() == after[column].tolist(), column
     assert [json.loads((run / "metrics.json").read_text())["mpjpe_mm"] for run in (tbf_run, out)] == [
-        ONE_CAMERA_BEFORE["mpjpe_mm"]] * 2
+        ONE_CAMERA_BEFORE["mpjpe_mm"]
+    ] * 2
 
 
 def test_a_fit_that_names_a_rig_picks_it_unless_the_command_line_names_one(monkeypatch):
@@ -73,8 +94,11 @@ def test_a_fit_that_names_a_rig_picks_it_unless_the_command_line_names_one(monke
     validate_command_line([*argv, "rig=body_multi"], CONFIG_DIR, "config")
     named = [*argv, "rig=body_side"]
     assert with_picks(named, CONFIG_DIR, "config") == named
-    with pytest.raises(ConfigError, match=r"^tracker=render_only tracks model=body_mesh from 3 to 4 camera views: "
-                                          r"rig=body_side has 1; add rig=body_multi$"):
+    with pytest.raises(
+        ConfigError,
+        match=r"^tracker=render_only tracks model=body_mesh from 3 to 4 camera views: "
+        r"rig=body_side has 1; add rig=body_multi$",
+    ):
         validate_command_line(named, CONFIG_DIR, "config")
     assert with_picks(["model=dsq_arm"], CONFIG_DIR, "config") == ["model=dsq_arm"]  # its rig fits already
 

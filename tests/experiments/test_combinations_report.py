@@ -20,8 +20,11 @@ def test_every_body_row_is_a_valid_run_of_every_held_out_clip(folder):
     row = body_runs()[folder]
     for clip in HELD_OUT:
         frames = available_frames(read_clip(clip), 0.0, row.fps)
-        validate_command_line([f"experiment={row.experiment}", f"scene.path={clip}", f"frames={frames}",
-                               *row.overrides], CONFIG_DIR, "config")  # fmt: skip
+        validate_command_line(
+            [f"experiment={row.experiment}", f"scene.path={clip}", f"frames={frames}", *row.overrides],
+            CONFIG_DIR,
+            "config",
+        )
 
 
 def test_the_first_views_are_rig_body_multis_first_cameras():
@@ -44,8 +47,9 @@ def test_the_arm_table_compares_abis_and_tree_filtering_on_the_same_frames(tmp_p
     for label, overrides in ARM_TRACKERS.items():
         out = tmp_path / label.split()[0]
         grid = (f"tracker.cache_dir={tmp_path / 'cache'}", SMALL_ARM_GRID) if overrides else ()  # AbIS has none
-        result = run_cli(out, "experiment=abis_fig8_fig9", "frames=3", "record.images=false", *overrides, *grid,
-                         cwd=tmp_path)  # fmt: skip
+        result = run_cli(
+            out, "experiment=abis_fig8_fig9", "frames=3", "record.images=false", *overrides, *grid, cwd=tmp_path
+        )
         assert result.returncode == 0, result.stderr
         runs[label] = out
     table = arm_table(runs).set_index("tracker")

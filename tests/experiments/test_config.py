@@ -19,8 +19,14 @@ CLIP = MOCAP_DIR / "69_20.bvh"
 PRESETS = sorted(p.stem for p in (CONFIG_DIR / "experiment").glob("*.yaml"))
 TBF = ["model=body_mesh", "tracker=tbf", "cost=xor", "motion=dm1"]
 # What an option needs beside it to make a run.
-COMPANIONS = {("scene", "bvh"): ["model=body_mesh", f"scene.path={CLIP}"], ("tracker", "tbf"): TBF,
-              ("cost", None): TBF, ("motion", None): TBF, ("rig", "orthogonal3"): [], ("rig", None): []}  # fmt: skip
+COMPANIONS = {
+    ("scene", "bvh"): ["model=body_mesh", f"scene.path={CLIP}"],
+    ("tracker", "tbf"): TBF,
+    ("cost", None): TBF,
+    ("motion", None): TBF,
+    ("rig", "orthogonal3"): [],
+    ("rig", None): [],
+}
 
 
 def companions(group, option):
@@ -35,13 +41,16 @@ def test_every_option_file_composes_checks_and_builds_its_registered_component(g
 
 
 def test_every_registered_component_has_an_option_file():
-    targets = {(group, OmegaConf.select(compose([*companions(group, option), f"{group}={option}"]), group)._target_)
-               for group, option in OPTIONS}  # fmt: skip
+    targets = {
+        (group, OmegaConf.select(compose([*companions(group, option), f"{group}={option}"]), group)._target_)
+        for group, option in OPTIONS
+    }
     assert {(kind, entry.target) for kind, registry in REGISTRIES.items() for entry in registry} <= targets
 
 
-@pytest.mark.parametrize("kind, name", [(kind, entry.name) for kind, registry in REGISTRIES.items()
-                                        for entry in registry])  # fmt: skip
+@pytest.mark.parametrize(
+    "kind, name", [(kind, entry.name) for kind, registry in REGISTRIES.items() for entry in registry]
+)
 def test_a_schema_holds_the_core_defaults_and_nothing_else(kind, name):
     entry = REGISTRIES[kind][name]
     schema = OmegaConf.to_container(OmegaConf.structured(entry_schema(entry)))
@@ -75,16 +84,20 @@ def test_every_value_of_a_sweep_is_checked():
         validate_command_line(["-m", "frames=2,0"], CONFIG_DIR, "config")
 
 
-@pytest.mark.parametrize("argv, key", [
-    (["model=nope"], "model=nope"),
-    (["model.parts.0.shape.eps1=-1"], "eps1=-1"),
-    (["frames=0"], "frames=0"),
-    (["nokey=1"], "nokey"),
-    (["-m", "frames=1,0"], "frames=0"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "argv, key",
+    [
+        (["model=nope"], "model=nope"),
+        (["model.parts.0.shape.eps1=-1"], "eps1=-1"),
+        (["frames=0"], "frames=0"),
+        (["nokey=1"], "nokey"),
+        (["-m", "frames=1,0"], "frames=0"),
+    ],
+)
 def test_bad_overrides_through_the_cli_exit_nonzero_and_leave_no_files(tmp_path, argv, key):
-    result = subprocess.run([sys.executable, "-m", "experiments.run", *argv], cwd=tmp_path, capture_output=True,
-                            text=True, timeout=120)
+    result = subprocess.run(
+        [sys.executable, "-m", "experiments.run", *argv], cwd=tmp_path, capture_output=True, text=True, timeout=120
+    )
     assert result.returncode == 2
     assert result.stderr.startswith("error: ") and key in result.stderr
     assert result.stderr.count("\n") == 1 and result.stdout == ""

@@ -41,6 +41,7 @@ def test_the_realism_knob_runs_from_the_standard_body_at_rest_to_the_experiment_
     assert none["scene.body.variation"] == "0" and none["tracker.samples.capture.amplitude"] == "0"
     standard = STANDARD_BODIES["male_h0.54_stout"]
     assert [float(none[f"model.shape.{k}"]) for k in ("gender", "muscle", "weight", "height")] == pytest.approx(
-        [standard.gender, standard.muscle, standard.weight, standard.height])  # fmt: skip
+        [standard.gender, standard.muscle, standard.weight, standard.height]
+    )
     assert [float(full[f"model.shape.{k}"]) for k in ("muscle", "weight", "height")] == pytest.approx([0.6, 0.6, 0.52])
     assert float(half["model.shape.height"]) == pytest.approx((standard.height + 0.52) / 2)

@@ -17,15 +17,26 @@ from tracker.registry import COSTS, TRACKERS
 
 PROJECT = CONFIG_DIR.parent
 PLUGIN = "tests.experiments.plugin_toys"
-OPTIONS = {"tracker/hold_still.yaml": "defaults:\n  - schema_hold_still\n  - _self_\n\nmarker_px: 8.0\n",
-           "cost/uniform.yaml": "defaults:\n  - schema_uniform\n  - _self_\n"}  # fmt: skip
+OPTIONS = {
+    "tracker/hold_still.yaml": "defaults:\n  - schema_hold_still\n  - _self_\n\nmarker_px: 8.0\n",
+    "cost/uniform.yaml": "defaults:\n  - schema_uniform\n  - _self_\n",
+}
+
+
 def run(tmp_path, name, *overrides):
     conf = tmp_path / "conf"
     for path, text in OPTIONS.items():
         (conf / path).parent.mkdir(parents=True, exist_ok=True)
         (conf / path).write_text(text)
-    command = [sys.executable, "-m", "experiments.run", f"plugins=[{PLUGIN}]", f"hydra.searchpath=[file://{conf}]",
-               f"hydra.run.dir={tmp_path / name}", *overrides]  # fmt: skip
+    command = [
+        sys.executable,
+        "-m",
+        "experiments.run",
+        f"plugins=[{PLUGIN}]",
+        f"hydra.searchpath=[file://{conf}]",
+        f"hydra.run.dir={tmp_path / name}",
+        *overrides,
+    ]
     result = subprocess.run(command, cwd=PROJECT, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr
     return tmp_path / name
@@ -46,15 +57,30 @@ def test_a_users_tracker_runs_is_recorded_tabled_and_drawn(tmp_path):
     assert recorded["/world/cameras/left/image/corners"] == [0, 1, 2]
     assert recorded["/world/estimate/forearm"] == [0]  # the estimate never changed: its mesh is logged once
     assert [path.name for path in write_figures(out)] == [  # the arm's figures, but no pairs: no Fig 9
-        "views.png", "fig6_input_views.png", "fig7_estimated_views.png", "fig8_part2_b1_r2.png"]
+        "views.png",
+        "fig6_input_views.png",
+        "fig7_estimated_views.png",
+        "fig8_part2_b1_r2.png",
+    ]
     runs = collect([out])
     assert sweep_table(runs).loc[0, "tracker"] == "hold_still"
 
 
 def test_a_users_cost_serves_the_tree_filter(tmp_path):
     assert "uniform" not in COSTS
-    out = run(tmp_path, "tbf", "model=body_mesh", "tracker=tbf", "cost=uniform", "cost.weight=3", "motion=dm1",
-              "frames=3", f"tracker.cache_dir={tmp_path / 'cache'}", "record.weight_maps=true", *SMALL_GRID)
+    out = run(
+        tmp_path,
+        "tbf",
+        "model=body_mesh",
+        "tracker=tbf",
+        "cost=uniform",
+        "cost.weight=3",
+        "motion=dm1",
+        "frames=3",
+        f"tracker.cache_dir={tmp_path / 'cache'}",
+        "record.weight_maps=true",
+        *SMALL_GRID,
+    )
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["status"] == "ok" and metrics["choices"]["cost"] == "uniform"
     assert metrics["mpjpe_mm"] < 60

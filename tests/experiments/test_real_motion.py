@@ -43,8 +43,10 @@ def test_the_real_motion_table_and_figures(real_motion_run, tmp_path):
     metrics = json.loads((real_motion_run / "metrics.json").read_text())
     assert table.loc[0, "floor mm"] == round(metrics["mpjpe_floor_mm"], 1)
     assert table.loc[0, "aligned / floor"] == round(metrics["mpjpe_root_aligned_mm"] / metrics["mpjpe_floor_mm"], 2)
-    for figure in (fig5_strip(root / "69_20" / "full", tmp_path / "strip.png", count=3),
-                   error_against_floor(root / "69_20" / "full", tmp_path / "error.png")):
+    for figure in (
+        fig5_strip(root / "69_20" / "full", tmp_path / "strip.png", count=3),
+        error_against_floor(root / "69_20" / "full", tmp_path / "error.png"),
+    ):
         with Image.open(figure) as image:
             assert image.size[0] > 400 and np.asarray(image).std() > 10  # drawn, not blank
 
@@ -53,5 +55,8 @@ def test_the_real_motion_table_and_figures(real_motion_run, tmp_path):
 def test_every_ablation_row_is_a_valid_run_of_every_held_out_clip(folder):
     for clip in HELD_OUT:
         frames = available_frames(read_clip(clip), 0.0, FPS)
-        validate_command_line(["experiment=tbf_paper_scale", f"scene.path={clip}", f"frames={frames}",
-                               *VARIANTS[folder][1]], CONFIG_DIR, "config")  # fmt: skip
+        validate_command_line(
+            ["experiment=tbf_paper_scale", f"scene.path={clip}", f"frames={frames}", *VARIANTS[folder][1]],
+            CONFIG_DIR,
+            "config",
+        )

@@ -37,8 +37,12 @@ def test_metrics_summarise_the_run(five_frame_run):
     metrics = json.loads((five_frame_run / "metrics.json").read_text())
     timing = json.loads((five_frame_run / "timings.json").read_text())
     assert metrics["status"] == "ok"
-    assert metrics["choices"] == {"model": "dsq_arm", "rig": "orthogonal3", "scene": "arm_swing",
-                                  "tracker": "render_only"}  # fmt: skip
+    assert metrics["choices"] == {
+        "model": "dsq_arm",
+        "rig": "orthogonal3",
+        "scene": "arm_swing",
+        "tracker": "render_only",
+    }
     assert (metrics["seed"], metrics["frames"], metrics["frames_done"]) == (0, 5, 5)
     assert metrics["views"] == ["front", "left", "top"]
     assert set(timing) == {"pose_ms_median", "render_ms_median", "record_ms_median", "render_ms_per_view_median"}
@@ -122,8 +126,10 @@ def test_the_same_seed_gives_the_same_metrics_bytes_and_another_seed_differs(tmp
         assert result.returncode == 0, result.stderr
     metrics = {name: (tmp_path / name / "metrics.json").read_bytes() for name in runs}
     assert metrics["a"] == metrics["b"]
-    results = {name: {k: v for k, v in json.loads(text).items() if k not in ("seed", "config")}
-               for name, text in metrics.items()}  # fmt: skip
+    results = {
+        name: {k: v for k, v in json.loads(text).items() if k not in ("seed", "config")}
+        for name, text in metrics.items()
+    }
     assert results["a"]["rms"] != results["c"]["rms"]  # the seed reached the tracker's start, not just the config
     timings = {name: json.loads((tmp_path / name / "timings.json").read_text()) for name in runs}
     assert timings["a"]["estimate_ms_median"] > 0  # timings live apart, so they may differ
@@ -131,8 +137,9 @@ def test_the_same_seed_gives_the_same_metrics_bytes_and_another_seed_differs(tmp
 
 def test_a_failing_run_records_why_and_keeps_its_outputs_readable(tmp_path):
     # The tracker's samples fall outside a camera looking away: the run fails after Hydra started it.
-    result = run_cli(tmp_path / "out", *TBF_RUN, "rig.target=[0,9,0.9]", f"tracker.cache_dir={tmp_path}/c",
-                     cwd=tmp_path)  # fmt: skip
+    result = run_cli(
+        tmp_path / "out", *TBF_RUN, "rig.target=[0,9,0.9]", f"tracker.cache_dir={tmp_path}/c", cwd=tmp_path
+    )
     assert result.returncode == 1
     metrics = json.loads((tmp_path / "out" / "metrics.json").read_text())
     assert metrics["status"] == "failed: ValueError: the pose samples are not in the camera's view"

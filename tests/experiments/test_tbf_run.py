@@ -20,8 +20,13 @@ def test_a_tbf_run_records_the_tree_search_per_level_and_its_timings(tbf_run):
     assert (table["kept_level1"] <= table["nodes_level1"]).all() and (table["nodes_level3"] >= 1).all()
     assert len(table["est_pose"].iloc[0]) == 96 and table["entropy"].ge(0).all()
     frames = frames_by_entity(tbf_run / "run.rrd")
-    for entity in ("/metrics/tree/level1/evaluated", "/metrics/tree/level3/kept", "/metrics/tree/entropy",
-                   "/metrics/params/swing/right_arm_deg/estimate", "/metrics/params/swing/right_arm_deg/truth"):
+    for entity in (
+        "/metrics/tree/level1/evaluated",
+        "/metrics/tree/level3/kept",
+        "/metrics/tree/entropy",
+        "/metrics/params/swing/right_arm_deg/estimate",
+        "/metrics/params/swing/right_arm_deg/truth",
+    ):
         assert frames[entity] == list(range(6)), entity
 
 

@@ -38,7 +38,7 @@ def test_forward_kinematics_composes_down_the_chain_and_round_trips():
 def test_arm_joints_stay_connected_for_any_rotation_and_bending(arm, seed):
     rng = np.random.default_rng(seed)
     params = arm.rest_params()
-    params[:, PARAM_INDEX["r1"]:] = rng.uniform(-2, 2, size=(3, 3))
+    params[:, PARAM_INDEX["r1"] :] = rng.uniform(-2, 2, size=(3, 3))
     params[:, PARAM_INDEX["b1"]] = rng.uniform(-0.05, 0.05, size=3)
     params[:, PARAM_INDEX["t1"]] = rng.uniform(-0.5, 0.5, size=3)
     params = arm.connect(params)

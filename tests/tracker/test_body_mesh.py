@@ -58,8 +58,11 @@ def test_joints_stay_at_their_rest_distance_from_the_parent_in_any_pose(body):
     posed, rest = body.joint_positions(pose), body.rest_heads
     child = np.arange(1, len(rest))
     parent = body.parents[child]
-    np.testing.assert_allclose(np.linalg.norm(posed[child] - posed[parent], axis=1),
-                               np.linalg.norm(rest[child] - rest[parent], axis=1), atol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(
+        np.linalg.norm(posed[child] - posed[parent], axis=1),
+        np.linalg.norm(rest[child] - rest[parent], axis=1),
+        atol=1e-12,
+    )
 
 
 def test_missing_data_files_give_a_clear_error(tmp_path):
@@ -96,7 +99,8 @@ def test_the_skinned_vertices_analytic_jacobian_matches_central_differences(body
         delta = np.zeros(POSE_SIZE)
         delta[k] = step
         numeric[:, :, k] = (body.posed_vertices(pose + delta, subset) - body.posed_vertices(pose - delta, subset)) / (
-            2 * step)  # fmt: skip
+            2 * step
+        )
     np.testing.assert_allclose(analytic, numeric, atol=1e-8)
     assert np.abs(numeric[:, :, 3:]).max() > 0.5  # the joints move the vertices: not a vacuous comparison
     # A caller that has the pose's bone transforms (a fit needs both the vertices and their Jacobian) gets the

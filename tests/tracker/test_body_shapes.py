@@ -27,15 +27,20 @@ def test_a_stout_tall_man_is_the_base_mesh_plus_his_targets_weighted_as_makehuma
     raw = build_body(triangles=10**9, shape=shape)
     base = build_body(triangles=10**9)
     n = 19158  # vertices of base.obj
-    offsets = (0.5 * naive_target("universal-male-young-averagemuscle-averageweight", n)
-               + 0.5 * naive_target("universal-male-young-averagemuscle-maxweight", n)
-               + 0.5 * 0.5 * naive_target("height/male-young-averagemuscle-averageweight-maxheight", n)
-               + 0.5 * 0.5 * naive_target("height/male-young-averagemuscle-maxweight-maxheight", n)
-               + sum(naive_target(f"{race}-male-young", n) / 3 for race in ("african", "asian", "caucasian"))
-               - 0.5 * naive_target("universal-female-young-averagemuscle-averageweight", n)
-               - 0.5 * naive_target("universal-male-young-averagemuscle-averageweight", n)
-               - sum(0.5 * naive_target(f"{race}-{g}-young", n) / 3 for race in ("african", "asian", "caucasian")
-                     for g in ("female", "male")))  # fmt: skip
+    offsets = (
+        0.5 * naive_target("universal-male-young-averagemuscle-averageweight", n)
+        + 0.5 * naive_target("universal-male-young-averagemuscle-maxweight", n)
+        + 0.5 * 0.5 * naive_target("height/male-young-averagemuscle-averageweight-maxheight", n)
+        + 0.5 * 0.5 * naive_target("height/male-young-averagemuscle-maxweight-maxheight", n)
+        + sum(naive_target(f"{race}-male-young", n) / 3 for race in ("african", "asian", "caucasian"))
+        - 0.5 * naive_target("universal-female-young-averagemuscle-averageweight", n)
+        - 0.5 * naive_target("universal-male-young-averagemuscle-averageweight", n)
+        - sum(
+            0.5 * naive_target(f"{race}-{g}-young", n) / 3
+            for race in ("african", "asian", "caucasian")
+            for g in ("female", "male")
+        )
+    )
     vertices, body = _naive_obj()
     shaped = (vertices + offsets)[body]
     in_body_frame = 0.1 * np.column_stack([shaped[:, 0], -shaped[:, 2], shaped[:, 1]])  # y up -> z up, dm -> m
@@ -65,11 +70,13 @@ def test_the_default_shape_is_the_base_mesh_exactly():
 def cylinder_body(radius: float, height: float, armpit: float, sides: int = 64):
     """A closed vertical cylinder labelled torso, with the arm joints at ``armpit``."""
     angles = np.linspace(0, 2 * np.pi, sides, endpoint=False)
-    rings = [np.column_stack([radius * np.cos(angles), radius * np.sin(angles), np.full(sides, z)])
-             for z in (0.0, height)]  # fmt: skip
+    rings = [
+        np.column_stack([radius * np.cos(angles), radius * np.sin(angles), np.full(sides, z)]) for z in (0.0, height)
+    ]
     vertices = np.concatenate(rings)
-    faces = np.concatenate([[[k, (k + 1) % sides, sides + k], [(k + 1) % sides, sides + (k + 1) % sides, sides + k]]
-                            for k in range(sides)])  # fmt: skip
+    faces = np.concatenate(
+        [[[k, (k + 1) % sides, sides + k], [(k + 1) % sides, sides + (k + 1) % sides, sides + k]] for k in range(sides)]
+    )
     heads = np.zeros((len(JOINT_NAMES), 3))
     heads[JOINT_INDEX["LeftArm"], 2] = heads[JOINT_INDEX["RightArm"], 2] = armpit
     return vertices, faces, np.full(len(faces), PART_NAMES.index("torso")), heads
@@ -95,8 +102,9 @@ def test_a_held_body_a_little_off_a_standard_one_gets_that_standard_body():
     assert sum(name.startswith("male") for name in STANDARD_BODIES) == 10
     name = "female_h0.43_stout"
     held = STANDARD_BODIES[name]
-    subject = build_body(shape=MacroShape(gender=held.gender, muscle=held.muscle, weight=held.weight + 0.03,
-                                          height=held.height + 0.01))  # fmt: skip
+    subject = build_body(
+        shape=MacroShape(gender=held.gender, muscle=held.muscle, weight=held.weight + 0.03, height=held.height + 0.01)
+    )
     assert nearest_standard_body(subject, 4500) == name
     measured = [body_measurements(build_body(shape=STANDARD_BODIES[n])) for n in ("male_h0.33_slim", "male_h0.61_slim")]
     assert 1.55 < measured[0].stature_m < measured[1].stature_m < 1.95  # adult men, shorter to taller

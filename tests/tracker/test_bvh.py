@@ -27,30 +27,49 @@ def test_a_joints_rotation_at_a_frame_matches_an_independent_reader(clip):
     for frame in (1, 300, 814):
         theirs = node.Keyframes[frame].Rotation  # local rotation quaternion (w, x, y, z), float32
         mine = Rotation.from_matrix(clip.local_rotations([frame])[0, clip.index("RightForeArm")])
-        np.testing.assert_allclose(np.abs(mine.as_quat(scalar_first=True) @ [theirs.w, theirs.x, theirs.y, theirs.z]),
-                                   1.0, atol=1e-6)  # fmt: skip
+        np.testing.assert_allclose(
+            np.abs(mine.as_quat(scalar_first=True) @ [theirs.w, theirs.x, theirs.y, theirs.z]), 1.0, atol=1e-6
+        )
 
 
 def test_a_rotation_by_hand(clip):
     # Frame 300, RightForeArm: Z -139.2219, Y 48.5242, X -100.9798 degrees, composed Rz @ Ry @ Rx.
     z, y, x = np.radians(clip.motion[300, clip.columns[clip.index("RightForeArm")]])
     cz, sz, cy, sy, cx, sx = np.cos(z), np.sin(z), np.cos(y), np.sin(y), np.cos(x), np.sin(x)
-    by_hand = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]]) @ np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]]) \
+    by_hand = (
+        np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+        @ np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
         @ np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    )
     np.testing.assert_allclose(clip.local_rotations([300])[0, clip.index("RightForeArm")], by_hand, atol=1e-12)
 
 
-@pytest.mark.parametrize("text, message", [
-    ("", r"not a BVH file: no MOTION section"),
-    ("HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 Xposition Yposition Zposition\n}\nMOTION\nFrames: 2\n"
-     "Frame Time: 0.1\n0 0 0\n", r"header says 2 frames, the file holds 1 \(truncated\?\)"),
-    ("HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 Xposition Yposition Zposition\n}\nMOTION\nFrames: 1\n"
-     "Frame Time: 0.1\n0 0\n", r"every MOTION line must hold 3 values, found lines of \[2\]"),
-    ("HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 Xposition Yposition Wrong\n}\nMOTION\nFrames: 1\n"
-     "Frame Time: 0.1\n0 0 0\n", r"bad CHANNELS Xposition Yposition Wrong"),
-    ("HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 Xposition Yposition Zposition\nMOTION\nFrames: 1\n"
-     "Frame Time: 0.1\n0 0 0\n", r"HIERARCHY section is incomplete"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("", r"not a BVH file: no MOTION section"),
+        (
+            "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 Xposition Yposition Zposition\n}\nMOTION\nFrames: 2\n"
+            "Frame Time: 0.1\n0 0 0\n",
+            r"header says 2 frames, the file holds 1 \(truncated\?\)",
+        ),
+        (
+            "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 Xposition Yposition Zposition\n}\nMOTION\nFrames: 1\n"
+            "Frame Time: 0.1\n0 0\n",
+            r"every MOTION line must hold 3 values, found lines of \[2\]",
+        ),
+        (
+            "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 Xposition Yposition Wrong\n}\nMOTION\nFrames: 1\n"
+            "Frame Time: 0.1\n0 0 0\n",
+            r"bad CHANNELS Xposition Yposition Wrong",
+        ),
+        (
+            "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 Xposition Yposition Zposition\nMOTION\nFrames: 1\n"
+            "Frame Time: 0.1\n0 0 0\n",
+            r"HIERARCHY section is incomplete",
+        ),
+    ],
+)
 def test_a_malformed_file_gives_one_clear_error(tmp_path, text, message):
     path = tmp_path / "bad.bvh"
     path.write_text(text)
@@ -88,8 +107,12 @@ def test_the_body_points_its_limbs_where_the_clip_points_them(body, clip):
     frames = np.array([1 + 4 * k for k in range(0, 200, 40)])
     poses = clip_poses(clip, body, ClipSelection(fps=30.0, frames=200))[(frames - 1) // 4]
     positions = clip.joint_positions(frames)
-    for bone, child in (("RightArm", "RightForeArm"), ("LeftForeArm", "LeftHand"), ("RightUpLeg", "RightLeg"),
-                        ("LeftLeg", "LeftFoot")):  # fmt: skip
+    for bone, child in (
+        ("RightArm", "RightForeArm"),
+        ("LeftForeArm", "LeftHand"),
+        ("RightUpLeg", "RightLeg"),
+        ("LeftLeg", "LeftFoot"),
+    ):
         theirs = (positions[:, clip.index(child)] - positions[:, clip.index(bone)]) @ BVH_TO_BODY.T
         for pose, direction in zip(poses, theirs, strict=True):
             heads = body.joint_positions(pose)

@@ -6,8 +6,16 @@ from tracker.geometry.rigs import mono, orthogonal3
 
 
 def front_camera(**kw) -> Camera:
-    return look_at("front", np.array([0.0, -2.0, 0.0]), np.zeros(3), np.array([0.0, 0.0, 1.0]),
-                   width=320, height=240, focal_px=100.0, **kw)
+    return look_at(
+        "front",
+        np.array([0.0, -2.0, 0.0]),
+        np.zeros(3),
+        np.array([0.0, 0.0, 1.0]),
+        width=320,
+        height=240,
+        focal_px=100.0,
+        **kw,
+    )
 
 
 def test_projection_of_a_hand_derived_point():
@@ -49,8 +57,9 @@ def test_look_at_rejects_degenerate_input():
 
 
 def test_orthogonal3_views_look_along_the_paper_axes():
-    rig = orthogonal3(target=(1.0, 0.0, 0.0), front_distance=2, left_distance=1, top_distance=3, focal_px=300,
-                      width=320, height=240)
+    rig = orthogonal3(
+        target=(1.0, 0.0, 0.0), front_distance=2, left_distance=1, top_distance=3, focal_px=300, width=320, height=240
+    )
     directions = {camera.name: camera.rotation[:, 2] for camera in rig}
     np.testing.assert_allclose(directions["front"], [0, 1, 0], atol=1e-12)
     np.testing.assert_allclose(directions["left"], [1, 0, 0], atol=1e-12)
@@ -76,8 +85,15 @@ def _pyrender_pixel(gl, width, height, point):
 
 
 def test_opengl_conversion_agrees_with_pyrender_projection_and_the_wrong_one_does_not():
-    camera = look_at("c", np.array([0.3, -2.0, 0.4]), np.array([0.1, 0.2, -0.1]), np.array([0, 0, 1.0]),
-                     width=320, height=240, focal_px=280.0)
+    camera = look_at(
+        "c",
+        np.array([0.3, -2.0, 0.4]),
+        np.array([0.1, 0.2, -0.1]),
+        np.array([0, 0, 1.0]),
+        width=320,
+        height=240,
+        focal_px=280.0,
+    )
     point = np.array([0.25, 0.1, 0.05])
     expected, _ = camera.project(point[None])
     gl = opengl_camera(camera)

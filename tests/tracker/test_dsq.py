@@ -30,17 +30,36 @@ def naive_dsq_point(q, eta, omega):
     def spow(value, eps):
         return math.copysign(abs(value) ** eps, value) if value != 0 else 0.0
 
-    e = (a * a1 * spow(math.cos(eta), e1) * spow(math.cos(omega), e2),
-         a * a2 * spow(math.cos(eta), e1) * spow(math.sin(omega), e2),
-         a * a3 * spow(math.sin(eta), e1))  # fmt: skip
+    e = (
+        a * a1 * spow(math.cos(eta), e1) * spow(math.cos(omega), e2),
+        a * a2 * spow(math.cos(eta), e1) * spow(math.sin(omega), e2),
+        a * a3 * spow(math.sin(eta), e1),
+    )
     s1 = (t1 * e[2] / (a * a3) + 1) * e[0] + b1 * math.cos((e[2] + b2) / (a * a3) * math.pi * b3)
     s2 = (t2 * e[2] / (a * a3) + 1) * e[1]
     return np.array([s1, s2, e[2]])
 
 
 def test_parameter_vector_has_the_17_parameters_of_eq4():
-    assert PARAM_NAMES == ("a", "a1", "a2", "a3", "eps1", "eps2", "t1", "t2", "b1", "b2", "b3",
-                           "c1", "c2", "c3", "r1", "r2", "r3")  # fmt: skip
+    assert PARAM_NAMES == (
+        "a",
+        "a1",
+        "a2",
+        "a3",
+        "eps1",
+        "eps2",
+        "t1",
+        "t2",
+        "b1",
+        "b2",
+        "b3",
+        "c1",
+        "c2",
+        "c3",
+        "r1",
+        "r2",
+        "r3",
+    )
     assert set(PARAM_RANGES) == set(PARAM_NAMES)
     assert len(DSQShape().to_params()) == 17
 
@@ -56,14 +75,14 @@ def test_ellipsoid_satisfies_its_implicit_equation():
 def test_superquadric_satisfies_its_inside_outside_function(eps1, eps2):
     q = DSQShape(a=1.0, a1=0.5, a2=0.8, a3=0.7, eps1=eps1, eps2=eps2).to_params()
     x, y, z = superquadric_points(q, *random_coords()).T
-    f = ((np.abs(x / 0.5) ** (2 / eps2) + np.abs(y / 0.8) ** (2 / eps2)) ** (eps2 / eps1)
-         + np.abs(z / 0.7) ** (2 / eps1))  # fmt: skip
+    f = (np.abs(x / 0.5) ** (2 / eps2) + np.abs(y / 0.8) ** (2 / eps2)) ** (eps2 / eps1) + np.abs(z / 0.7) ** (2 / eps1)
     np.testing.assert_allclose(f, 1.0, atol=1e-9)
 
 
 def test_deformed_points_equal_the_naive_formula():
-    q = DSQShape(a=0.3, a1=0.4, a2=0.5, a3=0.9, eps1=0.7, eps2=1.3, t1=0.4, t2=-0.6, b1=0.05, b2=0.2,
-                 b3=0.7).to_params()  # fmt: skip
+    q = DSQShape(
+        a=0.3, a1=0.4, a2=0.5, a3=0.9, eps1=0.7, eps2=1.3, t1=0.4, t2=-0.6, b1=0.05, b2=0.2, b3=0.7
+    ).to_params()
     eta, omega = random_coords(200, seed=3)
     expected = np.array([naive_dsq_point(q, h, w) for h, w in zip(eta, omega, strict=True)])
     np.testing.assert_allclose(dsq_points(q, eta, omega), expected, atol=1e-12)
@@ -122,10 +141,13 @@ def test_sample_ids_are_stable_and_name_fixed_surface_coordinates():
     assert shift.max() <= 1e-4 + 1e-12
 
 
-@pytest.mark.parametrize("shape", [
-    DSQShape(a=0.3, a1=0.5, a2=0.7),
-    DSQShape(a=0.3, a1=0.4, a2=0.3, eps1=0.3, eps2=1.7, t1=-0.4, t2=0.2, b1=0.05, b3=0.5),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "shape",
+    [
+        DSQShape(a=0.3, a1=0.5, a2=0.7),
+        DSQShape(a=0.3, a1=0.4, a2=0.3, eps1=0.3, eps2=1.7, t1=-0.4, t2=0.2, b1=0.05, b3=0.5),
+    ],
+)
 def test_render_mesh_is_watertight_and_outward_once_welded(shape):
     topology = mesh_topology(24, 32)
     vertices = dsq_points(shape.to_params(), topology.eta, topology.omega)
@@ -151,11 +173,14 @@ def test_vertex_normals_of_a_sphere_point_outwards():
     np.testing.assert_allclose(np.einsum("ij,ij->i", normals, vertices), 1.0, atol=1e-2)
 
 
-@pytest.mark.parametrize("shape", [
-    DSQShape(a=0.3, a1=0.4, a2=0.5, a3=0.9, eps1=0.7, eps2=1.3, t1=0.4, t2=-0.6, b1=0.05, b2=0.2, b3=0.7),
-    DSQShape(a=0.22, a1=0.3, a2=0.3, eps1=0.5, t1=-0.2, t2=-0.2, b1=-0.03, b3=0.5),
-    DSQShape(a=0.1, a1=0.9, a2=0.2, a3=0.6, eps1=1.8, eps2=0.4, b1=0.01, b2=-0.5, b3=1.0),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "shape",
+    [
+        DSQShape(a=0.3, a1=0.4, a2=0.5, a3=0.9, eps1=0.7, eps2=1.3, t1=0.4, t2=-0.6, b1=0.05, b2=0.2, b3=0.7),
+        DSQShape(a=0.22, a1=0.3, a2=0.3, eps1=0.5, t1=-0.2, t2=-0.2, b1=-0.03, b3=0.5),
+        DSQShape(a=0.1, a1=0.9, a2=0.2, a3=0.6, eps1=1.8, eps2=0.4, b1=0.01, b2=-0.5, b3=1.0),
+    ],
+)
 def test_shape_jacobian_matches_central_differences(shape):
     q = shape.to_params()
     grid = sample_grid(12, 16)  # includes omega = -pi, -pi/2, 0, pi/2, where a sine or cosine is 0

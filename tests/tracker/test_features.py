@@ -13,8 +13,9 @@ def textured_image(seed=0, size=(240, 320)):
 
 def shifted(image, du, dv):
     matrix = np.float32([[1, 0, du], [0, 1, dv]])
-    return cv2.warpAffine(image, matrix, (image.shape[1], image.shape[0]), flags=cv2.INTER_LINEAR,
-                          borderMode=cv2.BORDER_REFLECT)
+    return cv2.warpAffine(
+        image, matrix, (image.shape[1], image.shape[0]), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT
+    )
 
 
 def test_tracks_follow_a_subpixel_shift():

@@ -27,8 +27,9 @@ def joint(body, pose, name):
 
 def test_a_still_posture_is_the_arms_pose(body):
     posture = Posture(right=(30.0, 10.0, 20.0), left=(-5.0, 8.0, 0.0), yaw_deg=-80.0)
-    np.testing.assert_allclose(standing_pose(body, posture), arms_pose(body, posture.right, posture.left, -80.0),
-                               atol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(
+        standing_pose(body, posture), arms_pose(body, posture.right, posture.left, -80.0), atol=1e-12
+    )
 
 
 @pytest.mark.parametrize(("field", "axis", "sign"), [("lean_deg", 1, -1), ("side_deg", 0, 1), ("nod_deg", 1, -1)])
@@ -37,8 +38,11 @@ def test_trunk_and_head_move_the_way_their_names_say(body, field, axis, sign):
     still = standing_pose(body, Posture())
     moved = standing_pose(body, Posture(**{field: 10.0}))
     head = "Head" if field == "nod_deg" else "Neck"
-    tip = (joint(body, moved, head) - joint(body, still, head)) if field != "nod_deg" else (
-        _head_top(body, moved) - _head_top(body, still))  # fmt: skip
+    tip = (
+        (joint(body, moved, head) - joint(body, still, head))
+        if field != "nod_deg"
+        else (_head_top(body, moved) - _head_top(body, still))
+    )
     assert sign * tip[axis] > 0.005
 
 

@@ -38,8 +38,14 @@ def iou(a, b):
 def sphere_mesh(center, radius, label=1, resolution=(40, 48)):
     topology = mesh_topology(*resolution)
     vertices = dsq_points(DSQShape(a=radius).to_params(), topology.eta, topology.omega) + center
-    return SurfaceMesh(key=f"sphere{label}", label=label, vertices=vertices, faces=topology.faces,
-                       normals=vertex_normals(vertices, topology.faces, topology.weld), color=(200, 100, 50))
+    return SurfaceMesh(
+        key=f"sphere{label}",
+        label=label,
+        vertices=vertices,
+        faces=topology.faces,
+        normals=vertex_normals(vertices, topology.faces, topology.weld),
+        color=(200, 100, 50),
+    )
 
 
 def test_label_image_agrees_with_the_projected_mesh(arm, motion, rig, renderer):
@@ -61,8 +67,9 @@ def test_label_image_agrees_with_the_projected_mesh(arm, motion, rig, renderer):
 
 
 def test_depth_is_the_camera_z_of_the_nearest_surface(renderer):
-    camera = look_at("c", np.array([0.2, -2.5, 0.3]), np.zeros(3), np.array([0, 0, 1.0]), width=320, height=240,
-                     focal_px=400.0)
+    camera = look_at(
+        "c", np.array([0.2, -2.5, 0.3]), np.zeros(3), np.array([0, 0, 1.0]), width=320, height=240, focal_px=400.0
+    )
     center, radius = np.array([0.1, 0.2, -0.1]), 0.3
     view = renderer.render([camera], [sphere_mesh(center, radius, resolution=(160, 192))])["c"]
     # Analytic depth: intersect each pixel's ray (through its centre) with the sphere.
@@ -110,13 +117,15 @@ def test_where_two_surfaces_lie_at_the_same_depth_the_last_mesh_listed_is_seen(r
     """Two coplanar squares, red and blue: the overlap shows the one listed last, in colour and label, whatever
     the nodes' addresses (pyrender draws mesh nodes in a set's order; it used to follow the addresses, so a hand on
     the face showed one part's texture or the other's from run to run)."""
-    camera = look_at("c", np.array([0.0, -2.0, 0.0]), np.zeros(3), np.array([0, 0, 1.0]), width=320, height=240,
-                     focal_px=400.0)
+    camera = look_at(
+        "c", np.array([0.0, -2.0, 0.0]), np.zeros(3), np.array([0, 0, 1.0]), width=320, height=240, focal_px=400.0
+    )
     quad = np.array([[-0.3, 0.0, -0.3], [0.3, 0.0, -0.3], [0.3, 0.0, 0.3], [-0.3, 0.0, 0.3]])
     faces = np.array([[0, 1, 2], [0, 2, 3]])  # counter-clockwise seen from the camera (-y)
-    red, blue = (SurfaceMesh(key=name, label=label, vertices=quad + shift, faces=faces, normals=None, color=color)
-                 for name, label, shift, color in (("red", 1, (-0.1, 0, 0), (255, 0, 0)),
-                                                   ("blue", 2, (0.1, 0, 0), (0, 0, 255))))  # fmt: skip
+    red, blue = (
+        SurfaceMesh(key=name, label=label, vertices=quad + shift, faces=faces, normals=None, color=color)
+        for name, label, shift, color in (("red", 1, (-0.1, 0, 0), (255, 0, 0)), ("blue", 2, (0.1, 0, 0), (0, 0, 255)))
+    )
     centre = (120, 160)  # the camera looks at the overlap's middle
     for _ in range(3):  # nodes made anew each time, at other addresses
         for meshes, seen in (([red, blue], 2), ([blue, red], 1)):
@@ -143,8 +152,7 @@ def test_rgb_has_texture_where_the_part_is(arm, motion, rig, renderer):
 
 
 def test_camera_size_must_match_the_renderer(renderer):
-    small = look_at("s", np.array([0, -2.0, 0]), np.zeros(3), np.array([0, 0, 1.0]), width=64, height=48,
-                    focal_px=50)
+    small = look_at("s", np.array([0, -2.0, 0]), np.zeros(3), np.array([0, 0, 1.0]), width=64, height=48, focal_px=50)
     with pytest.raises(ValueError, match="64x48"):
         renderer.render([small], [])
 

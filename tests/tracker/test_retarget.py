@@ -57,13 +57,18 @@ def test_the_cmu_table_maps_every_joint_to_itself():
 
 def test_an_unknown_skeleton_gives_one_line_naming_the_known_ones(tmp_path):
     path = tmp_path / "robot.bvh"
-    path.write_text("HIERARCHY\nROOT base\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation "
-                    "Xrotation Yrotation\n JOINT arm\n {\n  OFFSET 1 0 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n"
-                    "  End Site\n  {\n   OFFSET 1 0 0\n  }\n }\n}\nMOTION\nFrames: 2\nFrame Time: 0.1\n"
-                    "0 0 0 0 0 0 0 0 0\n0 0 0 0 0 0 0 0 0\n")  # fmt: skip
-    with pytest.raises(ValueError, match=r"^scene.path=.*robot.bvh: no retargeting table fits its skeleton "
-                                         r"\(2 joints rooted at 'base'\): the nearest, daz, needs joints abdomen, "
-                                         r".*; known skeletons: cmu, daz") as caught:
+    path.write_text(
+        "HIERARCHY\nROOT base\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation "
+        "Xrotation Yrotation\n JOINT arm\n {\n  OFFSET 1 0 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n"
+        "  End Site\n  {\n   OFFSET 1 0 0\n  }\n }\n}\nMOTION\nFrames: 2\nFrame Time: 0.1\n"
+        "0 0 0 0 0 0 0 0 0\n0 0 0 0 0 0 0 0 0\n"
+    )
+    with pytest.raises(
+        ValueError,
+        match=r"^scene.path=.*robot.bvh: no retargeting table fits its skeleton "
+        r"\(2 joints rooted at 'base'\): the nearest, daz, needs joints abdomen, "
+        r".*; known skeletons: cmu, daz",
+    ) as caught:
         read_body_clip(str(path), "scene.path")
     assert "\n" not in str(caught.value)
     with pytest.raises(BvhError, match="no retargeting table"):

@@ -64,8 +64,9 @@ def test_rotation_vector_matches_scipy_and_local_derivatives_match_differences()
     from tracker.geometry.rotations import local_rotation_derivatives, rotation_vector_to_matrix
 
     for vector in (np.array([0.3, -0.2, 0.9]), np.array([1e-14, 0.0, 0.0]), np.zeros(3)):
-        np.testing.assert_allclose(rotation_vector_to_matrix(vector), Rotation.from_rotvec(vector).as_matrix(),
-                                   atol=1e-12)
+        np.testing.assert_allclose(
+            rotation_vector_to_matrix(vector), Rotation.from_rotvec(vector).as_matrix(), atol=1e-12
+        )
     rotation = euler_to_matrix([0.2, np.pi / 2, -0.4])  # at the Euler angles' singularity: no matter here
     analytic = local_rotation_derivatives(rotation)
     for i in range(3):
@@ -75,15 +76,17 @@ def test_rotation_vector_matches_scipy_and_local_derivatives_match_differences()
         np.testing.assert_allclose(analytic[i], numeric, atol=1e-9)
 
 
-@pytest.mark.parametrize("vector", [[0.3, -0.2, 0.9], [1e-9, 2e-9, 0.0], [0.0, 0.0, 0.0], [0.0, np.pi - 1e-9, 0.0],
-                                    [2.0, -1.0, 0.5]])  # fmt: skip
+@pytest.mark.parametrize(
+    "vector", [[0.3, -0.2, 0.9], [1e-9, 2e-9, 0.0], [0.0, 0.0, 0.0], [0.0, np.pi - 1e-9, 0.0], [2.0, -1.0, 0.5]]
+)
 def test_rotation_vector_round_trip(vector):
     from tracker.geometry.rotations import matrix_to_rotation_vector, rotation_vector_to_matrix
 
     rotation = rotation_vector_to_matrix(np.array(vector))
     np.testing.assert_allclose(rotation_vector_to_matrix(matrix_to_rotation_vector(rotation)), rotation, atol=1e-7)
-    np.testing.assert_allclose(matrix_to_rotation_vector(rotation), Rotation.from_matrix(rotation).as_rotvec(),
-                               atol=1e-6)
+    np.testing.assert_allclose(
+        matrix_to_rotation_vector(rotation), Rotation.from_matrix(rotation).as_rotvec(), atol=1e-6
+    )
 
 
 def test_the_geodesic_angle_is_the_angle_between_two_orientations():
@@ -139,5 +142,4 @@ def test_the_right_jacobian_maps_a_small_step_of_the_vector_to_a_turn_in_the_rot
     rotation = rotation_vector_to_matrix(vector)
     for axis in np.eye(3):
         turned = rotation.T @ rotation_vector_to_matrix(vector + step * axis)  # Exp(J_r step e_k) to first order
-        np.testing.assert_allclose(matrix_to_rotation_vector(turned) / step, right_jacobian(vector) @ axis,
-                                   atol=1e-6)  # fmt: skip
+        np.testing.assert_allclose(matrix_to_rotation_vector(turned) / step, right_jacobian(vector) @ axis, atol=1e-6)

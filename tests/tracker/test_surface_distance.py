@@ -30,8 +30,7 @@ def test_a_square_gives_its_height_above_and_the_euclidean_distance_beside():
     vertices = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
     faces = np.array([[0, 1, 2], [0, 2, 3]])
     points = np.array([[0.3, 0.6, 0.25], [1.5, 0.5, 0.0], [2.0, 2.0, 1.0], [0.5, 0.5, 0.0]])
-    np.testing.assert_allclose(point_mesh_distance(points, vertices, faces), [0.25, 0.5, np.sqrt(3.0), 0.0],
-                               atol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(point_mesh_distance(points, vertices, faces), [0.25, 0.5, np.sqrt(3.0), 0.0], atol=1e-12)
 
 
 def test_points_around_a_fine_sphere_are_their_height_above_it_and_the_shortcut_is_exact():
@@ -43,9 +42,14 @@ def test_points_around_a_fine_sphere_are_their_height_above_it_and_the_shortcut_
     points = directions * (1.0 + heights)[:, None]
     distance = point_mesh_distance(points, sphere.vertices, sphere.faces)
     np.testing.assert_allclose(distance, np.abs(heights), atol=3e-3)  # the facets sit inside the sphere by < 3 mm
-    every = np.array([point_triangle_distance(np.repeat(p[None], len(sphere.faces), 0),
-                                              *(sphere.vertices[sphere.faces[:, j]] for j in range(3))).min()
-                      for p in points[:40]])  # fmt: skip
+    every = np.array(
+        [
+            point_triangle_distance(
+                np.repeat(p[None], len(sphere.faces), 0), *(sphere.vertices[sphere.faces[:, j]] for j in range(3))
+            ).min()
+            for p in points[:40]
+        ]
+    )
     np.testing.assert_array_equal(distance[:40], every)
 
 

@@ -42,9 +42,16 @@ class AnchorSettings:
     min_score: Score = 0.8  # normalised cross-correlation at the best offset
 
 
-def texture_offsets(observed_gray: np.ndarray, points: np.ndarray, eta: np.ndarray, omega: np.ndarray,
-                    jacobian: np.ndarray, texture_gray: np.ndarray, settings: AnchorSettings,
-                    search: bool | np.ndarray = True) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def texture_offsets(
+    observed_gray: np.ndarray,
+    points: np.ndarray,
+    eta: np.ndarray,
+    omega: np.ndarray,
+    jacobian: np.ndarray,
+    texture_gray: np.ndarray,
+    settings: AnchorSettings,
+    search: bool | np.ndarray = True,
+) -> tuple[np.ndarray, np.ndarray]:
     """For features at ``points`` ``(n, 2)`` over the surface coordinates ``eta``, ``omega`` ``(n,)`` of the
     estimate, whose pixels move by ``jacobian`` ``(n, 2, 2)`` (d(u, v) / d(eta, omega)): the offsets ``(n, 2)`` in
     (eta, omega) to the material point the observed patch shows, and which matches were trusted ``(n,)``.
@@ -60,14 +67,16 @@ def texture_offsets(observed_gray: np.ndarray, points: np.ndarray, eta: np.ndarr
         return offsets, trusted
     to_surface = np.linalg.inv(jacobian[chosen])  # pixels -> (eta, omega)
     synthesise = _Synthesiser(texture_gray, eta[chosen], omega[chosen], to_surface)
-    patches = np.stack([cv2.getRectSubPix(observed_gray, (2 * h + 1, 2 * h + 1), (float(x), float(y)))
-                        for x, y in points[chosen]]).astype(np.float64)  # fmt: skip
+    patches = np.stack(
+        [cv2.getRectSubPix(observed_gray, (2 * h + 1, 2 * h + 1), (float(x), float(y))) for x, y in points[chosen]]
+    ).astype(np.float64)
     shift = np.zeros((len(chosen), 2))
     searched = np.flatnonzero(np.broadcast_to(search, (n,))[chosen])
     if len(searched):  # whole pixels: the best normalised cross-correlation over the search window
         around = _Synthesiser(texture_gray, eta[chosen[searched]], omega[chosen[searched]], to_surface[searched])
-        windows = np.lib.stride_tricks.sliding_window_view(around(shift[searched], h + r), (2 * h + 1, 2 * h + 1),
-                                                           axis=(1, 2))  # (k, 2r + 1, 2r + 1, 2h + 1, 2h + 1)
+        windows = np.lib.stride_tricks.sliding_window_view(
+            around(shift[searched], h + r), (2 * h + 1, 2 * h + 1), axis=(1, 2)
+        )  # (k, 2r + 1, 2r + 1, 2h + 1, 2h + 1)
         scores = _correlation(windows, patches[searched, None, None]).reshape(len(searched), -1)
         row, column = np.divmod(np.argmax(scores, axis=1), 2 * r + 1)
         shift[searched] = np.column_stack([column - r, row - r])
@@ -99,8 +108,9 @@ class _Synthesiser:
         surface = to_surface @ pixels
         height, width = self.texture.shape
         rows = (math.pi / 2 - np.tile(self.eta, repeat)[:, None] - surface[:, 0]) / math.pi * height - 0.5
-        columns = ((np.tile(self.omega, repeat)[:, None] + surface[:, 1] + math.pi) / (2 * math.pi) * width
-                   - 0.5) % width  # fmt: skip
+        columns = (
+            (np.tile(self.omega, repeat)[:, None] + surface[:, 1] + math.pi) / (2 * math.pi) * width - 0.5
+        ) % width
         values = map_coordinates(self.texture, [rows.ravel(), columns.ravel()], order=1, mode="nearest")
         return values.reshape(len(shift), 2 * half + 1, 2 * half + 1)
 
@@ -113,21 +123,24 @@ def _correlation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.sum(a * b, axis=(-2, -1)) / np.sqrt(np.maximum(energy, 1e-12))
 
 
-def _gauss_newton_step(synthesise: _Synthesiser, shift: np.ndarray, patches: np.ndarray,
-                       h: int) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def _gauss_newton_step(
+    synthesise: _Synthesiser, shift: np.ndarray, patches: np.ndarray, h: int
+) -> tuple[np.ndarray, np.ndarray]:
     """One step of the shift (m, 2) that best maps the synthesised patches, up to gain and offset, onto ``patches``,
     and their normalised cross-correlation at ``shift`` (m,); image derivatives by central differences of half a
     pixel, all five patches in one sampling."""
     m = len(shift)
     steps = ([0.0, 0.0], [0.5, 0.0], [-0.5, 0.0], [0.0, 0.5], [0.0, -0.5])
-    value, u_plus, u_minus, v_plus, v_minus = synthesise(np.concatenate([shift + step for step in steps]),
-                                                         h).reshape(5, m, -1)  # fmt: skip
+    value, u_plus, u_minus, v_plus, v_minus = synthesise(np.concatenate([shift + step for step in steps]), h).reshape(
+        5, m, -1
+    )
     observed = patches.reshape(m, -1)
     centred = value - value.mean(1, keepdims=True)
     gain = np.sum(centred * (observed - observed.mean(1, keepdims=True)), 1) / np.maximum(np.sum(centred**2, 1), 1e-9)
     offset = observed.mean(1) - gain * value.mean(1)
-    rows = np.stack([gain[:, None] * (u_plus - u_minus), gain[:, None] * (v_plus - v_minus), value,
-                     np.ones_like(value)], axis=2)  # (m, k, 4): d/d shift_u, d/d shift_v, d/d gain, d/d offset
+    rows = np.stack(
+        [gain[:, None] * (u_plus - u_minus), gain[:, None] * (v_plus - v_minus), value, np.ones_like(value)], axis=2
+    )  # (m, k, 4): d/d shift_u, d/d shift_v, d/d gain, d/d offset
     residual = gain[:, None] * value + offset[:, None] - observed
     normal = np.einsum("mki,mkj->mij", rows, rows) + 1e-6 * np.eye(4)
     step = -np.linalg.solve(normal, np.einsum("mki,mk->mi", rows, residual)[..., None])[..., 0]

@@ -78,11 +78,13 @@ class MeshViewPairs:
 class BodyPartProblem(PixelProblem):
     """A body part's pairs (and prior) as functions of its joints' entries of the pose vector."""
 
-    def __init__(self, body: BodyMesh, views: Sequence[MeshViewPairs], joints: np.ndarray, root: bool,
-                 prior: Prior | None = None) -> None:  # fmt: skip
+    def __init__(
+        self, body: BodyMesh, views: Sequence[MeshViewPairs], joints: np.ndarray, root: bool, prior: Prior | None = None
+    ) -> None:
         views = [view for view in views if len(view.corners)]
-        super().__init__([view.camera for view in views], [view.observed for view in views],
-                         free_columns(joints, root), prior)  # fmt: skip
+        super().__init__(
+            [view.camera for view in views], [view.observed for view in views], free_columns(joints, root), prior
+        )
         self.body, self.joints = body, joints
         corners = np.concatenate([view.corners for view in views]) if views else np.empty((0, 3), int)
         self._barycentric = np.concatenate([view.barycentric for view in views]) if views else np.empty((0, 3))

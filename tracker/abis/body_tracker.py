@@ -76,10 +76,22 @@ def initial_body_estimate(truth: np.ndarray, noise: InitialNoise, rng: np.random
 class BodyAbis(AbisSequence):
     """One sequence of AbIS on a body: its parts' vertices as samples, pairs on its faces, its joints fitted."""
 
-    def __init__(self, settings: AbisSettings, body: BodyMesh, cameras: Sequence[Camera], truth: np.ndarray,
-                 rng: np.random.Generator, renderer: SceneRenderer) -> None:  # fmt: skip
-        super().__init__(settings, body.part_names, cameras, initial_body_estimate(truth, settings.initial_noise,
-                                                                                   rng), MeshPairs.empty())  # fmt: skip
+    def __init__(
+        self,
+        settings: AbisSettings,
+        body: BodyMesh,
+        cameras: Sequence[Camera],
+        truth: np.ndarray,
+        rng: np.random.Generator,
+        renderer: SceneRenderer,
+    ) -> None:
+        super().__init__(
+            settings,
+            body.part_names,
+            cameras,
+            initial_body_estimate(truth, settings.initial_noise, rng),
+            MeshPairs.empty(),
+        )
         self.body, self._renderer = body, renderer
         self._part_vertices = [used for used, _ in body.part_topology]
         self._sample_vertex = np.concatenate(self._part_vertices)  # parts' samples one after another
@@ -109,8 +121,9 @@ class BodyAbis(AbisSequence):
 
     def _by_vertex(self, visible: VisibleSamples) -> VisibleSamples:
         """``visible`` with each sample named by its vertex index (a part's samples are its vertices, in order)."""
-        return VisibleSamples(visible.part, self._sample_vertex[self._sample_offsets[visible.part] + visible.sample],
-                              visible.uv)
+        return VisibleSamples(
+            visible.part, self._sample_vertex[self._sample_offsets[visible.part] + visible.sample], visible.uv
+        )
 
     def _fit(self, features: Mapping[str, FeatureFrame]) -> tuple[np.ndarray, np.ndarray, np.ndarray, str | None]:
         """Fit every part top-down against the current pairs; a failure leaves the previous estimate."""
@@ -123,8 +136,14 @@ class BodyAbis(AbisSequence):
             for camera in self.cameras:
                 pairs = self._pairs[camera.name]
                 mine = np.isin(pairs.parts, self._carried[part])
-                views.append(MeshViewPairs(camera, pairs.corners(self.body.faces)[mine], pairs.barycentric[mine],
-                                           feature_rows(features[camera.name], pairs.feature_ids[mine])))  # fmt: skip
+                views.append(
+                    MeshViewPairs(
+                        camera,
+                        pairs.corners(self.body.faces)[mine],
+                        pairs.barycentric[mine],
+                        feature_rows(features[camera.name], pairs.feature_ids[mine]),
+                    )
+                )
             problem = BodyPartProblem(self.body, views, self._joints[part], self._parents[part] is None, prior)
             fitted = fit_part(estimate, problem, self.settings.fit)
             if not np.isfinite(fitted.params).all():
@@ -133,8 +152,16 @@ class BodyAbis(AbisSequence):
             cost[part], iterations[part] = fitted.cost, fitted.iterations
         return estimate, cost, iterations, None
 
-    def _upkeep(self, camera: Camera, features: FeatureFrame, zbuffer: DepthLabels | None, visible: VisibleSamples,
-                motion: np.ndarray | None, vertices: np.ndarray, counts: np.ndarray) -> np.ndarray:  # fmt: skip
+    def _upkeep(
+        self,
+        camera: Camera,
+        features: FeatureFrame,
+        zbuffer: DepthLabels | None,
+        visible: VisibleSamples,
+        motion: np.ndarray | None,
+        vertices: np.ndarray,
+        counts: np.ndarray,
+    ) -> np.ndarray:
         """``vertices``: the estimate's posed vertices (``motion``: each one's image motion)."""
         n_parts = len(self.body.part_names)
         pairs = self._pairs[camera.name]
@@ -143,12 +170,19 @@ class BodyAbis(AbisSequence):
         by_zbuffer = self.settings.selection == "zbuffer"
         for part in np.unique(pairs.parts):
             mine = pairs.parts == part
-            seen[mine], uv[mine] = visible_mask(camera, zbuffer, part, points[mine]) if by_zbuffer else in_image(
-                camera, points[mine])  # fmt: skip
+            seen[mine], uv[mine] = (
+                visible_mask(camera, zbuffer, part, points[mine]) if by_zbuffer else in_image(camera, points[mine])
+            )
         if by_zbuffer:  # the model image also predicts the pairs another part's edge is about to cover
-            seen[seen] = ~reached_by_other_parts(uv[seen], pairs.parts[seen], motion[pairs.samples[seen]], visible,
-                                                 motion[visible.sample], self.settings.occlusion_margin_px,
-                                                 self.settings.features.window_px)  # fmt: skip
+            seen[seen] = ~reached_by_other_parts(
+                uv[seen],
+                pairs.parts[seen],
+                motion[pairs.samples[seen]],
+                visible,
+                motion[visible.sample],
+                self.settings.occlusion_margin_px,
+                self.settings.features.window_px,
+            )
         pairs, discarded = discard(pairs, seen, uv, features, self.settings.max_residual_px, counts)
         unpaired = ~np.isin(features.ids, pairs.feature_ids) & ~np.isin(features.ids, discarded)
         if by_zbuffer:  # the part whose region (away from silhouettes and occlusion edges) holds the feature
@@ -157,11 +191,13 @@ class BodyAbis(AbisSequence):
             pixel = np.rint(features.points).astype(int)
             part_of = interior[pixel[:, 1], pixel[:, 0]].astype(int) - 1
         else:  # bottom-up: the part of the nearest sample facing the camera, hidden or not
-            part_of = visible.part[cKDTree(visible.uv).query(features.points)[1]] if len(visible) else np.full(
-                len(features.ids), -1)  # fmt: skip
+            part_of = (
+                visible.part[cKDTree(visible.uv).query(features.points)[1]]
+                if len(visible)
+                else np.full(len(features.ids), -1)
+            )
         offered = np.flatnonzero(unpaired & (part_of >= 0))
-        new = self._under_features(camera, vertices, features.ids[offered], features.points[offered],
-                                   part_of[offered])  # fmt: skip
+        new = self._under_features(camera, vertices, features.ids[offered], features.points[offered], part_of[offered])
         keys = sample_keys(new.parts, new.samples)  # a sample pairs once per view: the first feature takes it
         _, first = np.unique(keys, return_index=True)
         fresh = np.zeros(len(new), bool)
@@ -171,8 +207,9 @@ class BodyAbis(AbisSequence):
         self._pairs[camera.name] = pairs.extend(new)
         return discarded
 
-    def _under_features(self, camera: Camera, vertices: np.ndarray, feature_ids: np.ndarray, points: np.ndarray,
-                        parts: np.ndarray) -> MeshPairs:  # fmt: skip
+    def _under_features(
+        self, camera: Camera, vertices: np.ndarray, feature_ids: np.ndarray, points: np.ndarray, parts: np.ndarray
+    ) -> MeshPairs:
         """New pairs of features at ``points`` on ``parts``: each at the point of its part's surface under the
         feature, its sample the hit face's corner nearest that point (a ray that misses the part makes no pair)."""
         faces, barycentric = np.full(len(points), -1), np.zeros((len(points), 3))

@@ -41,8 +41,12 @@ class PairTable:
         return type(self)(**{spec.name: getattr(self, spec.name)[keep] for spec in fields(self)})
 
     def extend(self, other: Self) -> Self:
-        return type(self)(**{spec.name: np.concatenate([getattr(self, spec.name), getattr(other, spec.name)])
-                             for spec in fields(self)})  # fmt: skip
+        return type(self)(
+            **{
+                spec.name: np.concatenate([getattr(self, spec.name), getattr(other, spec.name)])
+                for spec in fields(self)
+            }
+        )
 
     def count_by_part(self, n_parts: int) -> np.ndarray:
         return np.bincount(self.parts, minlength=n_parts)
@@ -91,8 +95,13 @@ def pair_features(
     _, first = np.unique(chosen, return_index=True)
     winners = np.sort(first)
     samples = visible.sample[chosen[winners]]
-    return Pairs(feature_ids[features[winners]], visible.part[chosen[winners]], samples, grid_eta[samples].copy(),
-                 grid_omega[samples].copy())
+    return Pairs(
+        feature_ids[features[winners]],
+        visible.part[chosen[winners]],
+        samples,
+        grid_eta[samples].copy(),
+        grid_omega[samples].copy(),
+    )
 
 
 def refine_surface_coordinates(
@@ -124,8 +133,9 @@ def refine_surface_coordinates(
     return eta, omega, np.linalg.norm(pixels(eta, omega) - targets, axis=1)
 
 
-def pixel_jacobian(surface: Callable[[np.ndarray, np.ndarray], np.ndarray], camera: Camera, eta: np.ndarray,
-                   omega: np.ndarray) -> np.ndarray:  # fmt: skip
+def pixel_jacobian(
+    surface: Callable[[np.ndarray, np.ndarray], np.ndarray], camera: Camera, eta: np.ndarray, omega: np.ndarray
+) -> np.ndarray:
     """``(k, 2, 2)``: how the pixels of ``surface(eta, omega)`` move with (eta, omega), by central differences;
     rows (u, v), columns (d/d eta, d/d omega)."""
     step = DIFFERENCE_STEP_RAD

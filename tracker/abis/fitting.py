@@ -106,8 +106,9 @@ class PixelProblem:
     points follow the parameters (`points`) and, where they are not plain numbers, how the parameters move and
     differ (`start`, `moved`, `pressed`, `prior_difference`)."""
 
-    def __init__(self, cameras: Sequence[Camera], observed: Sequence[np.ndarray], free: np.ndarray,
-                 prior: Prior | None) -> None:  # fmt: skip
+    def __init__(
+        self, cameras: Sequence[Camera], observed: Sequence[np.ndarray], free: np.ndarray, prior: Prior | None
+    ) -> None:
         self._cameras, self._observed = list(cameras), list(observed)
         bounds = np.cumsum([0] + [len(pixels) for pixels in self._observed])
         self._rows = [slice(start, end) for start, end in zip(bounds[:-1], bounds[1:], strict=True)]
@@ -190,15 +191,26 @@ class PartProblem(PixelProblem):
         prior: Prior | None = None,
     ) -> None:
         self.views = [view for view in views if len(view.eta)]
-        super().__init__([view.camera for view in self.views], [view.observed for view in self.views],
-                         free_parameter_indices(parent_world is None), prior)  # fmt: skip
+        super().__init__(
+            [view.camera for view in self.views],
+            [view.observed for view in self.views],
+            free_parameter_indices(parent_world is None),
+            prior,
+        )
         self._eta = np.concatenate([view.eta for view in self.views]) if self.views else np.empty(0)
         self._omega = np.concatenate([view.omega for view in self.views]) if self.views else np.empty(0)
         self.parent_world, self.joint_in_parent = parent_world, joint_in_parent
 
     def points(self, q: np.ndarray, with_jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
-        return part_world_points(q, self._eta, self._omega, self.parent_world, self.joint_in_parent,
-                                 local_rotation=True, with_jacobian=with_jacobian)  # fmt: skip
+        return part_world_points(
+            q,
+            self._eta,
+            self._omega,
+            self.parent_world,
+            self.joint_in_parent,
+            local_rotation=True,
+            with_jacobian=with_jacobian,
+        )
 
     def start(self, q: np.ndarray) -> np.ndarray:
         """``q`` (a copy) in the gauge ``max(a1, a2, a3) = 1``."""

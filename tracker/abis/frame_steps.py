@@ -57,11 +57,19 @@ class AbisResult(StepResult):
             columns[count] = sum(per_view.values())
             columns.update({f"{count}_{view}": values for view, values in per_view.items()})
         columns.update(pairs=sum(pairs.values()), cost=fields["cost"], iterations=fields["iterations"])
-        series = {f"correspondences/{part}/{count}": float(columns[count][k])
-                  for k, part in enumerate(part_names) for count in COUNT_NAMES}  # fmt: skip
+        series = {
+            f"correspondences/{part}/{count}": float(columns[count][k])
+            for k, part in enumerate(part_names)
+            for count in COUNT_NAMES
+        }
         series.update({f"cost/{part}": float(fields["cost"][k]) for k, part in enumerate(part_names)})
-        points = {view: {"features": Points(seen.features.points, seen.feature_states, FEATURE_STATES),
-                         "estimate": Points(seen.visible.uv)} for view, seen in views.items()}  # fmt: skip
+        points = {
+            view: {
+                "features": Points(seen.features.points, seen.feature_states, FEATURE_STATES),
+                "estimate": Points(seen.visible.uv),
+            }
+            for view, seen in views.items()
+        }
         return cls(part_columns=columns, series=series, points=points, **fields)
 
 
@@ -81,8 +89,9 @@ def feature_rows(features: FeatureFrame, ids: np.ndarray) -> np.ndarray:
     return features.points[order[np.searchsorted(features.ids[order], ids)]]
 
 
-def carry_over(pairs: Mapping[str, Any], features: Mapping[str, FeatureFrame], counts: Mapping[str, np.ndarray],
-               n_parts: int) -> dict[str, Any]:  # fmt: skip
+def carry_over(
+    pairs: Mapping[str, Any], features: Mapping[str, FeatureFrame], counts: Mapping[str, np.ndarray], n_parts: int
+) -> dict[str, Any]:
     """Step 1: each view's pairs (``pairs``: view -> its pair table) whose feature was tracked into this frame;
     the tracked and lost ones counted per part into ``counts`` (view -> ``(n_parts, 5)``)."""
     kept = {}
@@ -94,8 +103,14 @@ def carry_over(pairs: Mapping[str, Any], features: Mapping[str, FeatureFrame], c
     return kept
 
 
-def discard(pairs: PairTable, seen: np.ndarray, uv: np.ndarray, features: FeatureFrame, max_residual_px: float,
-            counts: np.ndarray) -> tuple[PairTable, np.ndarray]:  # fmt: skip
+def discard(
+    pairs: PairTable,
+    seen: np.ndarray,
+    uv: np.ndarray,
+    features: FeatureFrame,
+    max_residual_px: float,
+    counts: np.ndarray,
+) -> tuple[PairTable, np.ndarray]:
     """Step 4's discards in one view: the pairs not ``seen`` (hidden, or about to be: occlusion), then those seen
     whose point projects (``uv``) farther than ``max_residual_px`` from its feature (false matches), each counted
     per part into ``counts``; the pairs kept, and the discarded ones' feature ids."""
@@ -139,8 +154,14 @@ class AbisSequence:
     frame's counts and result. A model's sequence says how it fits (`_fit`), sees (`_visibility`) and keeps its
     pairs (`_upkeep`); it is built at `AbisTracker.start` with frame 0's estimate and its empty pair table."""
 
-    def __init__(self, settings: AbisSettings, part_names: Sequence[str], cameras: Sequence[Camera],
-                 estimate: np.ndarray, no_pairs: PairTable) -> None:  # fmt: skip
+    def __init__(
+        self,
+        settings: AbisSettings,
+        part_names: Sequence[str],
+        cameras: Sequence[Camera],
+        estimate: np.ndarray,
+        no_pairs: PairTable,
+    ) -> None:
         self.settings, self.part_names, self.cameras = settings, tuple(part_names), list(cameras)
         self._estimate = estimate
         self._trackers = {  # feature ids are unique across views
@@ -177,17 +198,25 @@ class AbisSequence:
         for camera in self.cameras:
             name = camera.name
             motion = self._motion.step(camera, points) if self.settings.selection == "zbuffer" else None
-            discarded = self._upkeep(camera, features[name], zbuffers[name], visible[name], motion, posed,
-                                     counts[name])  # fmt: skip
+            discarded = self._upkeep(camera, features[name], zbuffers[name], visible[name], motion, posed, counts[name])
             states = feature_states(self._pairs[name].feature_ids, features[name], discarded)
             views[name] = ViewResult(features[name], states, visible[name])
         timings["pairing"] = elapsed_ms(start)
         if failure is None and all(len(pairs) == 0 for pairs in self._pairs.values()):
             failure = "all pairs lost"
         self._frame += 1
-        return AbisResult.of(self.part_names, frame=frame.frame, estimate=self._estimate.copy(), counts=counts,
-                             pairs={name: self._pairs[name].count_by_part(n_parts) for name in names}, cost=cost,
-                             iterations=iterations, views=views, timings_ms=timings, failure=failure)  # fmt: skip
+        return AbisResult.of(
+            self.part_names,
+            frame=frame.frame,
+            estimate=self._estimate.copy(),
+            counts=counts,
+            pairs={name: self._pairs[name].count_by_part(n_parts) for name in names},
+            cost=cost,
+            iterations=iterations,
+            views=views,
+            timings_ms=timings,
+            failure=failure,
+        )
 
     def _fit(self, features: Mapping[str, FeatureFrame]) -> tuple[np.ndarray, np.ndarray, np.ndarray, str | None]:
         """Step 2: every part fitted top-down against the current pairs: the estimate, per part eq 8's cost and
@@ -200,8 +229,16 @@ class AbisSequence:
         that upkeep reads pairs' points from (the arm's part transforms, the body's vertices)."""
         raise NotImplementedError
 
-    def _upkeep(self, camera: Camera, features: FeatureFrame, zbuffer: DepthLabels | None, visible: VisibleSamples,
-                motion: np.ndarray | None, posed: Any, counts: np.ndarray) -> np.ndarray:  # fmt: skip
+    def _upkeep(
+        self,
+        camera: Camera,
+        features: FeatureFrame,
+        zbuffer: DepthLabels | None,
+        visible: VisibleSamples,
+        motion: np.ndarray | None,
+        posed: Any,
+        counts: np.ndarray,
+    ) -> np.ndarray:
         """Step 4 in one view: discard hidden and false pairs, pair the unpaired features (counted into ``counts``,
         ``(parts, 5)``); returns the discarded features' ids. ``motion``: every sample's image motion over the last
         frame (None under ``selection=none``)."""

@@ -38,8 +38,9 @@ class MeshPairs(PairTable):
         return np.einsum("kc,kcd->kd", self.barycentric, vertices[self.corners(mesh_faces)])
 
 
-def ray_hits(camera: Camera, pixels: np.ndarray, vertices: np.ndarray,
-             faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def ray_hits(
+    camera: Camera, pixels: np.ndarray, vertices: np.ndarray, faces: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Where the viewing rays of ``pixels`` ``(n, 2)`` first meet the triangles ``faces`` ``(m, 3)`` (indices into
     ``vertices`` ``(V, 3)``; both sides count): per pixel the row of the face hit (-1 for none) and the hit's
     barycentric coordinates ``(n, 3)`` (Moller-Trumbore, every ray against every face)."""
@@ -47,8 +48,10 @@ def ray_hits(camera: Camera, pixels: np.ndarray, vertices: np.ndarray,
     hit_face, barycentric = np.full(n, -1), np.zeros((n, 3))
     if n == 0 or len(faces) == 0:
         return hit_face, barycentric
-    directions = np.column_stack([(pixels[:, 0] - camera.cx) / camera.fx, (pixels[:, 1] - camera.cy) / camera.fy,
-                                  np.ones(n)]) @ camera.rotation.T  # fmt: skip
+    directions = (
+        np.column_stack([(pixels[:, 0] - camera.cx) / camera.fx, (pixels[:, 1] - camera.cy) / camera.fy, np.ones(n)])
+        @ camera.rotation.T
+    )
     a, b, c = (vertices[faces[:, k]] for k in range(3))
     edge1, edge2 = b - a, c - a  # (m, 3)
     p = np.cross(directions[:, None, :], edge2[None])  # (n, m, 3)

@@ -42,9 +42,14 @@ class PriorSigmas:
     rotation_rad: Positive = 0.1  # r
 
     def vector(self) -> np.ndarray:
-        groups = {"scale": ("a", "a1", "a2", "a3"), "roundness": ("eps1", "eps2"), "tapering": ("t1", "t2"),
-                  "bending": ("b1", "b2", "b3"), "translation_m": ("c1", "c2", "c3"),
-                  "rotation_rad": ("r1", "r2", "r3")}  # fmt: skip
+        groups = {
+            "scale": ("a", "a1", "a2", "a3"),
+            "roundness": ("eps1", "eps2"),
+            "tapering": ("t1", "t2"),
+            "bending": ("b1", "b2", "b3"),
+            "translation_m": ("c1", "c2", "c3"),
+            "rotation_rad": ("r1", "r2", "r3"),
+        }
         sigmas = np.full(len(PARAM_INDEX), np.inf)
         for group, names in groups.items():
             sigmas[[PARAM_INDEX[name] for name in names]] = getattr(self, group)
@@ -80,5 +85,3 @@ class AbisSettings:
     # features' drift; 0: never
     reanchor_every: Annotated[int, Range(0, 100)] = 3
     initial_noise: InitialNoise = field(default_factory=InitialNoise)
-
-

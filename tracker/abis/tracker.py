@@ -85,8 +85,9 @@ class AbisTracker(Tracker):
         self._renderer: SceneRenderer | None = None
         self._sequence: AbisSequence | None = None
 
-    def start(self, model: DSQArm | BodyMesh, cameras: Sequence[Camera], truth: np.ndarray,
-              rng: np.random.Generator) -> None:  # fmt: skip
+    def start(
+        self, model: DSQArm | BodyMesh, cameras: Sequence[Camera], truth: np.ndarray, rng: np.random.Generator
+    ) -> None:
         """Begin a sequence: frame 0's estimate is ``truth`` with the configured `InitialNoise` drawn from ``rng``
         (the paper's user-assisted alignment); after that the tracker sees images only. The arm is tracked by
         `ArmAbis`, a body by `tracker.abis.body_tracker.BodyAbis`."""
@@ -107,10 +108,22 @@ class AbisTracker(Tracker):
 class ArmAbis(AbisSequence):
     """One sequence of AbIS on the arm of deformable superquadrics (paper 1)."""
 
-    def __init__(self, settings: AbisSettings, model: DSQArm, cameras: Sequence[Camera], truth: np.ndarray,
-                 rng: np.random.Generator, renderer: SceneRenderer) -> None:  # fmt: skip
-        super().__init__(settings, model.part_names, cameras, initial_estimate(model, truth, settings.initial_noise,
-                                                                               rng), Pairs.empty())  # fmt: skip
+    def __init__(
+        self,
+        settings: AbisSettings,
+        model: DSQArm,
+        cameras: Sequence[Camera],
+        truth: np.ndarray,
+        rng: np.random.Generator,
+        renderer: SceneRenderer,
+    ) -> None:
+        super().__init__(
+            settings,
+            model.part_names,
+            cameras,
+            initial_estimate(model, truth, settings.initial_noise, rng),
+            Pairs.empty(),
+        )
         self.model, self._renderer = model, renderer
         self._textures = [cv2.cvtColor(texture, cv2.COLOR_RGB2GRAY).astype(np.float32) for texture in model.textures]
         self._sample_offsets = np.arange(len(model.parts)) * len(model.sample_grid.eta)  # part -> its first row
@@ -155,10 +168,12 @@ class ArmAbis(AbisSequence):
                 views.append(ViewPairs(camera, pairs.eta[mine], pairs.omega[mine], observed))
             world = self.model.world_transforms(estimate)
             prior = None if sigmas is None else Prior(reference=self._estimate[part], sigmas=sigmas)
-            problem = PartProblem(views,
-                                  None if parent is None else world[parent],
-                                  None if parent is None else pole_point(estimate[parent], top=True),
-                                  prior)  # fmt: skip
+            problem = PartProblem(
+                views,
+                None if parent is None else world[parent],
+                None if parent is None else pole_point(estimate[parent], top=True),
+                prior,
+            )
             fitted = fit_part(estimate[part], problem, self.settings.fit)
             if not np.isfinite(fitted.params).all():
                 return self._estimate, cost, iterations, f"non-finite parameters fitting part {part + 1}"
@@ -167,8 +182,16 @@ class ArmAbis(AbisSequence):
             cost[part], iterations[part] = fitted.cost, fitted.iterations
         return estimate, cost, iterations, None
 
-    def _upkeep(self, camera: Camera, features: FeatureFrame, zbuffer: DepthLabels | None, visible: VisibleSamples,
-                motion: np.ndarray | None, world: np.ndarray, counts: np.ndarray) -> np.ndarray:  # fmt: skip
+    def _upkeep(
+        self,
+        camera: Camera,
+        features: FeatureFrame,
+        zbuffer: DepthLabels | None,
+        visible: VisibleSamples,
+        motion: np.ndarray | None,
+        world: np.ndarray,
+        counts: np.ndarray,
+    ) -> np.ndarray:
         """``world``: the estimate's part -> world transforms; new and due pairs are anchored to the model's
         texture against the view's image (the feature tracker's own grey)."""
         n_parts = len(self.model.parts)
@@ -179,13 +202,19 @@ class ArmAbis(AbisSequence):
         for part in range(n_parts):
             mine = pairs.parts == part
             points = self.model.part_points(self._estimate, part, pairs.eta[mine], pairs.omega[mine], world)
-            seen[mine], uv[mine] = visible_mask(camera, zbuffer, part, points) if by_zbuffer else in_image(camera,
-                                                                                                           points)
+            seen[mine], uv[mine] = (
+                visible_mask(camera, zbuffer, part, points) if by_zbuffer else in_image(camera, points)
+            )
         if by_zbuffer:  # the model image also predicts the pairs another part's edge is about to cover
             seen[seen] = ~reached_by_other_parts(
-                uv[seen], pairs.parts[seen], motion[self._sample_offsets[pairs.parts[seen]] + pairs.samples[seen]],
-                visible, motion[self._sample_offsets[visible.part] + visible.sample],
-                self.settings.occlusion_margin_px, self.settings.features.window_px)  # fmt: skip
+                uv[seen],
+                pairs.parts[seen],
+                motion[self._sample_offsets[pairs.parts[seen]] + pairs.samples[seen]],
+                visible,
+                motion[self._sample_offsets[visible.part] + visible.sample],
+                self.settings.occlusion_margin_px,
+                self.settings.features.window_px,
+            )
         pairs, discarded = discard(pairs, seen, uv, features, self.settings.max_residual_px, counts)
         unpaired = ~np.isin(features.ids, pairs.feature_ids) & ~np.isin(features.ids, discarded)
         # Only features inside a part's region (away from silhouettes and occlusion edges, whose corners are no
@@ -200,13 +229,27 @@ class ArmAbis(AbisSequence):
             for part in range(n_parts):
                 candidates = unpaired & (region == part + 1)
                 own = visible.part == part
-                new = new.extend(pair_features(
-                    features.ids[candidates], features.points[candidates],
-                    VisibleSamples(visible.part[own], visible.sample[own], visible.uv[own]),
-                    self.settings.pairing_radius_px, grid.eta, grid.omega, taken=pairs))  # fmt: skip
+                new = new.extend(
+                    pair_features(
+                        features.ids[candidates],
+                        features.points[candidates],
+                        VisibleSamples(visible.part[own], visible.sample[own], visible.uv[own]),
+                        self.settings.pairing_radius_px,
+                        grid.eta,
+                        grid.omega,
+                        taken=pairs,
+                    )
+                )
         else:  # bottom-up: any unpaired feature with the nearest facing sample of any part
-            new = pair_features(features.ids[unpaired], features.points[unpaired], visible,
-                                self.settings.pairing_radius_px, grid.eta, grid.omega, taken=pairs)  # fmt: skip
+            new = pair_features(
+                features.ids[unpaired],
+                features.points[unpaired],
+                visible,
+                self.settings.pairing_radius_px,
+                grid.eta,
+                grid.omega,
+                taken=pairs,
+            )
         keep = np.zeros(len(new), bool)
         for part in np.unique(new.parts):  # move each new pair's point exactly under its feature
             mine = new.parts == part
@@ -215,7 +258,8 @@ class ArmAbis(AbisSequence):
                 return self.model.part_points(self._estimate, part, eta, omega, world)
 
             new.eta[mine], new.omega[mine], distance = refine_surface_coordinates(
-                surface, camera, new.eta[mine], new.omega[mine], feature_rows(features, new.feature_ids[mine]))
+                surface, camera, new.eta[mine], new.omega[mine], feature_rows(features, new.feature_ids[mine])
+            )
             keep[mine] = distance <= self.settings.refined_tolerance_px
         new = new.subset(keep)
         counts[:, NEW] = new.count_by_part(n_parts)
@@ -229,8 +273,16 @@ class ArmAbis(AbisSequence):
         self._pairs[camera.name] = held
         return discarded
 
-    def _anchor(self, pairs: Pairs, due: np.ndarray, search: np.ndarray, camera: Camera, features: FeatureFrame,
-                gray: np.ndarray, world: np.ndarray) -> None:  # fmt: skip
+    def _anchor(
+        self,
+        pairs: Pairs,
+        due: np.ndarray,
+        search: np.ndarray,
+        camera: Camera,
+        features: FeatureFrame,
+        gray: np.ndarray,
+        world: np.ndarray,
+    ) -> None:
         """Move the ``due`` pairs' surface coordinates (in place) to the material point their feature shows, as
         matched against the model's texture around where the estimate puts each pair (`tracker.abis.anchoring`;
         ``search``: over whole pixels first, for new pairs)."""
@@ -243,11 +295,18 @@ class ArmAbis(AbisSequence):
             # The observed patch around the feature against the texture around the pair's point, as the estimate
             # maps it: the match is in the material, whatever the estimate's offset in the image.
             jacobian = pixel_jacobian(surface, camera, pairs.eta[mine], pairs.omega[mine])
-            offsets, _ = texture_offsets(gray, feature_rows(features, pairs.feature_ids[mine]), pairs.eta[mine],
-                                         pairs.omega[mine], jacobian, self._textures[part], self.settings.anchor,
-                                         search[mine])  # fmt: skip
-            pairs.eta[mine] = np.clip(pairs.eta[mine] + offsets[:, 0], -np.pi / 2 + POLE_MARGIN_RAD,
-                                      np.pi / 2 - POLE_MARGIN_RAD)  # as `refine_surface_coordinates` keeps them
+            offsets, _ = texture_offsets(
+                gray,
+                feature_rows(features, pairs.feature_ids[mine]),
+                pairs.eta[mine],
+                pairs.omega[mine],
+                jacobian,
+                self._textures[part],
+                self.settings.anchor,
+                search[mine],
+            )
+            pairs.eta[mine] = np.clip(
+                pairs.eta[mine] + offsets[:, 0], -np.pi / 2 + POLE_MARGIN_RAD, np.pi / 2 - POLE_MARGIN_RAD
+            )  # as `refine_surface_coordinates` keeps them
             omega = pairs.omega[mine] + offsets[:, 1]
             pairs.omega[mine] = np.where(np.abs(omega) > np.pi, (omega + np.pi) % (2 * np.pi) - np.pi, omega)
-

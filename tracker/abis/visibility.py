@@ -79,8 +79,15 @@ def occlusion_edges(labels: np.ndarray, margin_px: int) -> np.ndarray:
     return (labels > 0) & (smallest < largest)
 
 
-def reached_by_other_parts(uv: np.ndarray, parts: np.ndarray, motion: np.ndarray, visible: VisibleSamples,
-                           visible_motion: np.ndarray, margin_px: float, most_px: float) -> np.ndarray:  # fmt: skip
+def reached_by_other_parts(
+    uv: np.ndarray,
+    parts: np.ndarray,
+    motion: np.ndarray,
+    visible: VisibleSamples,
+    visible_motion: np.ndarray,
+    margin_px: float,
+    most_px: float,
+) -> np.ndarray:
     """``(n,)`` bool: which points, at pixels ``uv`` ``(n, 2)`` on ``parts`` ``(n,)`` and moving ``motion``
     ``(n, 2)`` px per frame, another part's visible sample (``visible``, moving ``visible_motion`` ``(m, 2)``) is
     within ``margin_px`` plus their relative motion (at most ``most_px``) of: another part's edge is at the point's
@@ -108,8 +115,9 @@ def in_image(camera: Camera, points: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return inside, uv
 
 
-def facing_samples(camera: Camera, samples_world: Sequence[np.ndarray],
-                   normals_world: Sequence[np.ndarray]) -> VisibleSamples:  # fmt: skip
+def facing_samples(
+    camera: Camera, samples_world: Sequence[np.ndarray], normals_world: Sequence[np.ndarray]
+) -> VisibleSamples:
     """Samples of every part that project inside the image with their outward normal toward the camera."""
     parts, indices, uvs = [], [], []
     for part, (points, normals) in enumerate(zip(samples_world, normals_world, strict=True)):

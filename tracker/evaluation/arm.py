@@ -40,14 +40,29 @@ class ArmEvaluation:
             estimated_points, true_points = arm.sample_points(estimate), arm.sample_points(truth)
             pairs = zip(estimated_points, true_points, strict=True)
             part["surface_error_mm"] = np.array([1e3 * float(np.linalg.norm(e - t, axis=1).mean()) for e, t in pairs])
-            surfaces = zip(estimated_points, true_points, arm.surface_meshes(estimate), arm.surface_meshes(truth),
-                           strict=True)  # fmt: skip
-            part["surface_distance_mm"] = np.array([1e3 * float(np.concatenate([
-                point_mesh_distance(e, true_mesh.vertices, true_mesh.faces),
-                point_mesh_distance(t, estimated_mesh.vertices, estimated_mesh.faces)]).mean())
-                for e, t, estimated_mesh, true_mesh in surfaces])  # fmt: skip
-            part["rotation_error_deg"] = np.array([rotation_angle_deg(euler_to_matrix(true[_R]), euler_to_matrix(
-                estimated[_R])) for true, estimated in zip(truth, estimate, strict=True)])  # fmt: skip
+            surfaces = zip(
+                estimated_points, true_points, arm.surface_meshes(estimate), arm.surface_meshes(truth), strict=True
+            )
+            part["surface_distance_mm"] = np.array(
+                [
+                    1e3
+                    * float(
+                        np.concatenate(
+                            [
+                                point_mesh_distance(e, true_mesh.vertices, true_mesh.faces),
+                                point_mesh_distance(t, estimated_mesh.vertices, estimated_mesh.faces),
+                            ]
+                        ).mean()
+                    )
+                    for e, t, estimated_mesh, true_mesh in surfaces
+                ]
+            )
+            part["rotation_error_deg"] = np.array(
+                [
+                    rotation_angle_deg(euler_to_matrix(true[_R]), euler_to_matrix(estimated[_R]))
+                    for true, estimated in zip(truth, estimate, strict=True)
+                ]
+            )
         return part, {}
 
     def summarize(self, arm: Any, table: Mapping[str, np.ndarray]) -> dict[str, Any]:
@@ -63,8 +78,11 @@ class ArmEvaluation:
                     error = np.degrees(np.angle(np.exp(1j * error)))  # wrapped to (-180, 180]
                 rms[part][f"{name}_deg" if name in ANGLE_NAMES else name] = float(np.sqrt(np.mean(error**2)))
             rms[part]["rotation_deg"] = float(np.sqrt(np.mean(table["rotation_error_deg"][rows] ** 2)))
-        figures: dict[str, Any] = {"rms": rms, "mean_surface_error_mm": float(np.mean(table["surface_error_mm"])),
-                                   "mean_surface_distance_mm": float(np.mean(table["surface_distance_mm"]))}
+        figures: dict[str, Any] = {
+            "rms": rms,
+            "mean_surface_error_mm": float(np.mean(table["surface_error_mm"])),
+            "mean_surface_distance_mm": float(np.mean(table["surface_distance_mm"])),
+        }
         if len(arm.part_names) > PAPER_PART:
             part = arm.part_names[PAPER_PART]
             figures["part2_b1_rms"] = rms[part]["b1"]

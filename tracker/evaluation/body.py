@@ -42,11 +42,14 @@ from tracker.models.body_skeleton import JOINT_INDEX, joint_angle_differences
 OUTCOMES = ("fail", "error", "success")
 _VERTICAL_TOLERANCE_DEG = 1e-6
 # Head, thorax (neck), pelvis, shoulders, elbows, wrists, hips, knees, ankles.
-MPJPE_JOINTS = ("Head", "Neck", "Hips", "LeftArm", "RightArm", "LeftForeArm", "RightForeArm", "LeftHand",
-                "RightHand", "LeftUpLeg", "RightUpLeg", "LeftLeg", "RightLeg", "LeftFoot", "RightFoot")  # fmt: skip
-ANGLE_JOINTS = ("LowerBack", "Spine", "Spine1", "Neck", "Neck1", "LeftShoulder", "LeftArm", "LeftForeArm",
-                "RightShoulder", "RightArm", "RightForeArm", "LeftUpLeg", "LeftLeg", "RightUpLeg",
-                "RightLeg")  # fmt: skip
+MPJPE_JOINTS = tuple(
+    "Head Neck Hips LeftArm RightArm LeftForeArm RightForeArm LeftHand RightHand LeftUpLeg RightUpLeg LeftLeg "
+    "RightLeg LeftFoot RightFoot".split()
+)
+ANGLE_JOINTS = tuple(
+    "LowerBack Spine Spine1 Neck Neck1 LeftShoulder LeftArm LeftForeArm RightShoulder RightArm RightForeArm "
+    "LeftUpLeg LeftLeg RightUpLeg RightLeg".split()
+)
 
 
 @dataclass(frozen=True)
@@ -70,8 +73,9 @@ def followed(truth_deg: np.ndarray, estimate_deg: np.ndarray, rule: SwingRule = 
     """Whether the estimate followed one swing (not a Fail; see the module docstring)."""
     truth_deg, estimate_deg = np.asarray(truth_deg, float), np.asarray(estimate_deg, float)
     forward, backward = truth_deg.max(), truth_deg.min()
-    reaches = (estimate_deg.max() >= rule.follow_fraction * forward
-               and estimate_deg.min() <= rule.follow_fraction * backward)
+    reaches = (
+        estimate_deg.max() >= rule.follow_fraction * forward and estimate_deg.min() <= rule.follow_fraction * backward
+    )
     spread = np.std(estimate_deg) > 0 and np.std(truth_deg) > 0
     correlation = float(np.corrcoef(truth_deg, estimate_deg)[0, 1]) if spread else 0.0
     return bool(reaches and correlation >= rule.min_correlation)
@@ -89,16 +93,18 @@ def score_swing(truth_deg: np.ndarray, estimate_deg: np.ndarray, rule: SwingRule
     return outcome(followed(truth_deg, estimate_deg, rule), error, rule.max_error_deg)
 
 
-def swing_details(truth_deg: np.ndarray, estimate_deg: np.ndarray,
-                  rule: SwingRule = SwingRule()) -> dict[str, list]:  # fmt: skip
+def swing_details(truth_deg: np.ndarray, estimate_deg: np.ndarray, rule: SwingRule = SwingRule()) -> dict[str, list]:
     """Per complete swing of the truth trace: its frames (``start`` up to ``stop``, excluded), whether it was
     followed and its largest error (degrees): enough to score it at any bound (`outcome`)."""
     truth_deg, estimate_deg = np.asarray(truth_deg, float), np.asarray(estimate_deg, float)
     swings = split_swings(truth_deg)
     errors = [float(np.abs(estimate_deg[swing] - truth_deg[swing]).max()) for swing in swings]
-    return {"start": [swing.start for swing in swings], "stop": [swing.stop for swing in swings],
-            "followed": [followed(truth_deg[swing], estimate_deg[swing], rule) for swing in swings],
-            "max_error_deg": errors}  # fmt: skip
+    return {
+        "start": [swing.start for swing in swings],
+        "stop": [swing.stop for swing in swings],
+        "followed": [followed(truth_deg[swing], estimate_deg[swing], rule) for swing in swings],
+        "max_error_deg": errors,
+    }
 
 
 def score_swings(truth_deg: np.ndarray, estimate_deg: np.ndarray, rule: SwingRule = SwingRule()) -> dict[str, int]:
@@ -131,8 +137,9 @@ def joint_angle_error_deg(truth: np.ndarray, estimate: np.ndarray) -> np.ndarray
     return joint_angle_differences(np.asarray(truth, float), np.asarray(estimate, float))[..., joints].mean(axis=-1)
 
 
-def nearest_in_3d(body: BodyMesh, truths: np.ndarray, candidate_body: BodyMesh,
-                  candidates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def nearest_in_3d(
+    body: BodyMesh, truths: np.ndarray, candidate_body: BodyMesh, candidates: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """For each truth pose ``(n, POSE_SIZE)`` of ``body``: the candidate pose (of ``candidate_body``) nearest in 3-D
     — the smallest root-aligned mean distance over `MPJPE_JOINTS` — and that distance (mm). The dictionary's own
     floor when the candidates are a tracker's samples."""
@@ -159,10 +166,13 @@ class BodyEvaluation:
     def columns(self, body: BodyMesh, truth: np.ndarray, estimate: np.ndarray | None) -> tuple[dict, dict]:
         frame: dict[str, Any] = {"truth_pose": truth.tolist(), "swing_truth_deg": body.right_arm_swing_deg(truth)}
         if estimate is not None:
-            frame.update(est_pose=estimate.tolist(), swing_est_deg=body.right_arm_swing_deg(estimate),
-                         joint_error_mm=joint_error_mm(body, truth, estimate),
-                         joint_error_aligned_mm=joint_error_mm(body, truth, estimate, root_aligned=True),
-                         joint_angle_error_deg=float(joint_angle_error_deg(truth, estimate)))  # fmt: skip
+            frame.update(
+                est_pose=estimate.tolist(),
+                swing_est_deg=body.right_arm_swing_deg(estimate),
+                joint_error_mm=joint_error_mm(body, truth, estimate),
+                joint_error_aligned_mm=joint_error_mm(body, truth, estimate, root_aligned=True),
+                joint_angle_error_deg=float(joint_angle_error_deg(truth, estimate)),
+            )
         return {}, frame
 
     def summarize(self, body: BodyMesh, table: Mapping[str, np.ndarray]) -> dict[str, Any]:

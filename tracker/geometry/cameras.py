@@ -112,9 +112,17 @@ def resized(camera: Camera, width: int, height: int) -> Camera:
     """The same camera with an image of ``width`` x ``height``: the image plane scaled about its corner, so that
     each new pixel covers the old pixels it spans (pixel centres: ``u' = (u + 0.5) s - 0.5``)."""
     sx, sy = width / camera.width, height / camera.height
-    return Camera(name=camera.name, width=int(width), height=int(height), fx=camera.fx * sx, fy=camera.fy * sy,
-                  cx=(camera.cx + 0.5) * sx - 0.5, cy=(camera.cy + 0.5) * sy - 0.5, rotation=camera.rotation,
-                  position=camera.position)  # fmt: skip
+    return Camera(
+        name=camera.name,
+        width=int(width),
+        height=int(height),
+        fx=camera.fx * sx,
+        fy=camera.fy * sy,
+        cx=(camera.cx + 0.5) * sx - 0.5,
+        cy=(camera.cy + 0.5) * sy - 0.5,
+        rotation=camera.rotation,
+        position=camera.position,
+    )
 
 
 @dataclass(frozen=True)

@@ -54,8 +54,17 @@ def mono(
     name: str = "main",
 ) -> Rig:
     """One camera at ``position`` looking at ``target`` (paper 2's setting)."""
-    return (look_at(name, np.asarray(position), np.asarray(target), np.asarray(up), width=width, height=height,
-                    focal_px=focal_px),)
+    return (
+        look_at(
+            name,
+            np.asarray(position),
+            np.asarray(target),
+            np.asarray(up),
+            width=width,
+            height=height,
+            focal_px=focal_px,
+        ),
+    )
 
 
 @dataclass(frozen=True)
@@ -89,6 +98,15 @@ def cameras(
     height: ImageSide = 240,
 ) -> Rig:
     """Named cameras, each at its position looking at ``target``, alike inside (e.g. several views of a body)."""
-    return tuple(look_at(view.name, np.asarray(view.position, dtype=np.float64), np.asarray(target, dtype=np.float64),
-                         np.asarray(up, dtype=np.float64), width=width, height=height, focal_px=focal_px)
-                 for view in views)  # fmt: skip
+    return tuple(
+        look_at(
+            view.name,
+            np.asarray(view.position, dtype=np.float64),
+            np.asarray(target, dtype=np.float64),
+            np.asarray(up, dtype=np.float64),
+            width=width,
+            height=height,
+            focal_px=focal_px,
+        )
+        for view in views
+    )

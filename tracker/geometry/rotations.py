@@ -111,8 +111,13 @@ def euler_to_matrix_derivatives(r: np.ndarray) -> np.ndarray:
     """``(3, 3, 3)``: ``[i] = dR/dr_i`` of `euler_to_matrix` (i = 0, 1, 2 for r1, r2, r3)."""
     r1, r2, r3 = np.asarray(r, dtype=np.float64)
     rx, ry, rz = rotation_x(r1), rotation_y(r2), rotation_z(r3)
-    return np.stack([rz @ ry @ _rotation_derivative(0, r1), rz @ _rotation_derivative(1, r2) @ rx,
-                     _rotation_derivative(2, r3) @ ry @ rx])  # fmt: skip
+    return np.stack(
+        [
+            rz @ ry @ _rotation_derivative(0, r1),
+            rz @ _rotation_derivative(1, r2) @ rx,
+            _rotation_derivative(2, r3) @ ry @ rx,
+        ]
+    )
 
 
 def _rotation_derivative(axis: int, angle: float) -> np.ndarray:

@@ -36,9 +36,8 @@ def point_triangle_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray, c:
             ((vc <= 0) & (d1 >= 0) & (d3 <= 0), a + (d1 / (d1 - d3))[:, None] * ab),
             ((d6 >= 0) & (d5 <= d6), c),
             ((vb <= 0) & (d2 >= 0) & (d6 <= 0), a + (d2 / (d2 - d6))[:, None] * ac),
-            ((va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0),
-             b + ((d4 - d3) / ((d4 - d3) + (d5 - d6)))[:, None] * (c - b)),
-        ]  # fmt: skip
+            ((va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0), b + ((d4 - d3) / ((d4 - d3) + (d5 - d6)))[:, None] * (c - b)),
+        ]
     decided = np.zeros(len(points), bool)
     for condition, point in regions:
         take = condition & ~decided
@@ -68,8 +67,9 @@ def point_mesh_distance(points: np.ndarray, vertices: np.ndarray, faces: np.ndar
     return best
 
 
-def _nearest_in(points: np.ndarray, corners: np.ndarray, centroids: np.ndarray, radii: np.ndarray,
-                group: np.ndarray) -> np.ndarray:  # fmt: skip
+def _nearest_in(
+    points: np.ndarray, corners: np.ndarray, centroids: np.ndarray, radii: np.ndarray, group: np.ndarray
+) -> np.ndarray:
     """``(n,)`` exact distance from each point to the nearest of the triangles ``group``."""
     tree, reach = cKDTree(centroids[group]), float(radii[group].max())
     k = min(CANDIDATES, len(group))

@@ -100,8 +100,9 @@ class BodyMesh:
                 from_t_pose[:, joint], heads[:, joint] = local[:, joint], batch[:, :3]
             else:
                 from_t_pose[:, joint] = from_t_pose[:, parent] @ local[:, joint]
-                heads[:, joint] = heads[:, parent] + rotations[:, parent] @ (self.rest_heads[joint]
-                                                                             - self.rest_heads[parent])  # fmt: skip
+                heads[:, joint] = heads[:, parent] + rotations[:, parent] @ (
+                    self.rest_heads[joint] - self.rest_heads[parent]
+                )
             rotations[:, joint] = from_t_pose[:, joint] @ self.t_pose_alignment[joint]
         return (rotations[0], heads[0]) if poses.ndim == 1 else (rotations, heads)
 
@@ -109,8 +110,12 @@ class BodyMesh:
         """``(J, 3)`` posed joint positions (``(n, J, 3)`` for ``n`` poses)."""
         return self.bone_transforms(pose)[1]
 
-    def posed_vertices(self, poses: np.ndarray, subset: np.ndarray | None = None,
-                       transforms: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:  # fmt: skip
+    def posed_vertices(
+        self,
+        poses: np.ndarray,
+        subset: np.ndarray | None = None,
+        transforms: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> np.ndarray:
         """``(V, 3)`` vertices by linear-blend skinning, ``v' = sum_j w_j (R_j (v - h_j) + h'_j)``; ``(n, V, 3)``
         for ``(n, POSE_SIZE)`` poses; only the vertices ``subset`` (indices) when given. ``transforms``: the poses'
         `bone_transforms`, when the caller has them."""
@@ -125,13 +130,22 @@ class BodyMesh:
         weights = self._sparse_weights if subset is None else self._sparse_weights[subset]
         blended = (weights @ bones.transpose(1, 0, 2, 3).reshape(joints, -1)).reshape(-1, count, 3, 4)
         rest = (self.rest_vertices if subset is None else self.rest_vertices[subset])[:, None, None, :]
-        vertices = blended[..., 3] + blended[..., 0] * rest[..., 0] + blended[..., 1] * rest[..., 1] \
-            + blended[..., 2] * rest[..., 2]  # fmt: skip
+        vertices = (
+            blended[..., 3]
+            + blended[..., 0] * rest[..., 0]
+            + blended[..., 1] * rest[..., 1]
+            + blended[..., 2] * rest[..., 2]
+        )
         vertices = vertices.transpose(1, 0, 2)  # (n, V, 3)
         return vertices[0] if poses.ndim == 1 else vertices
 
-    def vertex_jacobian(self, pose: np.ndarray, subset: np.ndarray, joints: Iterable[int] | None = None,
-                        transforms: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:  # fmt: skip
+    def vertex_jacobian(
+        self,
+        pose: np.ndarray,
+        subset: np.ndarray,
+        joints: Iterable[int] | None = None,
+        transforms: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> np.ndarray:
         """``(len(subset), 3, POSE_SIZE)``: d v'/d pose of the skinned vertices ``subset`` at ``pose``, analytic
         (only the root position's and ``joints``' rotation columns when given, the others left 0; ``transforms``:
         the pose's `bone_transforms`, when the caller has them).
@@ -196,11 +210,22 @@ class BodyMesh:
         normals = vertex_normals(vertices, self.faces)
         textures = self.part_textures if self.texture_seed is not None else [(None, None)] * len(PART_NAMES)
         skin = "" if self.texture_seed is None else f"_texture{self.texture_seed}"  # the renderer keeps textures by key
-        return [SurfaceMesh(key=f"body_{name}{skin}", label=k + 1, vertices=vertices[used], faces=faces,
-                            normals=normals[used], color=color, uv=uv, texture=texture)
-                for k, (name, (used, faces), (uv, texture)) in enumerate(zip(PART_NAMES, self.part_topology, textures,
-                                                                             strict=True))
-                if len(faces)]  # fmt: skip
+        return [
+            SurfaceMesh(
+                key=f"body_{name}{skin}",
+                label=k + 1,
+                vertices=vertices[used],
+                faces=faces,
+                normals=normals[used],
+                color=color,
+                uv=uv,
+                texture=texture,
+            )
+            for k, (name, (used, faces), (uv, texture)) in enumerate(
+                zip(PART_NAMES, self.part_topology, textures, strict=True)
+            )
+            if len(faces)
+        ]
 
     @cached_property
     def part_textures(self) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -214,8 +239,13 @@ class BodyMesh:
             axes = np.linalg.svd(points, full_matrices=False)[2] if len(used) >= 3 else np.eye(3)
             along, side, across = points @ axes[0], points @ axes[1], points @ axes[2]
             span = np.ptp(along) if len(used) else 1.0
-            uv = np.stack([(np.arctan2(across, side) + np.pi) / (2 * np.pi),
-                           (along - (along.min() if len(used) else 0.0)) / max(span, ZERO_LENGTH)], axis=1)  # fmt: skip
+            uv = np.stack(
+                [
+                    (np.arctan2(across, side) + np.pi) / (2 * np.pi),
+                    (along - (along.min() if len(used) else 0.0)) / max(span, ZERO_LENGTH),
+                ],
+                axis=1,
+            )
             cells = (max(2, int(round(span / 0.03))), 12)  # blocks about 3 cm along the part, 12 around it
             out.append((uv, block_noise_texture(np.random.default_rng(seed), cells, SKIN_RGB)))
         return out

@@ -80,8 +80,9 @@ def target_weights(shape: MacroShape) -> dict[str, float]:
     weights = _anchored(shape.weight, ("minweight", "averageweight", "maxweight"))
     heights = _anchored(shape.height, ("minheight", None, "maxheight"))
     out: dict[str, float] = {}
-    for (gender, wg), (muscle, wm), (weight, ww) in itertools.product(genders.items(), muscles.items(),
-                                                                       weights.items()):  # fmt: skip
+    for (gender, wg), (muscle, wm), (weight, ww) in itertools.product(
+        genders.items(), muscles.items(), weights.items()
+    ):
         out[f"universal-{gender}-{_AGE}-{muscle}-{weight}"] = wg * wm * ww
         for height, wh in heights.items():
             out[f"height/{gender}-{_AGE}-{muscle}-{weight}-{height}"] = wg * wm * ww * wh
@@ -117,8 +118,9 @@ def macro_offsets(macrodetails: Path, shape: MacroShape, vertices: int) -> np.nd
     return offsets
 
 
-def measure(rest_vertices: np.ndarray, faces: np.ndarray, face_parts: np.ndarray,
-            rest_heads: np.ndarray) -> Measurements:  # fmt: skip
+def measure(
+    rest_vertices: np.ndarray, faces: np.ndarray, face_parts: np.ndarray, rest_heads: np.ndarray
+) -> Measurements:
     """Stature and chest girth (m) of a rest mesh in the body frame (see the module docstring)."""
     stature = float(np.ptp(rest_vertices[:, 2]))
     torso = rest_vertices[faces[face_parts == PART_NAMES.index("torso")]]  # (F, 3 corners, 3)
@@ -135,7 +137,7 @@ def _section(triangles: np.ndarray, level: float) -> np.ndarray:
     points = []
     for a, b in ((0, 1), (1, 2), (2, 0)):
         za, zb = triangles[:, a, 2] - level, triangles[:, b, 2] - level
-        crossing = (za * zb < 0)
+        crossing = za * zb < 0
         t = (za[crossing] / (za[crossing] - zb[crossing]))[:, None]
         points.append(triangles[crossing, a, :2] + t * (triangles[crossing, b, :2] - triangles[crossing, a, :2]))
     return np.concatenate(points)
@@ -169,9 +171,14 @@ def standard_shape(name: str) -> MacroShape:
 def nearest_standard(subject: Measurements, standards: dict[str, Measurements]) -> str:
     """The standard body nearest to ``subject`` by stature and chest girth, each difference relative to the
     subject's own value (a tailor's choice of size)."""
+
     def distance(name: str) -> float:
         m = standards[name]
-        return float(np.hypot((m.stature_m - subject.stature_m) / subject.stature_m,
-                              (m.chest_girth_m - subject.chest_girth_m) / subject.chest_girth_m))  # fmt: skip
+        return float(
+            np.hypot(
+                (m.stature_m - subject.stature_m) / subject.stature_m,
+                (m.chest_girth_m - subject.chest_girth_m) / subject.chest_girth_m,
+            )
+        )
 
     return min(standards, key=distance)

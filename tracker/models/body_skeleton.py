@@ -18,12 +18,11 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 # The CMU BVH joints in file order (parents first); the rig says LeftHandFinger1 where the BVH says LeftHandIndex1.
-JOINT_NAMES = (
-    "Hips", "LHipJoint", "LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase", "RHipJoint", "RightUpLeg", "RightLeg",
-    "RightFoot", "RightToeBase", "LowerBack", "Spine", "Spine1", "Neck", "Neck1", "Head", "LeftShoulder", "LeftArm",
-    "LeftForeArm", "LeftHand", "LeftFingerBase", "LeftHandIndex1", "LThumb", "RightShoulder", "RightArm",
-    "RightForeArm", "RightHand", "RightFingerBase", "RightHandIndex1", "RThumb",
-)  # fmt: skip
+JOINT_NAMES = tuple(
+    "Hips LHipJoint LeftUpLeg LeftLeg LeftFoot LeftToeBase RHipJoint RightUpLeg RightLeg RightFoot RightToeBase "
+    "LowerBack Spine Spine1 Neck Neck1 Head LeftShoulder LeftArm LeftForeArm LeftHand LeftFingerBase LeftHandIndex1 "
+    "LThumb RightShoulder RightArm RightForeArm RightHand RightFingerBase RightHandIndex1 RThumb".split()
+)
 JOINT_INDEX = {name: k for k, name in enumerate(JOINT_NAMES)}
 POSE_SIZE = 3 + 3 * len(JOINT_NAMES)
 
@@ -77,7 +76,6 @@ T_POSE_DIRECTIONS = {
 }  # fmt: skip
 # The CMU BVH frame (y up, facing +z) in the body frame: x stays, y -> z, z -> -y.
 BVH_TO_BODY = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
-
 
 
 def joint_angle_differences(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -22,8 +22,7 @@ from tracker.ranges import ANY, Finite, NonNegative, Positive, Range
 from tracker.settings import allowed_ranges, settings_of, validate
 from tracker.tol import TRIG_SNAP
 
-PARAM_NAMES = ("a", "a1", "a2", "a3", "eps1", "eps2", "t1", "t2", "b1", "b2", "b3",
-               "c1", "c2", "c3", "r1", "r2", "r3")  # fmt: skip
+PARAM_NAMES = ("a", "a1", "a2", "a3", "eps1", "eps2", "t1", "t2", "b1", "b2", "b3", "c1", "c2", "c3", "r1", "r2", "r3")
 PARAM_INDEX = {name: i for i, name in enumerate(PARAM_NAMES)}
 SHAPE_NAMES = PARAM_NAMES[:11]
 ANGLE_NAMES = ("r1", "r2", "r3")

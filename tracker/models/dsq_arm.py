@@ -102,8 +102,11 @@ class DSQArm:
 
     def parameter_series(self, params: np.ndarray) -> dict[str, float]:
         """Named scalars of ``params`` for time series: ``<part>/<parameter>``."""
-        return {f"{part}/{name}": float(params[k, i])
-                for k, part in enumerate(self.part_names) for i, name in enumerate(PARAM_NAMES)}  # fmt: skip
+        return {
+            f"{part}/{name}": float(params[k, i])
+            for k, part in enumerate(self.part_names)
+            for i, name in enumerate(PARAM_NAMES)
+        }
 
     def rest_params(self) -> np.ndarray:
         """``(n_parts, 17)``: every part's rest shape with zero rotation, joints connected."""
@@ -184,4 +187,3 @@ class DSQArm:
             )
             for k, part in enumerate(self.parts)
         ]
-

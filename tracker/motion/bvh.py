@@ -117,8 +117,16 @@ def read_bvh(path: str | Path) -> BvhClip:
     frames, frame_time, motion = _parse_motion(path, body, int(bounds[-1]))
     if frames != len(motion):
         raise BvhError(f"{path}: header says {frames} frames, the file holds {len(motion)} (truncated?)")
-    return BvhClip(path, tuple(names), np.array(parents), np.array(offsets, dtype=np.float64), tuple(channels),
-                   columns, frame_time, motion)  # fmt: skip
+    return BvhClip(
+        path,
+        tuple(names),
+        np.array(parents),
+        np.array(offsets, dtype=np.float64),
+        tuple(channels),
+        columns,
+        frame_time,
+        motion,
+    )
 
 
 class _Tokens:
@@ -196,8 +204,10 @@ def _parse_motion(path: Path, body: str, width: int) -> tuple[int, float, np.nda
         raise BvhError(f"{path}: Frame Time must be a positive number, got {frame_time}")
     rows = [line.split() for line in lines[2:] if line.strip()]
     if len(rows) > 1 and len(rows[-1]) < width and all(len(row) == width for row in rows[:-1]):
-        raise BvhError(f"{path}: the file ends inside frame {len(rows) - 1} ({len(rows[-1])} of {width} values; "
-                       f"the header says {frames} frames): truncated?")  # fmt: skip
+        raise BvhError(
+            f"{path}: the file ends inside frame {len(rows) - 1} ({len(rows[-1])} of {width} values; "
+            f"the header says {frames} frames): truncated?"
+        )
     lengths = sorted({len(row) for row in rows})
     if any(length != width for length in lengths):
         raise BvhError(f"{path}: every MOTION line must hold {width} values, found lines of {lengths}")

@@ -56,8 +56,9 @@ def clip_poses(clip: BvhClip, body: BodyMesh, selection: ClipSelection = ClipSel
     relative = world @ world[frames == 0].transpose(0, 1, 3, 2)  # from the T-pose, file frame
     relative = BVH_TO_BODY @ relative @ BVH_TO_BODY.T
     if skeleton.rest_bones:
-        relative = relative @ skeleton.rest_corrections(clip.joint_positions([0])[0], clip.names,
-                                                        body.t_pose_heads, BVH_TO_BODY)  # fmt: skip
+        relative = relative @ skeleton.rest_corrections(
+            clip.joint_positions([0])[0], clip.names, body.t_pose_heads, BVH_TO_BODY
+        )
     parents = body.parents
     local = relative.copy()
     local[:, 1:] = relative[:, parents[1:]].transpose(0, 1, 3, 2) @ relative[:, 1:]
@@ -81,13 +82,17 @@ def _sample_times(clip: BvhClip, selection: ClipSelection) -> np.ndarray:
     first = clip.frame_time * (1 + selection.start_s / clip.frame_time)
     last = clip.frame_time * (clip.frames - 1)
     if first > last:
-        raise BvhError(f"{clip.path}: start {selection.start_s} s is past the clip's end "
-                       f"({(clip.frames - 2) * clip.frame_time:.2f} s of motion)")  # fmt: skip
+        raise BvhError(
+            f"{clip.path}: start {selection.start_s} s is past the clip's end "
+            f"({(clip.frames - 2) * clip.frame_time:.2f} s of motion)"
+        )
     available = int(np.floor((last - first) * selection.fps + COUNT_ROUNDING)) + 1
     count = available if selection.frames is None else selection.frames
     if count > available:
-        raise BvhError(f"{clip.path}: {count} frames at {selection.fps:g} fps from {selection.start_s} s need "
-                       f"{(count - 1) / selection.fps:.2f} s of motion; the clip has {last - first:.2f} s from there")
+        raise BvhError(
+            f"{clip.path}: {count} frames at {selection.fps:g} fps from {selection.start_s} s need "
+            f"{(count - 1) / selection.fps:.2f} s of motion; the clip has {last - first:.2f} s from there"
+        )
     return first + np.arange(count) / selection.fps
 
 
@@ -112,9 +117,11 @@ def retargeting(clip: BvhClip) -> Skeleton:
     if skeleton is None:
         missing = {s.name: sorted(s.joints() - set(clip.names)) for s in SKELETONS}
         nearest = min(missing, key=lambda name: len(missing[name]))
-        raise BvhError(f"{clip.path}: no retargeting table fits its skeleton ({len(clip.names)} joints rooted at "
-                       f"{clip.names[0]!r}): the nearest, {nearest}, needs joints {', '.join(missing[nearest])}; "
-                       f"known skeletons: {', '.join(missing)} (tracker/motion/retarget.py)")  # fmt: skip
+        raise BvhError(
+            f"{clip.path}: no retargeting table fits its skeleton ({len(clip.names)} joints rooted at "
+            f"{clip.names[0]!r}): the nearest, {nearest}, needs joints {', '.join(missing[nearest])}; "
+            f"known skeletons: {', '.join(missing)} (tracker/motion/retarget.py)"
+        )
     return skeleton
 
 
@@ -144,8 +151,10 @@ def check_clip(scene: MocapScene, frames: int, key: str, model: str) -> None:
     clip = read_body_clip(scene.path, f"{key}.path", scene.true_fps)
     available = available_frames(clip, scene.start_s, scene.fps)
     if frames > available:
-        raise ValueError(f"frames={frames}: {key}.path={scene.path} has {available} frames at {scene.fps:g} fps "
-                         f"from {key}.start_s={scene.start_s}; allowed at most {available}")  # fmt: skip
+        raise ValueError(
+            f"frames={frames}: {key}.path={scene.path} has {available} frames at {scene.fps:g} fps "
+            f"from {key}.start_s={scene.start_s}; allowed at most {available}"
+        )
 
 
 @SCENES.register("bvh", models=("body_mesh",), check=check_clip)
@@ -181,8 +190,10 @@ class MocapScene:
     def params(self, body: BodyMesh, frame: int) -> np.ndarray:
         poses = self._poses(body)
         if frame >= len(poses):
-            raise BvhError(f"{self.path}: frame {frame} asked, the clip has {len(poses)} frames at {self.fps:g} fps "
-                           f"from {self.start_s} s")  # fmt: skip
+            raise BvhError(
+                f"{self.path}: frame {frame} asked, the clip has {len(poses)} frames at {self.fps:g} fps "
+                f"from {self.start_s} s"
+            )
         return poses[frame]
 
     def _poses(self, body: BodyMesh) -> np.ndarray:

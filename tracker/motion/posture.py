@@ -51,10 +51,19 @@ class Posture:
 # The scale of each natural variation at full amplitude (see the module docstring); the left arm's entries are its
 # swing, abduction and elbow about the posture's own.
 NATURAL_SPREAD = {
-    "yaw_deg": 4.0, "lean_deg": 3.0, "side_deg": 2.0, "twist_deg": 4.0, "nod_deg": 5.0, "head_turn_deg": 8.0,
-    "left_knee_deg": 4.0, "right_knee_deg": 4.0, "weight_shift_deg": 2.0,
-    "left_swing_deg": 8.0, "left_abduction_deg": 4.0, "left_elbow_deg": 10.0,
-}  # fmt: skip
+    "yaw_deg": 4.0,
+    "lean_deg": 3.0,
+    "side_deg": 2.0,
+    "twist_deg": 4.0,
+    "nod_deg": 5.0,
+    "head_turn_deg": 8.0,
+    "left_knee_deg": 4.0,
+    "right_knee_deg": 4.0,
+    "weight_shift_deg": 2.0,
+    "left_swing_deg": 8.0,
+    "left_abduction_deg": 4.0,
+    "left_elbow_deg": 10.0,
+}
 # Knees and the elbow bend one way only: they vary from 0 upward.
 ONE_SIDED = ("left_knee_deg", "right_knee_deg", "left_elbow_deg")
 
@@ -68,8 +77,12 @@ class Drifts:
 
     @classmethod
     def draw(cls, rng: np.random.Generator, names: Iterable[str], periods: tuple[float, float]) -> Drifts:
-        return cls({name: np.stack([rng.dirichlet(np.ones(3)), rng.uniform(*periods, 3),
-                                    rng.uniform(0.0, 2 * np.pi, 3)]) for name in names})  # fmt: skip
+        return cls(
+            {
+                name: np.stack([rng.dirichlet(np.ones(3)), rng.uniform(*periods, 3), rng.uniform(0.0, 2 * np.pi, 3)])
+                for name in names
+            }
+        )
 
     def value(self, name: str, t: np.ndarray | float) -> np.ndarray:
         weights, periods, phases = self.sines[name]
@@ -88,8 +101,11 @@ class Drifts:
 
 def with_offsets(posture: Posture, offsets: dict[str, float]) -> Posture:
     """``posture`` moved by the `NATURAL_SPREAD` variations ``offsets`` (angles added; the left arm's three too)."""
-    left = (posture.left[0] + offsets["left_swing_deg"], posture.left[1] + offsets["left_abduction_deg"],
-            posture.left[2] + offsets["left_elbow_deg"])  # fmt: skip
+    left = (
+        posture.left[0] + offsets["left_swing_deg"],
+        posture.left[1] + offsets["left_abduction_deg"],
+        posture.left[2] + offsets["left_elbow_deg"],
+    )
     names = {f.name for f in fields(Posture)}
     changes = {name: getattr(posture, name) + value for name, value in offsets.items() if name in names}
     return replace(posture, left=left, **changes)
@@ -117,8 +133,9 @@ def standing_pose(body: BodyMesh, posture: Posture) -> np.ndarray:
     return pose
 
 
-def arms_pose(body: BodyMesh, right: tuple[float, float, float], left: tuple[float, float, float],
-              yaw_deg: float = -90.0) -> np.ndarray:  # fmt: skip
+def arms_pose(
+    body: BodyMesh, right: tuple[float, float, float], left: tuple[float, float, float], yaw_deg: float = -90.0
+) -> np.ndarray:
     """The standing body with each arm at ``(swing, abduction, elbow)`` degrees: swing in the sagittal plane
     (+ in front of the vertical), abduction out from the trunk, elbow flexion (+ brings the forearm forward);
     facing ``yaw_deg`` (world xy angle from +x; -90 faces -y)."""

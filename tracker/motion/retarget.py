@@ -44,8 +44,9 @@ class Skeleton:
         bones = {joint for _, bone in self.rest_bones.values() for joint in bone}
         return set(self.sources.values()) | set(self.leg) | bones
 
-    def rest_corrections(self, file_t_pose: np.ndarray, names: tuple[str, ...], rig_t_pose: np.ndarray,
-                         file_to_body: np.ndarray) -> np.ndarray:  # fmt: skip
+    def rest_corrections(
+        self, file_t_pose: np.ndarray, names: tuple[str, ...], rig_t_pose: np.ndarray, file_to_body: np.ndarray
+    ) -> np.ndarray:
         """``(J, 3, 3)`` each CMU joint's ``C_k`` in the body frame (identity where no bone is matched), from the
         file's joint positions at its T-pose ``(file joints, 3)`` and the rig's ``(J, 3)``."""
         corrections = np.broadcast_to(np.eye(3), (len(JOINT_NAMES), 3, 3)).copy()
@@ -81,6 +82,7 @@ def _right(name: str) -> str:
 
 def _both_sides(table: dict) -> dict:
     """A table of left joints with its mirrored right half added."""
+
     def mirrored(value):
         return _right(value) if isinstance(value, str) else tuple(mirrored(item) for item in value)
 
@@ -90,18 +92,41 @@ def _both_sides(table: dict) -> dict:
 # Bruce Hahne's "DAZ-friendly" conversion of the CMU clips: 43 joints rooted at ``hip``, two spine bones, no toes.
 DAZ = Skeleton(
     "daz",
-    sources={"Hips": "hip", "LowerBack": "abdomen", "Spine": "chest", "Spine1": "chest", "Neck": "neck",
-             "Neck1": "neck", "Head": "head",
-             **_both_sides({"LHipJoint": "hip", "LeftUpLeg": "lThigh", "LeftLeg": "lShin", "LeftFoot": "lFoot",
-                            "LeftToeBase": "lFoot", "LeftShoulder": "lCollar", "LeftArm": "lShldr",
-                            "LeftForeArm": "lForeArm", "LeftHand": "lHand", "LeftFingerBase": "lHand",
-                            "LeftHandIndex1": "lHand", "LThumb": "lHand"})},  # fmt: skip
+    sources={
+        "Hips": "hip",
+        "LowerBack": "abdomen",
+        "Spine": "chest",
+        "Spine1": "chest",
+        "Neck": "neck",
+        "Neck1": "neck",
+        "Head": "head",
+        **_both_sides(
+            {
+                "LHipJoint": "hip",
+                "LeftUpLeg": "lThigh",
+                "LeftLeg": "lShin",
+                "LeftFoot": "lFoot",
+                "LeftToeBase": "lFoot",
+                "LeftShoulder": "lCollar",
+                "LeftArm": "lShldr",
+                "LeftForeArm": "lForeArm",
+                "LeftHand": "lHand",
+                "LeftFingerBase": "lHand",
+                "LeftHandIndex1": "lHand",
+                "LThumb": "lHand",
+            }
+        ),
+    },
     leg=("lThigh", "lShin", "lFoot"),
-    rest_bones=_both_sides({"LeftShoulder": ("LeftArm", ("lCollar", "lShldr")),
-                            "LeftArm": ("LeftForeArm", ("lShldr", "lForeArm")),
-                            "LeftForeArm": ("LeftHand", ("lForeArm", "lHand")),
-                            "LeftUpLeg": ("LeftLeg", ("lThigh", "lShin")),
-                            "LeftLeg": ("LeftFoot", ("lShin", "lFoot"))}),  # fmt: skip
+    rest_bones=_both_sides(
+        {
+            "LeftShoulder": ("LeftArm", ("lCollar", "lShldr")),
+            "LeftArm": ("LeftForeArm", ("lShldr", "lForeArm")),
+            "LeftForeArm": ("LeftHand", ("lForeArm", "lHand")),
+            "LeftUpLeg": ("LeftLeg", ("lThigh", "lShin")),
+            "LeftLeg": ("LeftFoot", ("lShin", "lFoot")),
+        }
+    ),
 )
 
 SKELETONS = (CMU, DAZ)

@@ -111,8 +111,14 @@ class FeatureTracker:
         mask = np.full(gray.shape, 255, np.uint8)
         for u, v in np.rint(existing).astype(int):  # no new corner next to a live track
             cv2.circle(mask, (int(u), int(v)), int(np.ceil(s.min_distance_px)), 0, thickness=-1)
-        corners = cv2.goodFeaturesToTrack(gray, maxCorners=wanted, qualityLevel=s.quality_level,
-                                          minDistance=s.min_distance_px, mask=mask, blockSize=s.block_size)
+        corners = cv2.goodFeaturesToTrack(
+            gray,
+            maxCorners=wanted,
+            qualityLevel=s.quality_level,
+            minDistance=s.min_distance_px,
+            mask=mask,
+            blockSize=s.block_size,
+        )
         if corners is None:
             return np.empty((0, 2))
         return corners.reshape(-1, 2).astype(np.float64)

@@ -52,8 +52,7 @@ class BackgroundModel:
             raise ValueError(f"learning a background needs (n >= 2, h, w, 3) frames, got shape {frames.shape}")
         chroma = normalised_colour(frames)
         std = np.maximum(chroma.std(axis=0), settings.min_chroma_std)
-        return cls(chroma.mean(axis=0), (1.0 / std).astype(np.float32), frames.mean(axis=0, dtype=np.float32),
-                   settings)  # fmt: skip
+        return cls(chroma.mean(axis=0), (1.0 / std).astype(np.float32), frames.mean(axis=0, dtype=np.float32), settings)
 
     def silhouette(self, rgb: np.ndarray) -> np.ndarray:
         """``(h, w)`` bool: the pixels of ``rgb`` that are not background."""

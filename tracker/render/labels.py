@@ -54,8 +54,16 @@ class LabelRenderer:
     canvas draws no faster: measured). ``closed``: the meshes are closed, their faces counter-clockwise seen from
     outside, so their back faces are never seen and are skipped. Close it (or use ``with``) to free its context."""
 
-    def __init__(self, faces: np.ndarray, face_labels: np.ndarray, vertices: int, width: int, height: int,
-                 capacity: int = 32, closed: bool = False) -> None:  # fmt: skip
+    def __init__(
+        self,
+        faces: np.ndarray,
+        face_labels: np.ndarray,
+        vertices: int,
+        width: int,
+        height: int,
+        capacity: int = 32,
+        closed: bool = False,
+    ) -> None:
         if face_labels.max(initial=0) > 255:
             raise ValueError("labels must fit a byte (1..255)")
         self.vertices, self.width, self.height = int(vertices), int(width), int(height)
@@ -97,8 +105,9 @@ class LabelRenderer:
         for first in range(0, len(pixels), self.capacity):
             count = min(self.capacity, len(pixels) - first)
             grid = np.round(pixels[first : first + count] / SUBPIXEL) * SUBPIXEL
-            batch = np.ascontiguousarray(np.concatenate([grid, depth[first : first + count, :, None]], axis=2),
-                                         np.float32)  # fmt: skip
+            batch = np.ascontiguousarray(
+                np.concatenate([grid, depth[first : first + count, :, None]], axis=2), np.float32
+            )
             gl.glBindBuffer(gl.GL_TEXTURE_BUFFER, self._positions)
             gl.glBufferSubData(gl.GL_TEXTURE_BUFFER, 0, batch.nbytes, batch)
             gl.glUniform1f(self._near, near)
@@ -122,8 +131,12 @@ class LabelRenderer:
         gl.glBufferData(gl.GL_ELEMENT_ARRAY_BUFFER, faces.nbytes, faces, gl.GL_STATIC_DRAW)
         self._positions = _texture_buffer(gl, gl.GL_RGB32F, 0, self.capacity * self.vertices * 12, None)
         _texture_buffer(gl, gl.GL_R8UI, 1, face_labels.nbytes, face_labels)
-        for name, value in (("positions", 0), ("face_labels", 1), ("vertices", self.vertices),
-                            ("columns", self.columns)):  # fmt: skip
+        for name, value in (
+            ("positions", 0),
+            ("face_labels", 1),
+            ("vertices", self.vertices),
+            ("columns", self.columns),
+        ):
             gl.glUniform1i(gl.glGetUniformLocation(self._program, name), value)
         gl.glUniform2i(gl.glGetUniformLocation(self._program, "tile"), self.width, self.height)
         gl.glUniform2i(gl.glGetUniformLocation(self._program, "canvas"), *self.canvas)
@@ -212,4 +225,3 @@ def _framebuffer(gl, width: int, height: int) -> int:
     if gl.glCheckFramebufferStatus(gl.GL_FRAMEBUFFER) != gl.GL_FRAMEBUFFER_COMPLETE:
         raise RenderBackendError("cannot make the label framebuffer")
     return framebuffer
-

@@ -105,8 +105,9 @@ class SceneRenderer:
             labels, _ = self._renderer.render(self._scene, flags=pr.RenderFlags.SEG, seg_node_map=seg_map)
             pass_ms["rgb_depth"] += 1e3 * (lit - start)
             pass_ms["labels"] += 1e3 * (time.perf_counter() - lit)
-            views[camera.name] = RenderedView(rgb=np.ascontiguousarray(rgb), depth=_metric_depth(depth),
-                                              labels=np.ascontiguousarray(labels[:, :, 0]))
+            views[camera.name] = RenderedView(
+                rgb=np.ascontiguousarray(rgb), depth=_metric_depth(depth), labels=np.ascontiguousarray(labels[:, :, 0])
+            )
         self.last_pass_ms = pass_ms
         return views
 
@@ -119,8 +120,9 @@ class SceneRenderer:
         views = {}
         for camera in cameras:
             self._set_camera(camera)
-            labels, depth = self._renderer.render(self._scene, flags=self._pyrender.RenderFlags.SEG,
-                                                  seg_node_map=seg_map)
+            labels, depth = self._renderer.render(
+                self._scene, flags=self._pyrender.RenderFlags.SEG, seg_node_map=seg_map
+            )
             views[camera.name] = DepthLabels(depth=_metric_depth(depth), labels=np.ascontiguousarray(labels[:, :, 0]))
         return views
 

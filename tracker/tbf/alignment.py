@@ -68,8 +68,10 @@ def samples_anchor(samples: PoseSampleSet) -> tuple[float, float]:
         anchors = [feet_anchor(stack.mask(index)) for index in picked]
         return float(np.median([a[axis] for a in anchors if a is not None])) + (u0, v0)[axis]
 
-    return (samples.derived(f"feet anchor u {ANCHOR_SAMPLES}", lambda: anchor(0)),
-            samples.derived(f"feet anchor v {ANCHOR_SAMPLES}", lambda: anchor(1)))  # fmt: skip
+    return (
+        samples.derived(f"feet anchor u {ANCHOR_SAMPLES}", lambda: anchor(0)),
+        samples.derived(f"feet anchor v {ANCHOR_SAMPLES}", lambda: anchor(1)),
+    )
 
 
 def shifted(mask: np.ndarray, du: int, dv: int) -> np.ndarray:
@@ -199,9 +201,14 @@ def centroid_rays(cameras: Sequence[Camera], centroids: np.ndarray) -> tuple[np.
     pixels = np.array([camera.width / LEVEL_RESOLUTIONS[-1][0] for camera in cameras])[:, None]
     full = centroids * pixels  # in the camera's own pixels
     intrinsics = np.array([(camera.cx, camera.cy, camera.fx, camera.fy) for camera in cameras])
-    local = np.stack([(full[..., 0] - intrinsics[:, 0]) / intrinsics[:, 2],
-                      (full[..., 1] - intrinsics[:, 1]) / intrinsics[:, 3], np.ones(full.shape[:-1])],
-                     axis=-1)  # fmt: skip
+    local = np.stack(
+        [
+            (full[..., 0] - intrinsics[:, 0]) / intrinsics[:, 2],
+            (full[..., 1] - intrinsics[:, 1]) / intrinsics[:, 3],
+            np.ones(full.shape[:-1]),
+        ],
+        axis=-1,
+    )
     rotations = np.stack([camera.rotation for camera in cameras])
     return np.array([camera.position for camera in cameras]), np.einsum("kab,...kb->...ka", rotations, local)
 
@@ -237,8 +244,9 @@ class ViewsPlacement:
     whose spot the observation is placed on (the last estimate's; at first the initial prior's); ``spots``: every
     sample's (`sample_spots`)."""
 
-    def __init__(self, cameras: Sequence[Camera], samples: SampleViews, reference: int,
-                 spots: np.ndarray | None = None) -> None:  # fmt: skip
+    def __init__(
+        self, cameras: Sequence[Camera], samples: SampleViews, reference: int, spots: np.ndarray | None = None
+    ) -> None:
         self.cameras, self.samples, self.reference = tuple(cameras), samples, reference
         self.spots = sample_spots(self.cameras, samples) if spots is None else spots
         self.pixels = [camera.width / LEVEL_RESOLUTIONS[-1][0] for camera in self.cameras]

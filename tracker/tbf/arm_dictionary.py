@@ -51,11 +51,13 @@ class ArmGridSpec:
     (the upper arm held along +x and swaying about the vertical, the elbow from straight to 80°, the forearm bent
     both ways, the hand rocking): 4,725 poses."""
 
-    axes: tuple[ArmAxis, ...] = (ArmAxis("upper_arm", "r2", (90.0, 90.0, 1.0)),
-                                 ArmAxis("upper_arm", "r3", (-6.0, 6.0, 3.0)),
-                                 ArmAxis("forearm", "r2", (0.0, 80.0, 4.0)),
-                                 ArmAxis("forearm", "b1", (-0.04, 0.04, 0.02)),
-                                 ArmAxis("hand", "r1", (-24.0, 24.0, 6.0)))  # fmt: skip
+    axes: tuple[ArmAxis, ...] = (
+        ArmAxis("upper_arm", "r2", (90.0, 90.0, 1.0)),
+        ArmAxis("upper_arm", "r3", (-6.0, 6.0, 3.0)),
+        ArmAxis("forearm", "r2", (0.0, 80.0, 4.0)),
+        ArmAxis("forearm", "b1", (-0.04, 0.04, 0.02)),
+        ArmAxis("hand", "r1", (-24.0, 24.0, 6.0)),
+    )
     shoulder: Vector3 = (0.0, 0.0, 0.0)  # where the upper arm's bottom pole sits
 
 
@@ -77,8 +79,9 @@ class ArmDictionary:
         names = self.arm.part_names
         for k, axis in enumerate(self.spec.axes):
             if axis.part not in names:
-                raise ValueError(f"tracker.arm_samples.axes[{k}].part={axis.part}: no such part, allowed "
-                                 f"{', '.join(names)}")  # fmt: skip
+                raise ValueError(
+                    f"tracker.arm_samples.axes[{k}].part={axis.part}: no such part, allowed {', '.join(names)}"
+                )
         self._axes = [(names.index(axis.part), PARAM_INDEX[axis.param]) for axis in self.spec.axes]
         self._rest = self.arm.rest_params()
 
@@ -89,8 +92,9 @@ class ArmDictionary:
     @cached_property
     def space(self) -> PoseSpace:
         lengths = tuple(k for k, axis in enumerate(self.spec.axes) if axis.param not in ANGLE_NAMES)
-        parts = tuple(tuple(k for k, (part, _) in enumerate(self._axes) if part == index)
-                      for index in range(len(self.part_names)))  # fmt: skip
+        parts = tuple(
+            tuple(k for k, (part, _) in enumerate(self._axes) if part == index) for index in range(len(self.part_names))
+        )
         return PoseSpace(len(self._axes), lengths, parts)
 
     def poses(self) -> np.ndarray:
@@ -103,8 +107,9 @@ class ArmDictionary:
         for value, (part, index) in zip(pose, self._axes, strict=True):
             params[part, index] = value
         root_rotation = euler_to_matrix(params[0, _R])
-        params[0, _C] = jointed_translation(root_rotation, np.asarray(self.spec.shoulder, dtype=np.float64),
-                                            pole_point(params[0], top=False))  # fmt: skip
+        params[0, _C] = jointed_translation(
+            root_rotation, np.asarray(self.spec.shoulder, dtype=np.float64), pole_point(params[0], top=False)
+        )
         return self.arm.connect(params)
 
     def pose_of(self, params: np.ndarray) -> np.ndarray:
@@ -130,8 +135,13 @@ class ArmDictionary:
     @cached_property
     def source_key(self) -> str:
         """Names the arm's surfaces in caches: its parts' shapes, its mesh, the axes and the shoulder."""
-        text = json.dumps({"parts": [to_plain(part.shape) for part in self.arm.parts],
-                           "mesh": to_plain(self.arm.mesh), "spec": to_plain(self.spec)})  # fmt: skip
+        text = json.dumps(
+            {
+                "parts": [to_plain(part.shape) for part in self.arm.parts],
+                "mesh": to_plain(self.arm.mesh),
+                "spec": to_plain(self.spec),
+            }
+        )
         return "dsq-" + hashlib.sha256(text.encode()).hexdigest()[:16]
 
     def posed_vertices(self, poses: np.ndarray) -> np.ndarray:
@@ -141,22 +151,32 @@ class ArmDictionary:
         for pose in poses:
             params = self.params(pose)
             world = self.arm.world_transforms(params)
-            out.append(np.concatenate([transform_points(world[k], dsq_points(params[k], topology.eta, topology.omega))
-                                       for k in range(len(self.part_names))]))  # fmt: skip
+            out.append(
+                np.concatenate(
+                    [
+                        transform_points(world[k], dsq_points(params[k], topology.eta, topology.omega))
+                        for k in range(len(self.part_names))
+                    ]
+                )
+            )
         return np.array(out)
 
 
-def arm_floor(dictionary: ArmDictionary, motion: RandomWalk,
-              table: Mapping[str, np.ndarray]) -> tuple[dict, np.ndarray]:  # fmt: skip
+def arm_floor(
+    dictionary: ArmDictionary, motion: RandomWalk, table: Mapping[str, np.ndarray]
+) -> tuple[dict, np.ndarray]:
     """The best any filter could do with these samples: per frame the sample nearest the truth in pose space (each
     axis in units of the motion model's step), and paper 1's figures for part 2 had it been the estimate
     (``floor_part2_b1_rms``, ``floor_part2_r2_rms_deg``); and the nearest samples, per frame."""
     parts = dictionary.part_names
-    truths = np.stack([np.stack([table[f"truth_{name}"][table["part"] == part] for name in PARAM_NAMES], axis=1)
-                       for part in parts], axis=1)  # (frames, parts, 17)  # fmt: skip
+    truths = np.stack(
+        [np.stack([table[f"truth_{name}"][table["part"] == part] for name in PARAM_NAMES], axis=1) for part in parts],
+        axis=1,
+    )  # (frames, parts, 17)
     poses, sigmas = dictionary.poses(), motion.base_sigmas(dictionary.space)
-    nearest = np.array([np.argmin(np.linalg.norm((poses - dictionary.pose_of(truth)) / sigmas, axis=1))
-                        for truth in truths])  # fmt: skip
+    nearest = np.array(
+        [np.argmin(np.linalg.norm((poses - dictionary.pose_of(truth)) / sigmas, axis=1)) for truth in truths]
+    )
     figures: dict = {}
     if len(parts) > PAPER_PART:
         floor = np.stack([dictionary.params(poses[k])[PAPER_PART] for k in nearest])

@@ -177,8 +177,9 @@ def window_weights(cost: str | Cost, observed: np.ndarray, window: Window, **set
     return weights_of(np.asarray(observed, bool)[v0:v1, u0:u1])
 
 
-def silhouette_distance(cost: str | Cost, observed: np.ndarray, model: np.ndarray, window: Window | None = None,
-                        **settings: Any) -> float:  # fmt: skip
+def silhouette_distance(
+    cost: str | Cost, observed: np.ndarray, model: np.ndarray, window: Window | None = None, **settings: Any
+) -> float:
     """d(P, Q) for one pair, straight from the definition (the reference for `ObservationScorer`)."""
     u0, v0, u1, v1 = window or full_window(observed.shape)
     weights = weight_map(cost, observed, window, **settings)
@@ -285,8 +286,10 @@ class RunBoundaries:
         """From ``(n, h, w)`` silhouettes (bool, or labels: inside where nonzero)."""
         images = np.asarray(images)
         self.shape = images.shape[1:]
-        along_rows, down_columns = SilhouetteRuns.from_masks(images), SilhouetteRuns.from_masks(
-            images.transpose(0, 2, 1))  # fmt: skip
+        along_rows, down_columns = (
+            SilhouetteRuns.from_masks(images),
+            SilhouetteRuns.from_masks(images.transpose(0, 2, 1)),
+        )
         self.by_columns = len(down_columns.starts) < len(along_rows.starts)
         runs = down_columns if self.by_columns else along_rows
         columns = np.empty(2 * len(runs.starts), np.int32)
@@ -332,8 +335,9 @@ class ShiftedRunBoundaries:
         self.reach = int(moved.max()) if len(moved) else 0  # the farthest a row's boundaries were moved back
         matrix = framed.matrix
         indices = (matrix.indices - np.repeat(moved, np.diff(matrix.indptr)) + self.reach).astype(matrix.indices.dtype)
-        self.matrix = sparse.csr_matrix((matrix.data, indices, matrix.indptr),
-                                        shape=(matrix.shape[0], matrix.shape[1] + self.reach))  # fmt: skip
+        self.matrix = sparse.csr_matrix(
+            (matrix.data, indices, matrix.indptr), shape=(matrix.shape[0], matrix.shape[1] + self.reach)
+        )
 
     def flat(self, pixels: np.ndarray) -> np.ndarray:
         """Whole-pixel moves ``(..., 2)`` ``(du, dv)`` as moves along the flattened frame (its rows, or columns)."""

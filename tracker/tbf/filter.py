@@ -60,8 +60,9 @@ class FilterSettings:
         validate(self)
 
 
-def neighbour_scale(samples: PoseSampleSet, cost: Cost, resolution: tuple[int, int],
-                    count: int = CALIBRATION_SAMPLES) -> float:  # fmt: skip
+def neighbour_scale(
+    samples: PoseSampleSet, cost: Cost, resolution: tuple[int, int], count: int = CALIBRATION_SAMPLES
+) -> float:
     """The median distance (with ``cost``, at ``resolution``) from a sample's silhouette, taken as the
     observation, to the nearest other sample's; over ``count`` samples picked evenly through the set (one view's)."""
     stack = samples.silhouettes(resolution)
@@ -106,7 +107,8 @@ def _identity(cost: Cost) -> str:
     """A cost's name and settings (a configured registered cost), or its function's qualified name."""
     settings = getattr(cost, "settings", {})
     return getattr(cost, "name", getattr(cost, "__qualname__", repr(cost))) + "".join(
-        f" {k}={v!r}" for k, v in sorted(settings.items()))  # fmt: skip
+        f" {k}={v!r}" for k, v in sorted(settings.items())
+    )
 
 
 class TreeFilter:
@@ -122,9 +124,17 @@ class TreeFilter:
     moved). The top level, scored whole, moves a sample by the difference of the two pixels each rounded, which
     makes it one sparse product (`ShiftedRunBoundaries`); the levels below by the difference rounded."""
 
-    def __init__(self, samples: PoseSampleSet | SampleViews, tree: PoseTree, cost: Cost, motion: RandomWalk,
-                 settings: FilterSettings = FilterSettings(), transitions: np.ndarray | None = None,
-                 space: PoseSpace = BODY_SPACE, spot_pixels: list[np.ndarray] | None = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        samples: PoseSampleSet | SampleViews,
+        tree: PoseTree,
+        cost: Cost,
+        motion: RandomWalk,
+        settings: FilterSettings = FilterSettings(),
+        transitions: np.ndarray | None = None,
+        space: PoseSpace = BODY_SPACE,
+        spot_pixels: list[np.ndarray] | None = None,
+    ) -> None:
         samples = SampleViews.of(samples)
         self.samples, self.tree, self.cost, self.motion, self.settings = samples, tree, cost, motion, settings
         self.space, self.spot_pixels = space, spot_pixels
@@ -133,18 +143,30 @@ class TreeFilter:
         # Per level and view, the representatives' runs in node order (a level scored whole reads them straight
         # through); the top level's, scored whole at frame 0 and, with a jump share, at every frame, as run
         # boundaries (the coarsest resolution: its matrix is small), each moved back by its spot pixel if any.
-        self.level_runs = [tuple(stack.runs.subset(level.representatives) for stack in stacks)
-                           for stacks, level in zip(self._stacks, tree.levels, strict=True)]  # fmt: skip
+        self.level_runs = [
+            tuple(stack.runs.subset(level.representatives) for stack in stacks)
+            for stacks, level in zip(self._stacks, tree.levels, strict=True)
+        ]
         top = tree.levels[0].representatives
-        self.level_runs[0] = tuple(RunBoundaries(stack.images[top]) if spot_pixels is None else
-                                   ShiftedRunBoundaries(stack.images[top], np.rint(spot_pixels[0][top, view]))
-                                   for view, stack in enumerate(self._stacks[0]))  # fmt: skip
+        self.level_runs[0] = tuple(
+            RunBoundaries(stack.images[top])
+            if spot_pixels is None
+            else ShiftedRunBoundaries(stack.images[top], np.rint(spot_pixels[0][top, view]))
+            for view, stack in enumerate(self._stacks[0])
+        )
         self._occluded = samples.occluded(motion.occlusion_area_px)
         # Per level, each view's sigma (eq 10): its own neighbour step.
-        self.level_sigmas = [tuple(settings.likelihood_sigma * view.derived(
-            f"neighbour_scale {_identity(cost)} {level.resolution[0]}x{level.resolution[1]} {CALIBRATION_SAMPLES}",
-            lambda resolution=level.resolution, view=view: neighbour_scale(view, cost, resolution))
-            for view in samples.sets) for level in tree.levels]  # fmt: skip
+        self.level_sigmas = [
+            tuple(
+                settings.likelihood_sigma
+                * view.derived(
+                    f"neighbour_scale {_identity(cost)} {'x'.join(map(str, level.resolution))} {CALIBRATION_SAMPLES}",
+                    lambda resolution=level.resolution, view=view: neighbour_scale(view, cost, resolution),
+                )
+                for view in samples.sets
+            )
+            for level in tree.levels
+        ]
         # Pruning keeps nodes within this of the level's best log-posterior: prune_fraction per view, as each view
         # adds its own log-likelihood (one view: the paper's).
         self.prune_log = len(samples.sets) * np.log(max(settings.prune_fraction, TINY))
@@ -188,7 +210,8 @@ class TreeFilter:
         leaf_of = self.tree.levels[-1].node_of_sample[members]
         likelihood_of_leaf = dict(zip(leaves.tolist(), leaf_likelihood.tolist(), strict=True))
         log_posterior = np.array([likelihood_of_leaf[leaf] for leaf in leaf_of.tolist()]) + np.log(
-            np.maximum(prior[members], TINY))  # fmt: skip
+            np.maximum(prior[members], TINY)
+        )
         weights = np.exp(log_posterior - log_posterior.max())
         weights[prior[members] <= 0] = 0.0
         posterior = np.zeros(len(prior))
@@ -198,13 +221,20 @@ class TreeFilter:
         self._previous_flags = self._occluded[best]
         nonzero = posterior[posterior > 0]
         timings["leaves"] = elapsed_ms(start)
-        return FilterResult(sample=best, pose=np.asarray(self.samples.poses[best]).copy(),
-                            occluded=self._occluded[best].copy(), nodes_evaluated=evaluated, nodes_kept=kept,
-                            prior_terms=terms, entropy=float(-(nonzero * np.log(nonzero)).sum()),
-                            timings_ms=timings)  # fmt: skip
+        return FilterResult(
+            sample=best,
+            pose=np.asarray(self.samples.poses[best]).copy(),
+            occluded=self._occluded[best].copy(),
+            nodes_evaluated=evaluated,
+            nodes_kept=kept,
+            prior_terms=terms,
+            entropy=float(-(nonzero * np.log(nonzero)).sum()),
+            timings_ms=timings,
+        )
 
-    def _descend(self, prior: np.ndarray, observed: tuple[np.ndarray, ...],
-                 timings: dict[str, float]) -> tuple[np.ndarray, np.ndarray, list[int], list[int]]:  # fmt: skip
+    def _descend(
+        self, prior: np.ndarray, observed: tuple[np.ndarray, ...], timings: dict[str, float]
+    ) -> tuple[np.ndarray, np.ndarray, list[int], list[int]]:
         """Level by level from the top, the nodes under the survivors scored and pruned: the surviving leaves, their
         log-likelihoods, and per level the nodes evaluated and kept."""
         survivors, node_likelihood = np.array([0]), np.zeros(0)
@@ -239,19 +269,22 @@ class TreeFilter:
         resolution = tuple(self.tree.levels[level].resolution)
         return observed if observed.shape[::-1] == resolution else resize_silhouette(observed, *resolution)
 
-    def score_level(self, level: int, observations: tuple[np.ndarray, ...],
-                    nodes: np.ndarray | None = None) -> list[np.ndarray]:  # fmt: skip
+    def score_level(
+        self, level: int, observations: tuple[np.ndarray, ...], nodes: np.ndarray | None = None
+    ) -> list[np.ndarray]:
         """Per view, the distances of its observation (at ``level``'s resolution) to the representatives of
         ``nodes`` of ``level`` (all of them for None)."""
         return [self.score_view(level, view, observation, nodes) for view, observation in enumerate(observations)]
 
     def score_view(self, level: int, view: int, observation: np.ndarray, nodes: np.ndarray | None = None) -> np.ndarray:
         """View ``view``'s `score_level`."""
-        return self.scores_from(ObservationScorer(self.cost, observation, self._stacks[level][view].window), level,
-                                view, nodes)  # fmt: skip
+        return self.scores_from(
+            ObservationScorer(self.cost, observation, self._stacks[level][view].window), level, view, nodes
+        )
 
-    def scores_from(self, scorer: ObservationScorer, level: int, view: int,
-                    nodes: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
+    def scores_from(
+        self, scorer: ObservationScorer, level: int, view: int, nodes: np.ndarray | None = None
+    ) -> np.ndarray:
         """`score_view` with the observation's scorer made; with spot pixels, each representative moved from its
         spot to the reference's (`shifts`)."""
         runs = self.level_runs[level][view]
@@ -273,16 +306,19 @@ class TreeFilter:
             return (np.rint(pixels[reference]) - np.rint(pixels[samples])).astype(np.int64)
         return np.rint(pixels[reference] - pixels[samples]).astype(np.int64)
 
-    def score_samples(self, level: int, observations: tuple[np.ndarray, ...], samples: np.ndarray,
-                      reference: int | None = None) -> list[np.ndarray]:  # fmt: skip
+    def score_samples(
+        self, level: int, observations: tuple[np.ndarray, ...], samples: np.ndarray, reference: int | None = None
+    ) -> list[np.ndarray]:
         """Per view, the distances of its observation (at ``level``'s resolution) to ``samples``; with spot
         pixels, each moved from its spot to that of sample ``reference`` (the observation's)."""
         scores = []
         for view, (observation, stack) in enumerate(zip(observations, self._stacks[level], strict=True)):
             scorer = ObservationScorer(self.cost, observation, stack.window)
-            scores.append(scorer.scores_of_runs(stack.runs, samples) if self.spot_pixels is None else
-                          scorer.scores_of_shifted(stack.runs, samples, self.shifts(level, view, samples,
-                                                                                    reference)))  # fmt: skip
+            scores.append(
+                scorer.scores_of_runs(stack.runs, samples)
+                if self.spot_pixels is None
+                else scorer.scores_of_shifted(stack.runs, samples, self.shifts(level, view, samples, reference))
+            )
         return scores
 
     def log_likelihood(self, level: int, distances: list[np.ndarray]) -> np.ndarray:

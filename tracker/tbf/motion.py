@@ -52,8 +52,13 @@ class PoseSpace:
 
 
 # The body's pose vector (`tracker.models.body_skeleton`): the root's position, then each joint's rotation vector.
-BODY_SPACE = PoseSpace(POSE_SIZE, (0, 1, 2), tuple(
-    tuple(3 + 3 * JOINT_INDEX[bone] + axis for bone in bones for axis in range(3)) for bones in PART_BONES.values()))
+BODY_SPACE = PoseSpace(
+    POSE_SIZE,
+    (0, 1, 2),
+    tuple(
+        tuple(3 + 3 * JOINT_INDEX[bone] + axis for bone in bones for axis in range(3)) for bones in PART_BONES.values()
+    ),
+)
 
 
 @MOTION_MODELS.register("dm1")
@@ -143,9 +148,16 @@ class PosePrior:
     """Eq 14 over a fixed sample set, sparse (see the module docstring); with `LearnedTransitions`, its mixture
     over the learned ``transitions`` (``(m, 3)`` rows ``from, to, count``). ``space``: what the poses hold."""
 
-    def __init__(self, poses: np.ndarray, motion: RandomWalk, reach: float = 4.0, support_fraction: float = 1e-4,
-                 max_support: int = 256, transitions: np.ndarray | None = None,
-                 space: PoseSpace = BODY_SPACE):  # fmt: skip
+    def __init__(
+        self,
+        poses: np.ndarray,
+        motion: RandomWalk,
+        reach: float = 4.0,
+        support_fraction: float = 1e-4,
+        max_support: int = 256,
+        transitions: np.ndarray | None = None,
+        space: PoseSpace = BODY_SPACE,
+    ):
         self.poses = np.asarray(poses, dtype=np.float64)
         self.motion, self.reach, self.space = motion, reach, space
         self.support_fraction, self.max_support = support_fraction, max_support
@@ -155,8 +167,9 @@ class PosePrior:
         self.learned = isinstance(motion, LearnedTransitions)
         if self.learned:
             if transitions is None or not len(transitions):
-                raise ValueError("motion=learned learns from the clips the samples come from: tracker.samples.clips "
-                                 "names none")  # fmt: skip
+                raise ValueError(
+                    "motion=learned learns from the clips the samples come from: tracker.samples.clips names none"
+                )
             order = np.argsort(transitions[:, 0], kind="stable")
             self._to, self._count = transitions[order, 1], transitions[order, 2].astype(np.float64)
             self._rows = np.searchsorted(transitions[order, 0], np.arange(len(self.poses) + 1))
@@ -202,8 +215,9 @@ class PosePrior:
         centre, sample, distance = self._within_reach(sigmas).pairs(centres)
         kernel = np.exp(-0.5 * distance**2)
         totals = np.bincount(centre, weights=kernel, minlength=len(centres))  # >= 1: a centre is a sample
-        return np.bincount(sample, weights=mass[centre] * kernel / totals[centre],
-                           minlength=len(self.poses)), len(sample)  # fmt: skip
+        return np.bincount(sample, weights=mass[centre] * kernel / totals[centre], minlength=len(self.poses)), len(
+            sample
+        )
 
     def dense_prior(self, posterior: np.ndarray, occluded_parts: np.ndarray) -> np.ndarray:
         """The same sum over every pair (the naive N x N reference; small sets only)."""

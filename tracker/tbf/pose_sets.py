@@ -42,18 +42,29 @@ def arm_grid(
 ) -> np.ndarray:
     """``(n, POSE_SIZE)``: the right arm at every (swing, abduction, elbow) of the grids, for each left-arm swing."""
     combinations = itertools.product(left_swing_deg, swing_deg, abduction_deg, elbow_deg)
-    return np.array([arms_pose(body, right=(swing, abduction, elbow), left=(left, left_abduction_deg, 0.0),
-                               yaw_deg=yaw_deg) for left, swing, abduction, elbow in combinations])  # fmt: skip
+    return np.array(
+        [
+            arms_pose(body, right=(swing, abduction, elbow), left=(left, left_abduction_deg, 0.0), yaw_deg=yaw_deg)
+            for left, swing, abduction, elbow in combinations
+        ]
+    )
 
 
-def clip_sequences(body: BodyMesh, paths: Iterable[str | Path], fps: float = 30.0, yaw_deg: float = -90.0,
-                   true_fps: Sequence[float | None] | None = None) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def clip_sequences(
+    body: BodyMesh,
+    paths: Iterable[str | Path],
+    fps: float = 30.0,
+    yaw_deg: float = -90.0,
+    true_fps: Sequence[float | None] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """``(n, POSE_SIZE)``: every frame of each clip at ``fps`` (each file read at its ``true_fps`` when given), and
     ``(n,)`` each pose's sequence: the index of its clip."""
     paths = list(paths)
     rates = list(true_fps) if true_fps is not None else [None] * len(paths)
-    poses = [MocapScene(str(path), fps=fps, yaw_deg=yaw_deg, true_fps=rate).poses(body)
-             for path, rate in zip(paths, rates, strict=True)]  # fmt: skip
+    poses = [
+        MocapScene(str(path), fps=fps, yaw_deg=yaw_deg, true_fps=rate).poses(body)
+        for path, rate in zip(paths, rates, strict=True)
+    ]
     return np.concatenate(poses), np.repeat(np.arange(len(poses)), [len(p) for p in poses])
 
 
@@ -93,8 +104,9 @@ def repeated_sequences(sequence: np.ndarray, blocks: int) -> np.ndarray:
     return np.concatenate([sequence + block * (int(sequence.max()) + 1) for block in range(blocks)])
 
 
-def varied(poses: np.ndarray, turns_deg: Sequence[float], copies: int, jitter_deg: float,
-           rng: np.random.Generator) -> np.ndarray:  # fmt: skip
+def varied(
+    poses: np.ndarray, turns_deg: Sequence[float], copies: int, jitter_deg: float, rng: np.random.Generator
+) -> np.ndarray:
     """Procedural variation of ``poses``: each turned in place about the vertical by every angle of
     ``turns_deg``, and for each of those ``copies`` more with every joint rotated by a random rotation vector
     of ``jitter_deg`` standard deviation per component (the root's position kept)."""

@@ -79,9 +79,16 @@ class Layout:
     near: float
 
 
-def load_or_build(body: Posable, camera: Camera, poses: np.ndarray, cache_dir: str | Path, resolutions=RESOLUTIONS,
-                  progress: bool | None = None, build: BuildSettings | None = None,
-                  check: Literal["sampled", "full"] = "sampled") -> PoseSampleSet:  # fmt: skip
+def load_or_build(
+    body: Posable,
+    camera: Camera,
+    poses: np.ndarray,
+    cache_dir: str | Path,
+    resolutions=RESOLUTIONS,
+    progress: bool | None = None,
+    build: BuildSettings | None = None,
+    check: Literal["sampled", "full"] = "sampled",
+) -> PoseSampleSet:
     """The sample set of ``poses`` (already de-duplicated) seen by ``camera``: from the cache when it is intact
     (``check``: how much of it is read to tell, `tracker.tbf.sample_store`), else built (``build``) and cached."""
     poses = np.asarray(poses, dtype=np.float64)
@@ -100,43 +107,63 @@ def load_or_build(body: Posable, camera: Camera, poses: np.ndarray, cache_dir: s
         return sample_store.load(folder, key, resolutions, check)
 
 
-def build_set(body: Posable, camera: Camera, poses: np.ndarray, folder: Path, resolutions,
-              settings: BuildSettings, progress: bool | None = None) -> None:  # fmt: skip
+def build_set(
+    body: Posable,
+    camera: Camera,
+    poses: np.ndarray,
+    folder: Path,
+    resolutions,
+    settings: BuildSettings,
+    progress: bool | None = None,
+) -> None:
     """Render ``poses`` into the set at ``folder`` (its name: the set's key), resuming a killed build."""
     building = folder.parent / f".{folder.name}.building"
     building.mkdir(parents=True, exist_ok=True)
     finest = resized(camera, *resolutions[0])
     factors = [resolution_factor(resolutions[0], resolution) for resolution in resolutions]
-    shards = [slice(first, min(first + settings.shard_size, len(poses)))
-              for first in range(0, len(poses), settings.shard_size)]  # fmt: skip
+    shards = [
+        slice(first, min(first + settings.shard_size, len(poses)))
+        for first in range(0, len(poses), settings.shard_size)
+    ]
     layout = _layout(building, body, finest, poses, shards, max(factors), settings)
-    windows = {res: tuple(side // factor for side in layout.window)
-               for res, factor in zip(resolutions, factors, strict=True)}  # fmt: skip
-    labels = {res: _array(building, labels_name(res), (len(poses), w[3] - w[1], w[2] - w[0]), np.uint8)
-              for res, w in windows.items()}  # fmt: skip
+    windows = {
+        res: tuple(side // factor for side in layout.window) for res, factor in zip(resolutions, factors, strict=True)
+    }
+    labels = {
+        res: _array(building, labels_name(res), (len(poses), w[3] - w[1], w[2] - w[0]), np.uint8)
+        for res, w in windows.items()
+    }
     areas = _array(building, "areas", (len(poses), len(body.part_names)), np.int64)
     todo = [k for k in range(len(shards)) if not (building / f"shard{k}.done").exists()]
     if len(todo) < len(shards):
         log.info("resuming the build of %s: %d of %d shards done", folder.name, len(shards) - len(todo), len(shards))
     show = sys.stderr.isatty() if progress is None else progress
     tasks = ((render_shard, (body, finest, poses[shards[k]], layout, factors), {"shard": k}) for k in todo)
-    for shard in tqdm(_run(tasks, settings), total=len(todo), desc="rendering pose samples", disable=not show,
-                      unit="shard"):  # fmt: skip
+    for shard in tqdm(
+        _run(tasks, settings), total=len(todo), desc="rendering pose samples", disable=not show, unit="shard"
+    ):
         k, rows = shard["shard"], shards[shard["shard"]]
         for res in resolutions:
             labels[res][rows] = shard["labels"][res]
         areas[rows] = shard["areas"]
         with atomic_path(building / f"shard{k}.runs.npz") as temporary, open(temporary, "wb") as file:
-            np.savez(file, **{f"{res[0]}x{res[1]}_{part}": shard["runs"][res][part] for res in resolutions
-                              for part in ("starts", "ends", "counts")})  # fmt: skip
+            np.savez(
+                file,
+                **{
+                    f"{res[0]}x{res[1]}_{part}": shard["runs"][res][part]
+                    for res in resolutions
+                    for part in ("starts", "ends", "counts")
+                },
+            )
         for array in (*labels.values(), areas):
             array.flush()
         (building / f"shard{k}.done").touch()
     _finish(building, folder, poses, shards, resolutions, windows)
 
 
-def render_shard(body: Posable, camera: Camera, poses: np.ndarray, layout: Layout, factors: list[int],
-                 shard: int = 0) -> dict:  # fmt: skip
+def render_shard(
+    body: Posable, camera: Camera, poses: np.ndarray, layout: Layout, factors: list[int], shard: int = 0
+) -> dict:
     """One shard's label images cropped to the window at every resolution (finest first, by ``factors``), each
     part's area at the finest, and the runs of inside pixels at every resolution."""
     t0, s0, t1, s1 = layout.tile
@@ -175,8 +202,15 @@ def shard_bounds(body: Posable, camera: Camera, poses: np.ndarray) -> list[float
     return [*map(float, low), *map(float, high), nearest]
 
 
-def _layout(building: Path, body: Posable, camera: Camera, poses: np.ndarray, shards: list[slice], align: int,
-            settings: BuildSettings) -> Layout:  # fmt: skip
+def _layout(
+    building: Path,
+    body: Posable,
+    camera: Camera,
+    poses: np.ndarray,
+    shards: list[slice],
+    align: int,
+    settings: BuildSettings,
+) -> Layout:
     """The build's layout: computed once (in shards) and kept in the building folder, so a resumed build keeps
     the window its finished shards were cropped to."""
     path = building / "layout.json"
@@ -209,17 +243,20 @@ def _array(building: Path, name: str, shape: tuple[int, ...], dtype) -> np.memma
     return np.lib.format.open_memmap(path, mode="w+", dtype=dtype, shape=shape)
 
 
-def _finish(building: Path, folder: Path, poses: np.ndarray, shards: list[slice], resolutions,
-            windows: dict) -> None:  # fmt: skip
+def _finish(building: Path, folder: Path, poses: np.ndarray, shards: list[slice], resolutions, windows: dict) -> None:
     """Join the shards' runs, write the poses and ``meta.json``, and make the set visible under its key."""
     for res in resolutions:
         name = f"{res[0]}x{res[1]}"
         parts = [np.load(building / f"shard{k}.runs.npz") for k in range(len(shards))]
         counts = np.concatenate([part[f"{name}_counts"] for part in parts])
-        np.save(building / f"{sample_store.runs_name(res, 'starts')}.npy",
-                np.concatenate([part[f"{name}_starts"] for part in parts]).astype(np.int32))  # fmt: skip
-        np.save(building / f"{sample_store.runs_name(res, 'ends')}.npy",
-                np.concatenate([part[f"{name}_ends"] for part in parts]).astype(np.int32))  # fmt: skip
+        np.save(
+            building / f"{sample_store.runs_name(res, 'starts')}.npy",
+            np.concatenate([part[f"{name}_starts"] for part in parts]).astype(np.int32),
+        )
+        np.save(
+            building / f"{sample_store.runs_name(res, 'ends')}.npy",
+            np.concatenate([part[f"{name}_ends"] for part in parts]).astype(np.int32),
+        )
         np.save(building / f"{sample_store.runs_name(res, 'ptr')}.npy", np.r_[0, np.cumsum(counts)].astype(np.int64))
     np.save(building / "poses.npy", poses)
     sample_store.write_meta(building, folder.name, resolutions, windows)
@@ -254,6 +291,7 @@ def _renderer(body: Posable, width: int, height: int):
 
     key = (body.source_key, width, height)
     if key not in _RENDERERS:
-        _RENDERERS[key] = LabelRenderer(body.faces, body.face_parts + 1, len(body.rest_vertices), width, height,
-                                        closed=body.closed)  # fmt: skip
+        _RENDERERS[key] = LabelRenderer(
+            body.faces, body.face_parts + 1, len(body.rest_vertices), width, height, closed=body.closed
+        )
     return _RENDERERS[key]

@@ -50,9 +50,19 @@ class GridSpec:
     yaw_deg: tuple[Finite, ...] = (-100.0, -90.0, -80.0)
 
     def poses(self, body: BodyMesh) -> np.ndarray:
-        return np.concatenate([arm_grid(body, span_values(self.swing_deg), span_values(self.abduction_deg),
-                                        span_values(self.elbow_deg), self.left_swing_deg, yaw_deg=yaw)
-                               for yaw in self.yaw_deg])  # fmt: skip
+        return np.concatenate(
+            [
+                arm_grid(
+                    body,
+                    span_values(self.swing_deg),
+                    span_values(self.abduction_deg),
+                    span_values(self.elbow_deg),
+                    self.left_swing_deg,
+                    yaw_deg=yaw,
+                )
+                for yaw in self.yaw_deg
+            ]
+        )
 
 
 @dataclass(frozen=True)
@@ -72,8 +82,9 @@ class CaptureSpec:
 
     def poses(self, body: BodyMesh) -> np.ndarray:
         ranges = ArmRanges(self.swing_deg, self.abduction_deg, self.elbow_deg)
-        return capture_poses(body, ranges, self.seconds, self.fps, self.yaw_deg, self.amplitude,
-                             np.random.default_rng(self.seed))  # fmt: skip
+        return capture_poses(
+            body, ranges, self.seconds, self.fps, self.yaw_deg, self.amplitude, np.random.default_rng(self.seed)
+        )
 
 
 @dataclass(frozen=True)
@@ -115,11 +126,13 @@ def clip_files(spec: SampleSpec, key: str = "tracker") -> list[tuple[int, str, f
     for index, pattern in enumerate(spec.clips):
         found = [pattern] if not glob.has_magic(pattern) else [str(path) for path in data_files(pattern)]
         if not found:
-            raise ValueError(f"{key}.samples.clips[{index}]={pattern}: no file matches it in the data directory "
-                             f"{data_dir()}")  # fmt: skip
+            raise ValueError(
+                f"{key}.samples.clips[{index}]={pattern}: no file matches it in the data directory {data_dir()}"
+            )
         for path in found:
-            rates = [rate.fps for rate in spec.clip_true_fps
-                     if fnmatch(str(data_path(path)), str(data_path(rate.files)))]  # fmt: skip
+            rates = [
+                rate.fps for rate in spec.clip_true_fps if fnmatch(str(data_path(path)), str(data_path(rate.files)))
+            ]
             files.append((index, path, rates[0] if rates else None))
     return files
 
@@ -141,8 +154,9 @@ def sample_poses(spec: SampleSpec, body: BodyMesh) -> tuple[np.ndarray, np.ndarr
             clips = grounded(body, clips)
         if spec.clip_mirror:
             clips, sequence = np.concatenate([clips, mirrored(clips)]), repeated_sequences(sequence, 2)
-        clips = varied(clips, spec.clip_turns_deg, spec.clip_copies, spec.clip_jitter_deg,
-                       np.random.default_rng(spec.seed))  # fmt: skip
+        clips = varied(
+            clips, spec.clip_turns_deg, spec.clip_copies, spec.clip_jitter_deg, np.random.default_rng(spec.seed)
+        )
         after = successors(repeated_sequences(sequence, len(clips) // len(sequence)))
         following.append(np.where(after >= 0, after + sum(len(part) for part in parts), -1))
         parts.append(clips)

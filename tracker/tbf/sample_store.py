@@ -66,10 +66,19 @@ def write_meta(folder: Path, key: str, resolutions, windows: dict[tuple[int, int
     arrays = {}
     for name in array_names(resolutions):
         path = folder / f"{name}.npy"
-        arrays[name] = {"shape": list(np.load(path, mmap_mode="r").shape), "bytes": path.stat().st_size,
-                        "sampled": sampled_digest(path), "sha256": full_digest(path)}  # fmt: skip
-    meta = {"key": key, "format": FORMAT_VERSION, "samples": arrays["poses"]["shape"][0],
-            "windows": {labels_name(r): list(map(int, windows[r])) for r in resolutions}, "arrays": arrays}
+        arrays[name] = {
+            "shape": list(np.load(path, mmap_mode="r").shape),
+            "bytes": path.stat().st_size,
+            "sampled": sampled_digest(path),
+            "sha256": full_digest(path),
+        }
+    meta = {
+        "key": key,
+        "format": FORMAT_VERSION,
+        "samples": arrays["poses"]["shape"][0],
+        "windows": {labels_name(r): list(map(int, windows[r])) for r in resolutions},
+        "arrays": arrays,
+    }
     (folder / "meta.json").write_text(json.dumps(meta, indent=2))
 
 

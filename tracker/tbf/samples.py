@@ -148,8 +148,12 @@ def occlusion_flags(areas: np.ndarray, area_threshold_px: float) -> np.ndarray:
 
 def cache_key(body: Posable, camera: Camera, poses: np.ndarray, resolutions=RESOLUTIONS) -> str:
     digest = hashlib.sha256()
-    for part in (f"v{FORMAT_VERSION}", body.source_key, repr(tuple(map(tuple, resolutions))),
-                 repr((camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy))):  # fmt: skip
+    for part in (
+        f"v{FORMAT_VERSION}",
+        body.source_key,
+        repr(tuple(map(tuple, resolutions))),
+        repr((camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy)),
+    ):
         digest.update(part.encode())
     for array in (camera.rotation, camera.position, poses):
         digest.update(np.ascontiguousarray(array, dtype=np.float64).tobytes())

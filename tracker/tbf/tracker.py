@@ -61,6 +61,7 @@ log = logging.getLogger(__name__)
 
 Share = Annotated[float, Range(0.0, 1.0, low_open=True)]
 
+
 @dataclass(frozen=True)
 class TbfSettings:
     """Paper 2's silhouette tree-based filter: pose samples, a tree of them by silhouette distance, Bayesian
@@ -102,14 +103,22 @@ class TbfResult(StepResult):
     def of(cls, part_names: Sequence[str], found: FilterResult | None, **fields: Any) -> TbfResult:
         if found is None:
             return cls(filter=None, **fields)
-        columns: dict[str, Any] = {"est_sample": found.sample, "entropy": found.entropy,
-                                   "prior_terms": found.prior_terms}  # fmt: skip
+        columns: dict[str, Any] = {
+            "est_sample": found.sample,
+            "entropy": found.entropy,
+            "prior_terms": found.prior_terms,
+        }
         series: dict[str, float] = {"tree/entropy": found.entropy}
         for level, (evaluated, kept) in enumerate(zip(found.nodes_evaluated, found.nodes_kept, strict=True), 1):
             columns[f"nodes_level{level}"], columns[f"kept_level{level}"] = evaluated, kept
             series[f"tree/level{level}/evaluated"], series[f"tree/level{level}/kept"] = float(evaluated), float(kept)
-        return cls(filter=found, frame_columns=columns, part_columns={"occluded_est": found.occluded.copy()},
-                   series=series, **fields)  # fmt: skip
+        return cls(
+            filter=found,
+            frame_columns=columns,
+            part_columns={"occluded_est": found.occluded.copy()},
+            series=series,
+            **fields,
+        )
 
 
 def check_settings(settings: TbfSettings, frames: int, key: str, model: str) -> None:
@@ -122,8 +131,13 @@ def check_settings(settings: TbfSettings, frames: int, key: str, model: str) -> 
         read_body_clip(path, f"{key}.samples.clips[{index}]" + (f" ({pattern})" if path != pattern else ""), rate)
 
 
-@TRACKERS.register("tbf", settings=TbfSettings, needs={"cost": "nwxor", "motion": "dm2"}, observes=("silhouettes",),
-                   check=check_settings)  # fmt: skip
+@TRACKERS.register(
+    "tbf",
+    settings=TbfSettings,
+    needs={"cost": "nwxor", "motion": "dm2"},
+    observes=("silhouettes",),
+    check=check_settings,
+)
 class TbfTracker(Tracker):
     name: ClassVar[str] = "tbf"
 
@@ -132,8 +146,9 @@ class TbfTracker(Tracker):
         self.samples: SampleViews | None = None
         self.tree: PoseTree | None = None
 
-    def start(self, model: BodyMesh | DSQArm, cameras: Sequence[Camera], truth: np.ndarray,
-              rng: np.random.Generator) -> None:  # fmt: skip
+    def start(
+        self, model: BodyMesh | DSQArm, cameras: Sequence[Camera], truth: np.ndarray, rng: np.random.Generator
+    ) -> None:
         self.cameras = tuple(cameras)
         self.subject, self.part_names = model, model.part_names
         start = time.perf_counter()
@@ -148,18 +163,32 @@ class TbfTracker(Tracker):
             self.body = posable = self.standard_body(model)
             space, (poses, self.transitions) = BODY_SPACE, sample_poses(settings.samples, self.body)
             initial = arms_pose(self.body, (0.0, 8.0, 0.0), (0.0, 8.0, 0.0), yaw_deg=settings.initial_yaw_deg)
-        self.samples = SampleViews(tuple(load_or_build(posable, camera, poses, cache_dir / "samples",
-                                                       build=settings.build, check=settings.cache_check)
-                                         for camera in self.cameras))  # fmt: skip
+        self.samples = SampleViews(
+            tuple(
+                load_or_build(
+                    posable, camera, poses, cache_dir / "samples", build=settings.build, check=settings.cache_check
+                )
+                for camera in self.cameras
+            )
+        )
         self.thresholds = settings.thresholds
         if settings.node_shares is not None:
             self.thresholds = thresholds_for_shares(self.samples, settings.node_shares)
         self.tree = load_or_build_tree(self.samples, self.thresholds, cache_dir / "trees")
         placed_by_views = settings.align == "ground" and len(self.cameras) > 1  # where the views' rays cross
         spots = sample_spots(self.cameras, self.samples) if placed_by_views else None
-        self.filter = TreeFilter(self.samples, self.tree, self.cost, self.motion, settings.filter, self.transitions,
-                                 space, None if spots is None else [spot_pixels(self.cameras, spots, level.resolution)
-                                                                    for level in self.tree.levels])  # fmt: skip
+        self.filter = TreeFilter(
+            self.samples,
+            self.tree,
+            self.cost,
+            self.motion,
+            settings.filter,
+            self.transitions,
+            space,
+            None
+            if spots is None
+            else [spot_pixels(self.cameras, spots, level.resolution) for level in self.tree.levels],
+        )
         self.anchors = [samples_anchor(view) for view in self.samples.sets] if settings.align == "feet" else None
         # frame -> the silhouettes the filter saw (finest level, packed) and the sample whose spot they were placed on
         self._seen: dict[int, tuple[list[np.ndarray], int | None]] = {}
@@ -172,8 +201,13 @@ class TbfTracker(Tracker):
         self._estimate = self.estimate_of(np.asarray(self.samples.poses[0]))
         self.setup_s = time.perf_counter() - start
         sigmas = ["/".join(f"{sigma:.3g}" for sigma in views) for views in self.filter.level_sigmas]
-        log.info("tbf: %d samples, tree %s nodes per level, likelihood sigma per level %s (%.1f s)",
-                 len(self.samples), self.tree.node_counts, sigmas, self.setup_s)  # fmt: skip
+        log.info(
+            "tbf: %d samples, tree %s nodes per level, likelihood sigma per level %s (%.1f s)",
+            len(self.samples),
+            self.tree.node_counts,
+            sigmas,
+            self.setup_s,
+        )
 
     def standard_body(self, subject: BodyMesh) -> BodyMesh:
         """The tracker's own model: MakeHuman's base mesh or the standard body nearest the subject
@@ -184,10 +218,13 @@ class TbfTracker(Tracker):
             self.body_name = nearest_standard_body(subject, self.settings.body_triangles)
         body = build_body(triangles=self.settings.body_triangles, shape=standard_shape(self.body_name))
         chosen = body_measurements(body)
-        self.body_choice = {"name": self.body_name, "stature_m": round(chosen.stature_m, 4),
-                            "chest_girth_m": round(chosen.chest_girth_m, 4),
-                            "subject_stature_m": round(measured.stature_m, 4),
-                            "subject_chest_girth_m": round(measured.chest_girth_m, 4)}  # fmt: skip
+        self.body_choice = {
+            "name": self.body_name,
+            "stature_m": round(chosen.stature_m, 4),
+            "chest_girth_m": round(chosen.chest_girth_m, 4),
+            "subject_stature_m": round(measured.stature_m, 4),
+            "subject_chest_girth_m": round(measured.chest_girth_m, 4),
+        }
         return body
 
     def estimate_of(self, pose: np.ndarray) -> np.ndarray:
@@ -199,8 +236,12 @@ class TbfTracker(Tracker):
         if self.samples is None or self.tree is None:
             return {}
         chosen = {"body": self.body_choice} if self.body is not None else {}
-        return {**chosen, "samples": len(self.samples), "tree_nodes": self.tree.node_counts,
-                "tree_thresholds": [round(t, 6) for t in self.thresholds]}
+        return {
+            **chosen,
+            "samples": len(self.samples),
+            "tree_nodes": self.tree.node_counts,
+            "tree_thresholds": [round(t, 6) for t in self.thresholds],
+        }
 
     def summarize(self, table: Mapping[str, np.ndarray]) -> dict[str, Any]:
         """The tree search's mean effort (nodes evaluated per level, and the fraction of them pruned), what the
@@ -217,10 +258,13 @@ class TbfTracker(Tracker):
         evaluated = [table[column][frame] for column in levels]
         kept = [table[column.replace("nodes", "kept")][frame] for column in levels]
         # (failed frames have no tree search: NaN in these columns)
-        return {"nodes_evaluated_mean": [float(np.nanmean(values)) for values in evaluated],
-                "pruned_fraction_mean": [float(1 - np.nansum(k) / np.nansum(e))
-                                         for k, e in zip(kept, evaluated, strict=True)],
-                **floor}  # fmt: skip
+        return {
+            "nodes_evaluated_mean": [float(np.nanmean(values)) for values in evaluated],
+            "pruned_fraction_mean": [
+                float(1 - np.nansum(k) / np.nansum(e)) for k, e in zip(kept, evaluated, strict=True)
+            ],
+            **floor,
+        }
 
     def dictionary_floor(self, truths: np.ndarray, nearest: np.ndarray, distance_mm: np.ndarray) -> dict[str, Any]:
         """The best any filter could do with these samples: per frame the sample nearest the truth in 3-D
@@ -229,9 +273,12 @@ class TbfTracker(Tracker):
         it been the estimate (``swings_floor``)."""
         truth_deg = np.array([self.subject.right_arm_swing_deg(pose) for pose in truths])
         floor_deg = np.array([self.body.right_arm_swing_deg(self.samples.poses[k]) for k in nearest])
-        return {"mpjpe_floor_mm": float(distance_mm.mean()), "floor_per_frame_mm": distance_mm.round(1).tolist(),
-                "joint_angle_floor_deg": float(joint_angle_error_deg(truths, self.samples.poses[nearest]).mean()),
-                "swings_floor": score_swings(truth_deg, floor_deg)}  # fmt: skip
+        return {
+            "mpjpe_floor_mm": float(distance_mm.mean()),
+            "floor_per_frame_mm": distance_mm.round(1).tolist(),
+            "joint_angle_floor_deg": float(joint_angle_error_deg(truths, self.samples.poses[nearest]).mean()),
+            "swings_floor": score_swings(truth_deg, floor_deg),
+        }
 
     def ambiguity(self, frames: np.ndarray, estimates: np.ndarray, nearest: np.ndarray) -> dict[str, Any]:
         """Per frame, whether the silhouettes the filter saw are at least as likely (by the run's cost at the finest
@@ -248,8 +295,9 @@ class TbfTracker(Tracker):
                 continue
             packed, reference = self._seen[frame]
             seen = tuple(np.unpackbits(view, count=width * height).reshape(height, width) > 0 for view in packed)
-            distances = self.filter.score_samples(len(self.tree.levels) - 1, seen,
-                                                  np.array([int(estimate), int(floor_sample)]), reference)  # fmt: skip
+            distances = self.filter.score_samples(
+                len(self.tree.levels) - 1, seen, np.array([int(estimate), int(floor_sample)]), reference
+            )
             likelihood = self.filter.log_likelihood(len(self.tree.levels) - 1, distances)
             flags.append(bool(likelihood[0] >= likelihood[1]))
         return {"ambiguous_frames": int(sum(flags)), "ambiguous_per_frame": flags}
@@ -270,21 +318,33 @@ class TbfTracker(Tracker):
             observed[0] = placed.silhouette if placed else observed[0]
         if self.views_placement is not None and (views_placed := self.views_placement.place(observed)) is not None:
             observed, offset = views_placed
-        seen = tuple(shifted(silhouette, *shift) if any(shift) else silhouette
-                     for silhouette, shift in zip(observed, shifts, strict=True))  # fmt: skip
+        seen = tuple(
+            shifted(silhouette, *shift) if any(shift) else silhouette
+            for silhouette, shift in zip(observed, shifts, strict=True)
+        )
         self.last_observation = seen  # what the filter sees (benchmarks score it again)
         reference = None if self.views_placement is None else self.views_placement.reference
         try:
             found = self.filter.step(seen, reference)
         except EmptySilhouette as error:  # nobody in view: keep the last estimate, say why
-            return TbfResult.of(self.part_names, None, frame=frame.frame, estimate=self._estimate.copy(),
-                                timings_ms={"filter": elapsed_ms(start)}, failure=f"{error}")  # fmt: skip
-        self._seen[frame.frame] = ([np.packbits(self.filter.observation_at(finest, view)) for view in seen],
-                                   reference)
+            return TbfResult.of(
+                self.part_names,
+                None,
+                frame=frame.frame,
+                estimate=self._estimate.copy(),
+                timings_ms={"filter": elapsed_ms(start)},
+                failure=f"{error}",
+            )
+        self._seen[frame.frame] = ([np.packbits(self.filter.observation_at(finest, view)) for view in seen], reference)
         estimate = self._placed_estimate(found, shifts, placed, offset)
         self._estimate = estimate
-        result = TbfResult.of(self.part_names, found, frame=frame.frame, estimate=estimate,
-                              timings_ms={**found.timings_ms, "filter": elapsed_ms(start)})  # fmt: skip
+        result = TbfResult.of(
+            self.part_names,
+            found,
+            frame=frame.frame,
+            estimate=estimate,
+            timings_ms={**found.timings_ms, "filter": elapsed_ms(start)},
+        )
         if self.anchors is not None:
             result.frame_columns.update(align_du_px=shifts[0][0], align_dv_px=shifts[0][1])
         if self.placement is not None:
@@ -294,8 +354,9 @@ class TbfTracker(Tracker):
             result.frame_columns.update(placement_dx_m=float(dx), placement_dy_m=float(dy))
         return result
 
-    def _placed_estimate(self, found: FilterResult, shifts: list[tuple[int, int]], placed: Placement | None,
-                         offset: np.ndarray | None) -> np.ndarray:  # fmt: skip
+    def _placed_estimate(
+        self, found: FilterResult, shifts: list[tuple[int, int]], placed: Placement | None, offset: np.ndarray | None
+    ) -> np.ndarray:
         """The filter's sample where the alignment puts it: placed on the floor (one view's ground placement, or
         several views' offset), or its root moved back by the views' shifts (their mean)."""
         if self.dictionary is not None:
@@ -306,8 +367,13 @@ class TbfTracker(Tracker):
             return self.placement.pose(found.sample, placed)
         estimate = found.pose.copy()
         if any(any(shift) for shift in shifts):  # the subject stands away from the samples' spot: so does the estimate
-            estimate[:3] += np.mean([world_offset(camera, estimate[:3], -du, -dv) if du or dv else np.zeros(3)
-                                     for camera, (du, dv) in zip(self.cameras, shifts, strict=True)], axis=0)
+            estimate[:3] += np.mean(
+                [
+                    world_offset(camera, estimate[:3], -du, -dv) if du or dv else np.zeros(3)
+                    for camera, (du, dv) in zip(self.cameras, shifts, strict=True)
+                ],
+                axis=0,
+            )
         return estimate
 
     def _alignment(self, view: int, observed: np.ndarray) -> tuple[int, int]:

@@ -71,13 +71,23 @@ class PoseTree:
 
 
 def tree_key(samples: PoseSampleSet | SampleViews, thresholds: tuple[float, ...], resolutions=LEVEL_RESOLUTIONS) -> str:
-    text = json.dumps({"samples": samples.key, "thresholds": list(map(float, thresholds)),
-                       "resolutions": [list(r) for r in resolutions], "format": 2})  # fmt: skip
+    text = json.dumps(
+        {
+            "samples": samples.key,
+            "thresholds": list(map(float, thresholds)),
+            "resolutions": [list(r) for r in resolutions],
+            "format": 2,
+        }
+    )
     return hashlib.sha256(text.encode()).hexdigest()[:20]
 
 
-def load_or_build_tree(samples: PoseSampleSet | SampleViews, thresholds: tuple[float, ...],
-                       cache_dir: str | Path | None = None, resolutions=LEVEL_RESOLUTIONS) -> PoseTree:  # fmt: skip
+def load_or_build_tree(
+    samples: PoseSampleSet | SampleViews,
+    thresholds: tuple[float, ...],
+    cache_dir: str | Path | None = None,
+    resolutions=LEVEL_RESOLUTIONS,
+) -> PoseTree:
     """The tree of ``samples`` with T_l = ``thresholds`` (one per level), from ``cache_dir`` when cached intact."""
     if len(thresholds) != len(resolutions):
         raise ValueError(f"{len(thresholds)} thresholds for {len(resolutions)} levels")
@@ -101,13 +111,17 @@ def _build_logged(samples: PoseSampleSet, thresholds, resolutions, key: str, pat
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(path) as temporary, open(temporary, "wb") as file:
-            np.savez(file, key=key, **{f"{name}_{k}": getattr(level, name) for k, level in enumerate(tree.levels)
-                                       for name in _ARRAYS})  # fmt: skip
+            np.savez(
+                file,
+                key=key,
+                **{f"{name}_{k}": getattr(level, name) for k, level in enumerate(tree.levels) for name in _ARRAYS},
+            )
     return tree
 
 
-def build_tree(samples: PoseSampleSet | SampleViews, thresholds: tuple[float, ...], resolutions=LEVEL_RESOLUTIONS,
-               key: str = "") -> PoseTree:  # fmt: skip
+def build_tree(
+    samples: PoseSampleSet | SampleViews, thresholds: tuple[float, ...], resolutions=LEVEL_RESOLUTIONS, key: str = ""
+) -> PoseTree:
     samples = SampleViews.of(samples)
     node_of_sample = np.zeros(len(samples), dtype=np.int64)  # level 0: one node
     levels = []
@@ -117,8 +131,9 @@ def build_tree(samples: PoseSampleSet | SampleViews, thresholds: tuple[float, ..
     return PoseTree(tuple(levels), key)
 
 
-def _build_level(samples: SampleViews, node_of_sample: np.ndarray, threshold: float,
-                 resolution: tuple[int, int]) -> TreeLevel:  # fmt: skip
+def _build_level(
+    samples: SampleViews, node_of_sample: np.ndarray, threshold: float, resolution: tuple[int, int]
+) -> TreeLevel:
     """The level below the nodes ``node_of_sample``: each node split at T_l = ``threshold`` (steps 1-4)."""
     poses = np.asarray(samples.poses)
     stacks = samples.silhouettes(resolution)
@@ -133,16 +148,18 @@ def _build_level(samples: SampleViews, node_of_sample: np.ndarray, threshold: fl
         representatives.extend(members[reps])
         seeds.extend(members[first_reps])
         parents.extend([parent] * len(reps))
-    return TreeLevel(np.array(representatives), np.array(seeds), np.array(parents), assignment, tuple(resolution),
-                     float(threshold))  # fmt: skip
+    return TreeLevel(
+        np.array(representatives), np.array(seeds), np.array(parents), assignment, tuple(resolution), float(threshold)
+    )
 
 
 SHARE_BISECTIONS = 16  # halvings of each threshold's bracket (in log space: ~0.1 % of the bracket's ratio)
 _THRESHOLD_BRACKET = (1e-5, 1.0)  # T_l is a fraction of the window's pixels
 
 
-def thresholds_for_shares(samples: PoseSampleSet | SampleViews, shares: tuple[float, ...],
-                          resolutions=LEVEL_RESOLUTIONS) -> tuple[float, ...]:  # fmt: skip
+def thresholds_for_shares(
+    samples: PoseSampleSet | SampleViews, shares: tuple[float, ...], resolutions=LEVEL_RESOLUTIONS
+) -> tuple[float, ...]:
     """T_l per level, top down, such that level l holds about ``shares[l]`` of the samples as nodes (the paper's
     3,417 samples gave 693 / 3,013 / 3,318 nodes: shares 0.20 / 0.88 / 0.97): each by bisection (more nodes for a
     smaller T_l), below the levels already chosen. Kept with the sample set (`PoseSampleSet.derived`)."""

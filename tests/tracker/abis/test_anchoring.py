@@ -18,8 +18,9 @@ from tracker.models.textures import block_noise_texture
 
 @pytest.mark.parametrize("shift_px", [(0.0, 0.0), (0.6, -0.3), (1.6, -0.7), (-3.2, 2.4)])
 def test_a_known_shift_of_the_material_is_recovered(shift_px):
-    texture = cv2.cvtColor(block_noise_texture(np.random.default_rng(3), (10, 12), (200, 180, 150)),
-                           cv2.COLOR_RGB2GRAY).astype(np.float32)  # fmt: skip
+    texture = cv2.cvtColor(
+        block_noise_texture(np.random.default_rng(3), (10, 12), (200, 180, 150)), cv2.COLOR_RGB2GRAY
+    ).astype(np.float32)
     jacobian = np.array([[30.0, -6.0], [4.0, 18.0]])  # pixels per radian of (eta, omega)
     to_surface = np.linalg.inv(jacobian)
     eta0, omega0, point = 0.3, -0.8, np.array([32.0, 32.0])
@@ -30,13 +31,22 @@ def test_a_known_shift_of_the_material_is_recovered(shift_px):
     rows = (math.pi / 2 - eta) / math.pi * texture.shape[0] - 0.5
     columns = ((omega + math.pi) / (2 * math.pi) * texture.shape[1] - 0.5) % texture.shape[1]
     image = map_coordinates(texture, [rows, columns], order=1, mode="nearest").reshape(64, 64).astype(np.float32)
-    offsets, trusted = texture_offsets(image, point[None], np.array([eta0]), np.array([omega0]), jacobian[None],
-                                       texture, AnchorSettings())  # fmt: skip
+    offsets, trusted = texture_offsets(
+        image, point[None], np.array([eta0]), np.array([omega0]), jacobian[None], texture, AnchorSettings()
+    )
     assert trusted[0]
     np.testing.assert_allclose(jacobian @ offsets[0], shift_px, atol=0.15)
     if np.linalg.norm(shift_px) < 1:  # refining alone (a pair anchored before) finds a shift under a pixel
-        offsets, _ = texture_offsets(image, point[None], np.array([eta0]), np.array([omega0]), jacobian[None],
-                                     texture, AnchorSettings(), search=False)  # fmt: skip
+        offsets, _ = texture_offsets(
+            image,
+            point[None],
+            np.array([eta0]),
+            np.array([omega0]),
+            jacobian[None],
+            texture,
+            AnchorSettings(),
+            search=False,
+        )
         np.testing.assert_allclose(jacobian @ offsets[0], shift_px, atol=0.15)
 
 
@@ -68,15 +78,26 @@ def test_pairs_formed_on_a_wrong_estimate_are_anchored_onto_their_material_point
         facing = np.flatnonzero(np.einsum("ij,ij->i", normals, camera.position - samples) > 0)
         _, nearest = cKDTree(camera.project(samples[facing])[0]).query(points)
         start = facing[nearest]
-        eta, omega, distance = refine_surface_coordinates(surface, camera, grid.eta[start].copy(),
-                                                          grid.omega[start].copy(), points)  # fmt: skip
+        eta, omega, distance = refine_surface_coordinates(
+            surface, camera, grid.eta[start].copy(), grid.omega[start].copy(), points
+        )
         keep = distance < 0.5
         eta, omega, points = eta[keep], omega[keep], points[keep]
-        offsets, trusted = texture_offsets(gray.astype(np.float32), points, eta, omega,
-                                           pixel_jacobian(surface, camera, eta, omega), texture, AnchorSettings())
+        offsets, trusted = texture_offsets(
+            gray.astype(np.float32),
+            points,
+            eta,
+            omega,
+            pixel_jacobian(surface, camera, eta, omega),
+            texture,
+            AnchorSettings(),
+        )
         truly = on(truth)  # where the truth shows each pair's point: on its feature when the pair is right
         before.extend(np.linalg.norm(camera.project(truly(eta, omega))[0] - points, axis=1)[trusted])
-        after.extend(np.linalg.norm(camera.project(truly(eta + offsets[:, 0], omega + offsets[:, 1]))[0] - points,
-                                    axis=1)[trusted])  # fmt: skip
+        after.extend(
+            np.linalg.norm(camera.project(truly(eta + offsets[:, 0], omega + offsets[:, 1]))[0] - points, axis=1)[
+                trusted
+            ]
+        )
     assert len(before) >= 5
     assert np.median(before) > 1.2 and np.median(after) < 0.5 * np.median(before)

@@ -17,8 +17,9 @@ from tracker.geometry.rigs import View, cameras
 from tracker.models.body_skeleton import PART_NAMES, POSE_SIZE
 from tracker.motion.posture import arms_pose
 
-RIG = cameras(views=(View("front", (0.0, -4.5, 0.9)), View("side", (4.5, 0.0, 0.9))), width=640, height=480,
-              focal_px=840.0)  # fmt: skip
+RIG = cameras(
+    views=(View("front", (0.0, -4.5, 0.9)), View("side", (4.5, 0.0, 0.9))), width=640, height=480, focal_px=840.0
+)
 
 
 def _naive_ray_hits(camera, pixels, vertices, faces):
@@ -50,8 +51,9 @@ def test_rays_meet_the_nearest_face_under_each_pixel_as_a_naive_search_finds_it(
     np.testing.assert_allclose(barycentric, naive_barycentric, atol=1e-9)
     assert 5 < (hit >= 0).sum() < len(pixels)  # both cases are exercised
     found = hit >= 0
-    points = MeshPairs(np.arange(found.sum()), np.zeros(found.sum(), int), np.zeros(found.sum(), int), hit[found],
-                       barycentric[found]).points(vertices, faces)  # fmt: skip
+    points = MeshPairs(
+        np.arange(found.sum()), np.zeros(found.sum(), int), np.zeros(found.sum(), int), hit[found], barycentric[found]
+    ).points(vertices, faces)
     np.testing.assert_allclose(camera.project(points)[0], pixels[found], atol=1e-6)  # the point is under its pixel
 
 
@@ -94,8 +96,9 @@ def test_a_body_parts_pixel_jacobian_matches_central_differences(body):
     parents = part_parents(body.parents)
     for part in (PART_NAMES.index("pelvis"), PART_NAMES.index("right_forearm")):
         prior = Prior(reference=pose + rng.normal(0.0, 0.02, POSE_SIZE), sigmas=np.full(POSE_SIZE, 0.1))
-        problem = BodyPartProblem(body, _pairs_on(body, pose, part, rng), part_joints()[part], parents[part] is None,
-                                  prior)  # fmt: skip
+        problem = BodyPartProblem(
+            body, _pairs_on(body, pose, part, rng), part_joints()[part], parents[part] is None, prior
+        )
         q = pose + rng.normal(0.0, 0.03, POSE_SIZE)
         analytic = problem.evaluate(q, settings).jacobian
         numeric = np.zeros_like(analytic)
@@ -149,8 +152,9 @@ def test_the_body_by_abis_follows_the_arm_swing_with_pairs_that_balance(body_run
     for _, rows in table.groupby("part"):
         pairs, tracked, lost = rows["pairs"].to_numpy(), rows["tracked"].to_numpy(), rows["lost"].to_numpy()
         np.testing.assert_array_equal(tracked[1:], pairs[:-1] - lost[1:])
-        np.testing.assert_array_equal(pairs, tracked - rows["discarded_occlusion"] - rows["discarded_error"]
-                                      + rows["new"])  # fmt: skip
+        np.testing.assert_array_equal(
+            pairs, tracked - rows["discarded_occlusion"] - rows["discarded_error"] + rows["new"]
+        )
     per_part = table.groupby("part")["pairs"].mean()
     assert per_part["torso"] > 20 and per_part["head"] > 10  # the textured skin gives features to pair
 

@@ -53,6 +53,7 @@ def test_points_are_reached_within_the_margin_plus_the_relative_motion_of_anothe
     # Standing still, only the margin counts; a part's own samples never count.
     still = reached_by_other_parts(points, parts, np.zeros((80, 2)), visible, np.zeros((300, 2)), margin, most)
     one_part = np.zeros(80, int)
-    own = reached_by_other_parts(points, one_part, motion, VisibleSamples(one_part, np.arange(80), points), motion,
-                                 margin, most)  # fmt: skip
+    own = reached_by_other_parts(
+        points, one_part, motion, VisibleSamples(one_part, np.arange(80), points), motion, margin, most
+    )
     assert still.sum() <= reached.sum() and not own.any()

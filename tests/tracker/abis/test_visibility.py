@@ -5,13 +5,15 @@ from tracker.abis.visibility import visible_samples
 from tracker.geometry.cameras import look_at
 from tracker.models.dsq import sample_grid
 
-CAMERA = look_at("c", np.array([0.0, -3.0, 0.0]), np.zeros(3), np.array([0, 0, 1.0]), width=320, height=240,
-                 focal_px=400.0)
+CAMERA = look_at(
+    "c", np.array([0.0, -3.0, 0.0]), np.zeros(3), np.array([0, 0, 1.0]), width=320, height=240, focal_px=400.0
+)
 
 
 def sphere_samples(center, radius, grid):
-    directions = np.stack([np.cos(grid.eta) * np.cos(grid.omega), np.cos(grid.eta) * np.sin(grid.omega),
-                           np.sin(grid.eta)], axis=1)  # fmt: skip
+    directions = np.stack(
+        [np.cos(grid.eta) * np.cos(grid.omega), np.cos(grid.eta) * np.sin(grid.omega), np.sin(grid.eta)], axis=1
+    )
     return center + radius * directions, directions
 
 
@@ -33,8 +35,10 @@ def test_samples_behind_another_part_or_on_the_far_side_are_invisible(renderer):
     front_radius, back_radius = 0.12, 0.3
     back_points, back_normals = sphere_samples(back_center, back_radius, grid)
     front_points, front_normals = sphere_samples(front_center, front_radius, grid)
-    meshes = [sphere_mesh(back_center, back_radius, label=1, resolution=(80, 96)),
-              sphere_mesh(front_center, front_radius, label=2, resolution=(80, 96))]  # fmt: skip
+    meshes = [
+        sphere_mesh(back_center, back_radius, label=1, resolution=(80, 96)),
+        sphere_mesh(front_center, front_radius, label=2, resolution=(80, 96)),
+    ]
     zbuffer = renderer.render_depth_labels([CAMERA], meshes)["c"]
     seen = visible_samples(CAMERA, zbuffer, [back_points, front_points])
 

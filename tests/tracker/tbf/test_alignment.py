@@ -46,8 +46,15 @@ def test_a_shift_moves_every_pixel_and_loses_what_leaves(du, dv):
 
 
 def test_the_world_offset_moves_the_projection_by_the_pixels_asked():
-    camera = look_at("main", np.array([4.0, 0.0, 0.9]), np.array([0.0, 0.0, 0.9]), np.array([0.0, 0.0, 1.0]),
-                     width=320, height=240, focal_px=480.0)  # fmt: skip
+    camera = look_at(
+        "main",
+        np.array([4.0, 0.0, 0.9]),
+        np.array([0.0, 0.0, 0.9]),
+        np.array([0.0, 0.0, 1.0]),
+        width=320,
+        height=240,
+        focal_px=480.0,
+    )
     point = np.array([0.1, -0.2, 0.95])
     offset = world_offset(camera, point, 7.0, -3.0)
     before, _ = camera.project(point[None])
@@ -58,8 +65,15 @@ def test_the_world_offset_moves_the_projection_by_the_pixels_asked():
 
 
 def test_a_ground_point_projects_back_onto_its_pixel_and_lies_on_the_floor():
-    camera = look_at("main", np.array([0.0, -4.5, 0.9]), np.array([0.0, 0.0, 0.9]), np.array([0.0, 0.0, 1.0]),
-                     width=320, height=240, focal_px=420.0)  # fmt: skip
+    camera = look_at(
+        "main",
+        np.array([0.0, -4.5, 0.9]),
+        np.array([0.0, 0.0, 0.9]),
+        np.array([0.0, 0.0, 1.0]),
+        width=320,
+        height=240,
+        focal_px=420.0,
+    )
     for u, v in [(160.0, 200.0), (20.5, 239.0), (300.0, 130.0)]:
         point = ground_point(camera, u, v)
         assert point[2] == pytest.approx(0.0, abs=1e-12)
@@ -68,10 +82,22 @@ def test_a_ground_point_projects_back_onto_its_pixel_and_lies_on_the_floor():
 
 
 def test_ground_placement_finds_where_a_walking_person_stands(body, tmp_path):
-    camera = look_at("main", np.array([0.0, -4.5, 0.9]), np.array([0.0, 0.0, 0.9]), np.array([0.0, 0.0, 1.0]),
-                     width=320, height=240, focal_px=420.0)  # fmt: skip
-    postures = np.array([arms_pose(body, (swing, 10.0, elbow), (0.0, 8.0, 0.0), yaw_deg=-90.0)
-                         for swing in (-30.0, 0.0, 40.0, 90.0) for elbow in (0.0, 60.0)])  # fmt: skip
+    camera = look_at(
+        "main",
+        np.array([0.0, -4.5, 0.9]),
+        np.array([0.0, 0.0, 0.9]),
+        np.array([0.0, 0.0, 1.0]),
+        width=320,
+        height=240,
+        focal_px=420.0,
+    )
+    postures = np.array(
+        [
+            arms_pose(body, (swing, 10.0, elbow), (0.0, 8.0, 0.0), yaw_deg=-90.0)
+            for swing in (-30.0, 0.0, 40.0, 90.0)
+            for elbow in (0.0, 60.0)
+        ]
+    )
     samples = load_or_build(body, camera, postures, tmp_path / "samples", progress=False)
     for index, step in ((2, (0.4, -0.7)), (7, (-0.6, 1.0)), (4, (0.0, 0.0))):
         # He walked nearer the camera and sideways, or away, and turned to it as much as he went off its axis: the
@@ -114,19 +140,28 @@ def test_rays_crossing_at_a_point_give_that_point():
     origins = np.array([[0.0, -4.5, 0.9], [4.5, 0.0, 0.9], [3.2, -3.2, 2.0]])
     np.testing.assert_allclose(nearest_to_rays(origins, point - origins), point, atol=1e-12)
     # two skew rays: the midpoint of their common perpendicular
-    np.testing.assert_allclose(nearest_to_rays(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0]]),
-                                               np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])), [0.0, 0.0, 0.5])
+    np.testing.assert_allclose(
+        nearest_to_rays(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0]]), np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])),
+        [0.0, 0.0, 0.5],
+    )
 
 
 def test_several_views_place_a_walking_person_without_a_reference(body, tmp_path):
     """Three calibrated views: the offset across the floor comes from where the silhouettes' centroid rays cross,
     against where the reference sample's (the last estimate's: here the same posture) cross."""
-    rig = cameras(views=(View("front", (0.0, -4.5, 0.9)), View("side", (4.5, 0.0, 0.9)),
-                         View("oblique", (3.182, -3.182, 0.9))))  # fmt: skip
-    postures = np.array([arms_pose(body, (swing, 10.0, elbow), (0.0, 8.0, 0.0), yaw_deg=-90.0)
-                         for swing in (-30.0, 0.0, 40.0, 90.0) for elbow in (0.0, 60.0)])  # fmt: skip
-    samples = SampleViews(tuple(load_or_build(body, camera, postures, tmp_path / "samples", progress=False)
-                                for camera in rig))  # fmt: skip
+    rig = cameras(
+        views=(View("front", (0.0, -4.5, 0.9)), View("side", (4.5, 0.0, 0.9)), View("oblique", (3.182, -3.182, 0.9)))
+    )
+    postures = np.array(
+        [
+            arms_pose(body, (swing, 10.0, elbow), (0.0, 8.0, 0.0), yaw_deg=-90.0)
+            for swing in (-30.0, 0.0, 40.0, 90.0)
+            for elbow in (0.0, 60.0)
+        ]
+    )
+    samples = SampleViews(
+        tuple(load_or_build(body, camera, postures, tmp_path / "samples", progress=False) for camera in rig)
+    )
     for index, step in ((2, (0.4, -0.7)), (7, (-0.6, 1.0)), (4, (0.0, 0.0))):
         placement = ViewsPlacement(rig, samples, reference=index)
         person = postures[index].copy()
@@ -150,8 +185,9 @@ def test_several_views_place_a_walking_person_without_a_reference(body, tmp_path
         for stack in samples.silhouettes((320, 240)):
             v, u = np.nonzero(stack.mask(index))
             centroids.append([u.mean() + stack.window[0], v.mean() + stack.window[1]])
-        np.testing.assert_allclose(placement.spot(index), nearest_to_rays(*centroid_rays(rig, np.array(centroids))),
-                                   atol=1e-12)  # fmt: skip
+        np.testing.assert_allclose(
+            placement.spot(index), nearest_to_rays(*centroid_rays(rig, np.array(centroids))), atol=1e-12
+        )
     # Placed on another posture's spot, the estimate is still moved until its own spot is his.
     person = postures[6].copy()
     person[:2] += (0.3, 0.5)

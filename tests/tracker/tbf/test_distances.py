@@ -133,8 +133,12 @@ def test_silhouettes_moved_by_whole_pixels_score_as_if_moved_first(tall):
     rows = np.array([3, 0, 1, 39, 3])
     for cost in COSTS.names():
         scorer = ObservationScorer(cost, observed, full_window((height, width)))
-        expected = np.array([silhouette_distance(cost, observed, _moved(mask, *(reference - pixel)))
-                             for mask, pixel in zip(masks, pixels, strict=True)])  # fmt: skip
+        expected = np.array(
+            [
+                silhouette_distance(cost, observed, _moved(mask, *(reference - pixel)))
+                for mask, pixel in zip(masks, pixels, strict=True)
+            ]
+        )
         by_runs = scorer.scores_of_shifted(SilhouetteRuns.from_masks(masks), rows, reference - pixels[rows])
         np.testing.assert_allclose(by_runs, expected[rows], rtol=1e-12, atol=1e-15)
         boundaries = ShiftedRunBoundaries(masks, pixels)
@@ -162,8 +166,12 @@ def body_silhouettes(body):
     camera = mono(position=(4.0, 0.0, 0.9), target=(0.0, 0.0, 0.9), focal_px=120.0, width=80, height=60)
     swing = BodySwing()
     with SceneRenderer(80, 60) as renderer:
-        return np.array([renderer.render_depth_labels(camera, body.surface_meshes(swing.params(body, 3 * k)))["main"]
-                         .labels > 0 for k in range(12)])  # fmt: skip
+        return np.array(
+            [
+                renderer.render_depth_labels(camera, body.surface_meshes(swing.params(body, 3 * k)))["main"].labels > 0
+                for k in range(12)
+            ]
+        )
 
 
 def test_distances_are_exact_euclidean_and_the_same_bits_after_rendering(body_silhouettes, renderer, body):

@@ -18,8 +18,13 @@ from tracker.tbf.pose_sets import (
 
 
 def test_the_arm_grid_sweeps_the_right_arm_and_keeps_the_rest(body):
-    poses = arm_grid(body, swing_deg=[-30.0, 0.0, 45.0], abduction_deg=[10.0, 30.0], elbow_deg=[0.0, 90.0],
-                     left_swing_deg=[0.0, 20.0])  # fmt: skip
+    poses = arm_grid(
+        body,
+        swing_deg=[-30.0, 0.0, 45.0],
+        abduction_deg=[10.0, 30.0],
+        elbow_deg=[0.0, 90.0],
+        left_swing_deg=[0.0, 20.0],
+    )
     assert poses.shape == (2 * 3 * 2 * 2, 96)
     heads = [body.joint_positions(pose) for pose in poses]
     shoulder, elbow, wrist = (JOINT_INDEX[name] for name in ("RightArm", "RightForeArm", "RightHand"))
@@ -75,7 +80,8 @@ def test_clip_transitions_follow_consecutive_frames_within_each_sequence():
     sequence = np.array([0, 0, 0, 1, 1, 2])
     following = successors(sequence)
     np.testing.assert_array_equal(following, [1, 2, -1, 4, -1, -1])
-    np.testing.assert_array_equal(successors(repeated_sequences(sequence, 2)), [1, 2, -1, 4, -1, -1,
-                                                                                7, 8, -1, 10, -1, -1])
+    np.testing.assert_array_equal(
+        successors(repeated_sequences(sequence, 2)), [1, 2, -1, 4, -1, -1, 7, 8, -1, 10, -1, -1]
+    )
     representative = np.array([0, 0, 1, 2, 1, 3])  # poses 0 and 1 are one sample, 2 and 4 another
     np.testing.assert_array_equal(learned_transitions(following, representative), [[0, 0, 1], [0, 1, 1], [2, 1, 1]])

@@ -79,8 +79,12 @@ def test_the_cache_key_changes_with_the_camera_the_poses_and_the_resolutions(bod
     key = cache_key(body, CAMERA, swing_poses)
     moved = mono(position=(4.0, 0.1, 0.9), target=(0.0, 0.0, 0.9), focal_px=480.0, width=320, height=240)[0]
     zoomed = mono(position=(4.0, 0.0, 0.9), target=(0.0, 0.0, 0.9), focal_px=481.0, width=320, height=240)[0]
-    others = {cache_key(body, moved, swing_poses), cache_key(body, zoomed, swing_poses),
-              cache_key(body, CAMERA, swing_poses[1:]), cache_key(body, CAMERA, swing_poses, RESOLUTIONS[:2])}
+    others = {
+        cache_key(body, moved, swing_poses),
+        cache_key(body, zoomed, swing_poses),
+        cache_key(body, CAMERA, swing_poses[1:]),
+        cache_key(body, CAMERA, swing_poses, RESOLUTIONS[:2]),
+    }
     assert key not in others and len(others) == 4
     assert cache_key(body, CAMERA, swing_poses.copy()) == key
 
@@ -93,10 +97,7 @@ def test_occlusion_flags_are_eq_3():
 
 
 def test_label_reduction_by_hand():
-    labels = np.array([[1, 1, 0, 0, 2, 2],
-                       [1, 2, 0, 3, 2, 0],
-                       [0, 0, 3, 3, 0, 0],
-                       [0, 1, 3, 0, 0, 0]], np.uint8)  # fmt: skip
+    labels = np.array([[1, 1, 0, 0, 2, 2], [1, 2, 0, 3, 2, 0], [0, 0, 3, 3, 0, 0], [0, 1, 3, 0, 0, 0]], np.uint8)
     # Blocks of 2x2: {1,1,1,2} -> 1; {0,0,0,3} -> background (1 of 4 covered); {2,2,2,0} -> 2;
     # {0,0,0,1} -> 0; {3,3,3,0} -> 3; {0,0,0,0} -> 0.
     np.testing.assert_array_equal(reduce_labels(labels, 2, 3), [[1, 0, 2], [0, 3, 0]])
@@ -128,8 +129,9 @@ def varied_poses(body):
 def test_batched_label_images_equal_the_per_part_render_at_every_level(body, varied_poses, renderer, tmp_path):
     built = load_or_build(body, CAMERA, varied_poses, tmp_path, progress=False)
     u0, v0, u1, v1 = built.windows[RESOLUTIONS[0]]
-    reference = np.array([renderer.render_depth_labels([CAMERA], body.surface_meshes(pose))["main"].labels
-                          for pose in varied_poses])[:, v0:v1, u0:u1]  # fmt: skip
+    reference = np.array(
+        [renderer.render_depth_labels([CAMERA], body.surface_meshes(pose))["main"].labels for pose in varied_poses]
+    )[:, v0:v1, u0:u1]
     for factor, resolution in zip((1, 2, 4), RESOLUTIONS, strict=True):
         expected = reduce_labels(reference, factor, 15)
         for part in range(1, 16):
@@ -142,13 +144,15 @@ def test_batched_label_images_equal_the_per_part_render_at_every_level(body, var
 def test_a_sharded_parallel_build_equals_a_serial_one(body, varied_poses, tmp_path):
     poses = varied_poses[:120]
     serial = load_or_build(body, CAMERA, poses, tmp_path / "serial", progress=False, build=BuildSettings(jobs=1))
-    sharded = load_or_build(body, CAMERA, poses, tmp_path / "sharded", progress=False,
-                            build=BuildSettings(jobs=2, shard_size=25))  # fmt: skip
+    sharded = load_or_build(
+        body, CAMERA, poses, tmp_path / "sharded", progress=False, build=BuildSettings(jobs=2, shard_size=25)
+    )
     for resolution in RESOLUTIONS:
         np.testing.assert_array_equal(sharded.labels[resolution], serial.labels[resolution])
         for part in ("starts", "ends", "ptr"):
-            np.testing.assert_array_equal(getattr(sharded.runs[resolution], part),
-                                          getattr(serial.runs[resolution], part))
+            np.testing.assert_array_equal(
+                getattr(sharded.runs[resolution], part), getattr(serial.runs[resolution], part)
+            )
     np.testing.assert_array_equal(sharded.areas, serial.areas)
 
 
@@ -171,17 +175,19 @@ def test_a_killed_build_resumes_with_the_shards_it_finished(body, varied_poses, 
 
     poses = varied_poses[:200]
     np.save(tmp_path / "poses.npy", poses)
-    script = ("import numpy as np, time\n"
-              "from tracker.models.makehuman import build_body\n"
-              "from tracker.geometry.rigs import mono\n"
-              "from tracker.tbf import sample_build\n"
-              "camera = mono(position=(4.0, 0.0, 0.9), target=(0.0, 0.0, 0.9), focal_px=480.0, width=320,\n"
-              "              height=240)[0]\n"
-              "render = sample_build.render_shard\n"
-              "def slow(*a, **k):\n    time.sleep(0.5)\n    return render(*a, **k)\n"
-              "sample_build.render_shard = slow\n"
-              f"sample_build.load_or_build(build_body(), camera, np.load('{tmp_path / 'poses.npy'}'),\n"
-              f"    '{tmp_path / 'c'}', progress=False, build=sample_build.BuildSettings(jobs=1, shard_size=20))\n")
+    script = (
+        "import numpy as np, time\n"
+        "from tracker.models.makehuman import build_body\n"
+        "from tracker.geometry.rigs import mono\n"
+        "from tracker.tbf import sample_build\n"
+        "camera = mono(position=(4.0, 0.0, 0.9), target=(0.0, 0.0, 0.9), focal_px=480.0, width=320,\n"
+        "              height=240)[0]\n"
+        "render = sample_build.render_shard\n"
+        "def slow(*a, **k):\n    time.sleep(0.5)\n    return render(*a, **k)\n"
+        "sample_build.render_shard = slow\n"
+        f"sample_build.load_or_build(build_body(), camera, np.load('{tmp_path / 'poses.npy'}'),\n"
+        f"    '{tmp_path / 'c'}', progress=False, build=sample_build.BuildSettings(jobs=1, shard_size=20))\n"
+    )
     process = subprocess.Popen([sys.executable, "-c", script])
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and len(list((tmp_path / "c").glob(".*.building/shard*.done"))) < 3:
@@ -191,8 +197,9 @@ def test_a_killed_build_resumes_with_the_shards_it_finished(body, varied_poses, 
     done = len(list((tmp_path / "c").glob(".*.building/shard*.done")))
     assert 3 <= done < 10
     with caplog.at_level(logging.INFO):
-        resumed = load_or_build(body, CAMERA, poses, tmp_path / "c", progress=False,
-                                build=BuildSettings(jobs=1, shard_size=20))
+        resumed = load_or_build(
+            body, CAMERA, poses, tmp_path / "c", progress=False, build=BuildSettings(jobs=1, shard_size=20)
+        )
     assert f"{done} of 10 shards done" in caplog.text
     clean = load_or_build(body, CAMERA, poses, tmp_path / "clean", progress=False)
     for resolution in RESOLUTIONS:
@@ -220,8 +227,9 @@ def _naive_reduction(labels, factor, n_parts):
     out = np.zeros((rows, cols), np.uint8)
     for r in range(rows):
         for c in range(cols):
-            counts = np.bincount(labels[r * factor : (r + 1) * factor, c * factor : (c + 1) * factor].ravel(),
-                                 minlength=n_parts + 1)  # fmt: skip
+            counts = np.bincount(
+                labels[r * factor : (r + 1) * factor, c * factor : (c + 1) * factor].ravel(), minlength=n_parts + 1
+            )
             if (factor * factor - counts[0]) * 2 >= factor * factor:
                 out[r, c] = np.argmax(counts[1:]) + 1
     return out

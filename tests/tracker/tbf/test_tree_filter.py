@@ -36,7 +36,8 @@ def test_every_sample_is_in_exactly_one_leaf_and_nodes_nest(samples, tree):
     leaves = tree.levels[-1]
     assert leaves.node_of_sample.shape == (len(samples),) and leaves.node_of_sample.max() == len(leaves) - 1
     assert sorted(np.concatenate([tree.leaf_members([leaf]) for leaf in range(len(leaves))])) == list(
-        range(len(samples)))
+        range(len(samples))
+    )
     for above, below in zip(tree.levels, tree.levels[1:], strict=False):
         # a sample's node below is a child of its node above
         np.testing.assert_array_equal(below.parents[below.node_of_sample], above.node_of_sample)
@@ -115,8 +116,9 @@ def test_the_filter_recovers_a_held_samples_pose_from_its_own_silhouette(body, s
         # Eq 13: a leaf's members share its likelihood, so the estimate is a member of the held sample's leaf.
         leaf_of = tree.levels[-1].node_of_sample
         assert leaf_of[result.sample] == leaf_of[held], cost
-        assert body.right_arm_swing_deg(result.pose) == pytest.approx(body.right_arm_swing_deg(samples.poses[held]),
-                                                                      abs=6.5)  # fmt: skip
+        assert body.right_arm_swing_deg(result.pose) == pytest.approx(
+            body.right_arm_swing_deg(samples.poses[held]), abs=6.5
+        )
 
 
 def test_swing_scoring_on_hand_made_traces():

@@ -66,13 +66,18 @@ def test_the_likelihood_of_several_views_is_the_product_of_each_views(views):
     for k, level in enumerate(tree.levels):
         stacks = views.silhouettes(level.resolution)
         # the observation: another pose's silhouettes, one view's moved by a pixel (no node matches it exactly)
-        observations = tuple(np.roll(full_image(stack, held, level.resolution), view, axis=1)
-                             for view, stack in enumerate(stacks))  # fmt: skip
+        observations = tuple(
+            np.roll(full_image(stack, held, level.resolution), view, axis=1) for view, stack in enumerate(stacks)
+        )
         distances = filter_.score_level(k, observations)
         expected_log_likelihood = np.zeros(len(level))
         for view, (stack, observation) in enumerate(zip(stacks, observations, strict=True)):
-            by_pixel = np.array([silhouette_distance(cost, observation, full_image(stack, rep, level.resolution),
-                                                     stack.window) for rep in level.representatives])  # fmt: skip
+            by_pixel = np.array(
+                [
+                    silhouette_distance(cost, observation, full_image(stack, rep, level.resolution), stack.window)
+                    for rep in level.representatives
+                ]
+            )
             np.testing.assert_allclose(distances[view], by_pixel, rtol=1e-9, atol=1e-12)
             sigma = 0.7 * neighbour_scale(views.sets[view], cost, level.resolution)
             assert filter_.level_sigmas[k][view] == pytest.approx(sigma, rel=1e-12)
