@@ -48,15 +48,17 @@ def test_every_allowed_combination_runs_two_frames(tracker, model, rig, tmp_path
 
 
 # The 6-frame TBF run of `tests.conftest.tbf_run` (one camera, nwXOR, DM2) as the code before several views were
-# possible (commit 7c38db2) tracked it: its estimates and its error, to the last bit.
-ONE_CAMERA_BEFORE = {"est_sample": [16, 19, 22, 21, 24, 27], "mpjpe_mm": 3.6737673994360063}
+# possible (commit 7c38db2) tracked it: its estimates exactly, and its error, which was measured on another processor
+# (SIMD and BLAS kernels round differently in the last bits), to a relative 1e-12.
+ONE_CAMERA_BEFORE = {"est_sample": [16, 19, 22, 21, 24, 27], "mpjpe_mm": 3.673767399436}
+MEASURED_ELSEWHERE = {"rel": 1e-12, "abs": 0.0}
 
 
 def test_one_camera_tracks_as_it_did_before_several_views(tbf_run):
     metrics = json.loads((tbf_run / "metrics.json").read_text())
     table = pd.read_parquet(tbf_run / "frames.parquet").drop_duplicates("frame")
     assert table["est_sample"].tolist() == ONE_CAMERA_BEFORE["est_sample"]
-    assert metrics["mpjpe_mm"] == ONE_CAMERA_BEFORE["mpjpe_mm"]
+    assert metrics["mpjpe_mm"] == pytest.approx(ONE_CAMERA_BEFORE["mpjpe_mm"], **MEASURED_ELSEWHERE)
 
 
 def test_a_cameras_rig_of_one_view_is_the_one_camera_rig(tbf_run, tmp_path):
@@ -75,9 +77,8 @@ def test_a_cameras_rig_of_one_view_is_the_one_camera_rig(tbf_run, tmp_path):
     before, after = (pd.read_parquet(run / "frames.parquet") for run in (tbf_run, out))
     for column in ("est_sample", "entropy", "nodes_level3"):
         assert before[column].tolist() == after[column].tolist(), column
-    assert [json.loads((run / "metrics.json").read_text())["mpjpe_mm"] for run in (tbf_run, out)] == [
-        ONE_CAMERA_BEFORE["mpjpe_mm"]
-    ] * 2
+    one_camera, one_view = (json.loads((run / "metrics.json").read_text())["mpjpe_mm"] for run in (tbf_run, out))
+    assert one_view == one_camera  # both measured here: to the last bit
 
 
 def test_a_fit_that_names_a_rig_picks_it_unless_the_command_line_names_one(monkeypatch):
