@@ -21,7 +21,7 @@ from tracker.evaluation.body import SwingRule, nearest_in_3d, outcome
 from tracker.models.body_shapes import standard_shape
 from tracker.models.body_skeleton import JOINT_INDEX, JOINT_NAMES, PART_BONES, PART_COLORS
 from tracker.models.makehuman import build_body
-from tracker.registry import REGISTRIES
+from tracker.registry import REGISTRIES, build_chosen
 from tracker.tbf.alignment import shifted
 from tracker.tbf.distances import ObservationScorer, weight_map
 from tracker.tbf.samples import LEVEL_RESOLUTIONS
@@ -127,7 +127,7 @@ def competing_samples(runs: Mapping[str, Path], out: Path) -> Path:
     plt = pyplot()
     figure, axes = plt.subplots(len(runs), 3, figsize=(9.0, 3.0 * len(runs)), squeeze=False)
     for row, (label, run_dir) in enumerate(runs.items()):
-        tracker, table = _restarted_tracker(run_dir)
+        subject, tracker, table = _restarted_tracker(run_dir)
         frame = int((table["swing_est_deg"] - table["swing_truth_deg"]).abs().idxmax())
         observed = read_images(run_dir / "run.rrd", f"/world/cameras/{tracker.cameras[0].name}/image/silhouette")[frame]
         du, dv = (
@@ -140,7 +140,10 @@ def competing_samples(runs: Mapping[str, Path], out: Path) -> Path:
         chosen = int(table.loc[frame, "est_sample"])
         nearest = int(
             nearest_in_3d(
-                tracker.subject, np.asarray(table.loc[frame, "truth_pose"])[None], tracker.body, tracker.samples.poses
+                subject,
+                np.asarray(table.loc[frame, "truth_pose"])[None],
+                tracker.dictionary.model,
+                tracker.samples.poses,
             )[0][0]
         )
         axes[row, 0].imshow(weight_map(tracker.cost, observed, stack.window), cmap="magma")
@@ -154,7 +157,7 @@ def competing_samples(runs: Mapping[str, Path], out: Path) -> Path:
             overlay[observed & ~model] = (220, 40, 40)
             overlay[~observed & model] = (40, 90, 220)
             axes[row, column].imshow(overlay)
-            swing = tracker.body.right_arm_swing_deg(tracker.samples.poses[index])
+            swing = tracker.dictionary.model.right_arm_swing_deg(tracker.samples.poses[index])
             axes[row, column].set_title(
                 f"{name}: arm {swing:.0f}° (truth {table.loc[frame, 'swing_truth_deg']:.0f}°), d = {scores[index]:.4g}",
                 fontsize=8,
@@ -166,16 +169,10 @@ def competing_samples(runs: Mapping[str, Path], out: Path) -> Path:
 
 
 def _restarted_tracker(run_dir: Path):
-    """The run's tracker started again from its config (its samples and tree come from the cache), and the run's
-    table one row per frame."""
-    from omegaconf import OmegaConf
-
-    from experiments.components import build
-
-    metrics = json.loads((run_dir / "metrics.json").read_text())
-    components = build(OmegaConf.create(metrics["config"]))
+    """The run's subject and its tracker started again from the run's config (its samples and tree come from the
+    cache), and the run's table one row per frame."""
+    built = build_chosen(json.loads((run_dir / "metrics.json").read_text())["config"])
     table = pd.read_parquet(run_dir / "frames.parquet").drop_duplicates("frame").set_index("frame")
-    components.tracker.start(
-        components.model, components.cameras, np.asarray(table.iloc[0]["truth_pose"]), np.random.default_rng(0)
-    )
-    return components.tracker, table
+    subject, tracker = built["model"], built["tracker"]
+    tracker.start(subject, built["rig"], np.asarray(table.iloc[0]["truth_pose"]), np.random.default_rng(0))
+    return subject, tracker, table

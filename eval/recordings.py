@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 from rerun.chunk import RrdReader
 
-from experiments.video import decode
+from eval.video import decode
 
 
 def read_rgb_frames(rrd_path: str | Path, view: str) -> dict[int, np.ndarray]:

@@ -99,7 +99,7 @@ def bench_abis(frames: int, width: int, height: int) -> dict[str, dict[str, floa
         try:
             for frame in inputs:
                 start = time.perf_counter()
-                result = tracker.step(frame)
+                result = tracker.step(frame.observation())
                 if frame.frame > 0:
                     per_frame.append(1e3 * (time.perf_counter() - start))
                     for stage, ms in result.timings_ms.items():

@@ -7,7 +7,6 @@ machine's measured memory bandwidth.
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import statistics
 import time
@@ -44,7 +43,7 @@ def bench_tbf(frames: int, experiment: str, overrides: list[str]) -> dict[str, o
     with render.renderer(rig[0].width, rig[0].height) as renderer:
         capture = SilhouetteCapture.learn(background_frames(rig, renderer, 20, nuisance, rng))
         observed = [
-            dataclasses.replace(f, silhouettes=capture.step({c.name: f.views[c.name].rgb for c in rig}).silhouettes)
+            f.observation(capture.step({c.name: f.views[c.name].rgb for c in rig}).silhouettes)
             for f in simulate(body, scene, rig, renderer, frames, nuisance, rng)
         ]
     filter_ = tracker.filter

@@ -13,9 +13,9 @@ from typing import Any
 
 from omegaconf import DictConfig, ListConfig, OmegaConf, open_dict
 
-from experiments.schemas import GROUPS, RUN_SETTINGS
+from experiments.schemas import RUN_SETTINGS
 from tracker.compatibility import fit_of
-from tracker.registry import REGISTRIES, Entry
+from tracker.registry import REGISTRIES, Entry, chosen_entries
 from tracker.settings import check_values
 
 
@@ -49,21 +49,6 @@ def without_hydra(cfg: DictConfig) -> DictConfig:
     with open_dict(run_cfg):
         run_cfg.pop("hydra", None)
     return run_cfg
-
-
-def chosen_entries(plain: dict[str, Any]) -> dict[str, Entry]:
-    """Group -> the registered component each chosen option builds (named by its ``_target_``)."""
-    entries = {}
-    for group in GROUPS:
-        node = plain.get(group)
-        if node is None:
-            continue
-        entry = REGISTRIES[group].entry_for(node.get("_target_", ""))
-        if entry is None:
-            known = ", ".join(e.target for e in REGISTRIES[group])
-            raise ValueError(f"{group}._target_={node.get('_target_')}: no registered {group}, allowed {known}")
-        entries[group] = entry
-    return entries
 
 
 def _dotted(plain: dict[str, Any], key: str) -> Any:

@@ -16,11 +16,12 @@ from hydra import compose as hydra_compose
 from hydra import initialize_config_dir
 from omegaconf import DictConfig, OmegaConf
 
-from experiments.checks import chosen_entries, without_hydra
+from experiments.checks import without_hydra
 from experiments.schemas import CONFIG_DIR, CONFIG_NAME, RUN_SETTINGS, RunSettings, register_schemas
+from tracker.evaluation import evaluation_of
 from tracker.geometry.cameras import Camera
 from tracker.protocol import Model, Scene, Tracker
-from tracker.registry import REGISTRIES, Entry
+from tracker.registry import Entry, build_chosen, chosen_entries
 from tracker.settings import from_plain
 
 
@@ -45,24 +46,19 @@ class Components:
     @property
     def evaluation(self) -> Any:
         """How the model's estimates are judged (`tracker.evaluation`), or None."""
-        return self.entries["model"].evaluation
+        return evaluation_of(self.entries["model"].name)
 
 
 def build(cfg: DictConfig) -> Components:
     plain = OmegaConf.to_container(without_hydra(cfg), resolve=True)
     import_plugins(plain.get("plugins", ()))
-    entries = chosen_entries(plain)
-
-    def make(group: str, **needed: Any) -> Any:
-        return REGISTRIES[group].build(entries[group].name, plain[group], **needed)
-
-    needed = {group: make(group) for group in entries["tracker"].needs}
+    built = build_chosen(plain)
     return Components(
-        model=make("model"),
-        scene=make("scene"),
-        cameras=tuple(make("rig")),
-        tracker=make("tracker", **needed),
-        entries=entries,
+        model=built["model"],
+        scene=built["scene"],
+        cameras=tuple(built["rig"]),
+        tracker=built["tracker"],
+        entries=chosen_entries(plain),
         settings=from_plain(RunSettings, {s.name: plain[s.name] for s in RUN_SETTINGS}),
     )
 

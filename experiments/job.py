@@ -22,7 +22,7 @@ from omegaconf import DictConfig, OmegaConf
 from experiments.checks import check_config
 from experiments.components import Components, build, import_plugins
 from experiments.loop import run_frames
-from experiments.outputs import summarize, timing_summary
+from experiments.outputs import RunLog, summarize, timing_summary
 from experiments.recording import RunRecording
 from tracker.atomic import write_json, write_parquet
 
@@ -34,8 +34,7 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
     import_plugins(cfg.get("plugins", ()))  # a launcher's worker process imports them too
     check_config(cfg, choices)  # an invalid config raises before any output exists
     remove_stale_temporaries(output_dir)
-    rows: list[dict[str, Any]] = []
-    timings: list[dict[str, float]] = []
+    frames = RunLog()
     components: Components | None = None
     recording: RunRecording | None = None
     status = "ok"
@@ -43,9 +42,9 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
     try:
         components = build(cfg)
         recording = RunRecording(output_dir / "run.rrd", components, components.settings.record)
-        run_frames(components, recording, stop, rows, timings)
+        run_frames(components, recording, stop, frames)
     except Exception as error:  # recorded, not raised: a sweep goes on and every output stays readable
-        log.exception("run failed at frame %d", len(timings))
+        log.exception("run failed at frame %d", len(frames.timings))
         status = f"failed: {failure_reason(error)}"
     except BaseException:  # an exit or interrupt raised anyway: the outputs still say the run did not finish
         status = "failed: interrupted"
@@ -58,7 +57,7 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
             status = f"failed: interrupted by {stop.requested}"
         if recording is not None:
             recording.close()
-        metrics = write_outputs(cfg, choices, components, output_dir, rows, timings, status)
+        metrics = write_outputs(cfg, choices, components, output_dir, frames, status)
     if stop.requested:  # outputs are safe; now stop like the signal asked (a sweep stops too)
         raise KeyboardInterrupt if stop.requested == "SIGINT" else SystemExit(128 + signal.SIGTERM)
     return metrics
@@ -69,15 +68,14 @@ def write_outputs(
     choices: dict[str, str],
     components: Components | None,
     output_dir: Path,
-    rows: list[dict[str, Any]],
-    timings: list[dict[str, float]],
+    frames: RunLog,
     status: str,
 ) -> dict[str, Any]:
     """``frames.parquet``, ``timings.json`` and, last, ``metrics.json``; returns the metrics."""
-    table = pd.DataFrame(rows)
+    table = pd.DataFrame(frames.rows)
     write_parquet(output_dir / "frames.parquet", table)
-    write_json(output_dir / "timings.json", timing_summary(timings, components.views if components else []))
-    metrics = summarize(cfg, choices, components, table, len(timings), status)
+    write_json(output_dir / "timings.json", timing_summary(frames.timings, components.views if components else []))
+    metrics = summarize(cfg, choices, components, table, len(frames.timings), status, frames.tracker_columns)
     write_json(output_dir / "metrics.json", metrics)
     return metrics
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import sys
 import time
 from typing import Any
@@ -11,10 +10,10 @@ import numpy as np
 from tqdm import tqdm
 
 from experiments.components import Components
-from experiments.outputs import frame_rows
+from experiments.outputs import RunLog, frame_rows
 from experiments.recording import RunRecording
 from tracker.observe.silhouettes import CapturedFrame, SilhouetteCapture
-from tracker.protocol import FrameInput, StepResult
+from tracker.protocol import Observation, RenderedFrame, StepResult, Tracker
 from tracker.sequence import background_frames, simulate
 from tracker.timing import elapsed_ms
 
@@ -23,11 +22,10 @@ def run_frames(
     components: Components,
     recording: RunRecording,
     stop: Any,
-    rows: list[dict[str, Any]],
-    timings: list[dict[str, float]],
+    log: RunLog,
 ) -> None:
-    """Start the tracker, then run every frame, appending its table rows and stage timings (``stop.requested``
-    ends the loop after the current frame)."""
+    """Start the tracker, then run every frame, appending its table rows and stage timings to ``log``
+    (``stop.requested`` ends the loop after the current frame). The tracker sees each frame's observation only."""
     settings, model, cameras, tracker = components.settings, components.model, components.cameras, components.tracker
     nuisance = settings.render.nuisance()
     nuisance_rng = np.random.default_rng([settings.seed, 2])  # the camera's own stream (1: the tracker's)
@@ -41,39 +39,40 @@ def run_frames(
             capture = SilhouetteCapture.learn(empty, settings.silhouette)
         frames = simulate(model, components.scene, cameras, renderer, settings.frames, nuisance, nuisance_rng)
         for frame in tqdm(frames, total=settings.frames, desc="frames", disable=not sys.stderr.isatty()):
-            frame, captured = capture_frame(capture, frame)
-            result = estimate(tracker, frame)
+            captured = capture_frame(capture, frame)
+            result = estimate(tracker, frame, frame.observation(captured.silhouettes if captured else None))
             evaluated = evaluate(components, frame, result)
             record_frame(recording, frame, captured, result, evaluated)
-            rows.extend(frame_rows(frame, components, result, captured, evaluated))
-            timings.append(frame.timings_ms)
+            log.add(frame_rows(frame, components, result, captured, evaluated), frame.timings_ms, result)
             if stop.requested:
                 break
 
 
-def capture_frame(capture: SilhouetteCapture | None, frame: FrameInput) -> tuple[FrameInput, CapturedFrame | None]:
-    """The frame with its silhouettes extracted from the RGB (their IoU against the render's masks kept apart)."""
+def capture_frame(capture: SilhouetteCapture | None, frame: RenderedFrame) -> CapturedFrame | None:
+    """The frame's silhouettes extracted from its RGB, with their IoU against the render's masks (None: the run
+    captures none)."""
     if capture is None:
-        return frame, None
+        return None
     captured = capture.step(
         {name: view.rgb for name, view in frame.views.items()},
         {name: view.labels > 0 for name, view in frame.views.items()},
     )
     frame.timings_ms["capture"] = captured.ms
-    return dataclasses.replace(frame, silhouettes=captured.silhouettes), captured
+    return captured
 
 
-def estimate(tracker: Any, frame: FrameInput) -> StepResult | None:
-    """The tracker's step, timed (``estimate`` and its own stages as ``estimate_<stage>``)."""
+def estimate(tracker: Tracker, frame: RenderedFrame, observation: Observation) -> StepResult | None:
+    """The tracker's step on what it observes of ``frame``, timed (``estimate`` and its own stages as
+    ``estimate_<stage>``, into the frame's timings)."""
     start = time.perf_counter()
-    result = tracker.step(frame)
+    result = tracker.step(observation)
     if result is not None:
         frame.timings_ms["estimate"] = elapsed_ms(start)
         frame.timings_ms.update({f"estimate_{k}": v for k, v in result.timings_ms.items()})
     return result
 
 
-def evaluate(components: Components, frame: FrameInput, result: StepResult | None) -> tuple[dict, dict]:
+def evaluate(components: Components, frame: RenderedFrame, result: StepResult | None) -> tuple[dict, dict]:
     """The model's evaluation columns of the frame (`tracker.evaluation`): per part, per frame."""
     if components.evaluation is None:
         return {}, {}
@@ -82,7 +81,7 @@ def evaluate(components: Components, frame: FrameInput, result: StepResult | Non
 
 def record_frame(
     recording: RunRecording,
-    frame: FrameInput,
+    frame: RenderedFrame,
     captured: CapturedFrame | None,
     result: StepResult | None,
     evaluated: tuple[dict, dict],

@@ -9,12 +9,14 @@ summary reports their errors in degrees.
 
 Metrics: the run's status, choices, seed, frames, views, tracker and resolved config; what the tracker built
 (`Tracker.describe`); per part and view the smallest visible fraction; the silhouettes' quality; the model's
-accuracy figures; the failed frames; the tracker's own figures (`Tracker.summarize`). No timing, so that the
-same seed gives the same bytes.
+accuracy figures; the failed frames; the tracker's own figures from its own columns (`Tracker.summarize`); for a
+tracker that searches a dictionary, what its samples allow (`tracker.evaluation.dictionary`). No timing, so that
+the same seed gives the same bytes.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -22,12 +24,32 @@ import pandas as pd
 from omegaconf import DictConfig, OmegaConf
 
 from experiments.components import Components
+from tracker.evaluation.dictionary import judge_dictionary
 from tracker.observe.silhouettes import CapturedFrame
-from tracker.protocol import FrameInput, StepResult
+from tracker.protocol import RenderedFrame, StepResult
+
+# Columns of every run's table that a tracker's own summary reads beside those its results named.
+RUN_COLUMNS = ("frame", "part", "failure")
+
+
+@dataclass
+class RunLog:
+    """What the frame loop gathers for the outputs: the table's rows, each frame's stage timings (ms), and the names
+    of the columns the tracker's results added."""
+
+    rows: list[dict[str, Any]] = field(default_factory=list)
+    timings: list[dict[str, float]] = field(default_factory=list)
+    tracker_columns: set[str] = field(default_factory=set)
+
+    def add(self, rows: list[dict[str, Any]], timings: dict[str, float], result: StepResult | None) -> None:
+        self.rows.extend(rows)
+        self.timings.append(timings)
+        if result is not None:
+            self.tracker_columns.update(result.part_columns, result.frame_columns)
 
 
 def frame_rows(
-    frame: FrameInput,
+    frame: RenderedFrame,
     components: Components,
     result: StepResult | None,
     captured: CapturedFrame | None = None,
@@ -59,8 +81,10 @@ def summarize(
     table: pd.DataFrame,
     frames_done: int,
     status: str,
+    tracker_columns: set[str] = frozenset(),
 ) -> dict[str, Any]:
-    """The run's metrics.json content (see the module docstring)."""
+    """The run's metrics.json content (see the module docstring); ``tracker_columns``: those the tracker's results
+    added to ``table``."""
     metrics: dict[str, Any] = {
         "status": status,
         "choices": dict(sorted(choices.items())),
@@ -80,9 +104,14 @@ def summarize(
         metrics.update(silhouette_quality(table))
         if components.evaluation is not None:
             metrics.update(components.evaluation.summarize(components.model, columns))
-        if "failure" in table.columns:
+        if "failure" in table.columns:  # the tracker estimated
             metrics.update(failed_frames(table))
-            metrics.update(components.tracker.summarize(columns))
+            own = {name: values for name, values in columns.items() if name in tracker_columns or name in RUN_COLUMNS}
+            metrics.update(components.tracker.summarize(own))
+            if components.tracker.dictionary is not None and components.evaluation is not None:
+                metrics.update(
+                    judge_dictionary(components.evaluation, components.model, components.tracker.dictionary, columns)
+                )
     return metrics
 
 

@@ -1,7 +1,7 @@
 """The one module that writes Rerun recordings: a run's frames, captures and tracker results -> ``run.rrd``.
 
 Entity paths (timeline ``frame``): ``world/cameras/<view>`` (Transform3D + Pinhole, static) with
-``.../image/rgb`` (the view's frames as one AV1 video, `experiments.video`, and a frame reference per frame),
+``.../image/rgb`` (the view's frames as one AV1 video, `eval.video`, and a frame reference per frame),
 ``.../image/labels`` (the render's part labels), ``.../image/silhouette`` (the extracted silhouette, runs that
 capture silhouettes) and the tracker's overlays ``.../image/<name>`` (its `StepResult.points`);
 ``world/truth/<part>`` and ``world/estimate/<part>`` (Mesh3D, and Transform3D, when they change); series
@@ -29,15 +29,15 @@ from pathlib import Path
 import numpy as np
 import rerun as rr
 
+from eval.video import VideoEncoder
 from experiments.components import Components
 from experiments.presentation import PALETTE, POINTS, default_blueprint, presentation
 from experiments.schemas import RecordSettings
-from experiments.video import VideoEncoder
 from tracker.atomic import AtomicFile
 from tracker.geometry.cameras import Camera
 from tracker.geometry.rotations import fit_rigid
 from tracker.observe.silhouettes import CapturedFrame
-from tracker.protocol import FrameInput, Points, StepResult
+from tracker.protocol import Points, RenderedFrame, StepResult
 from tracker.registry import COSTS
 from tracker.tbf.distances import weight_map
 from tracker.tol import RIGID_MESH_M
@@ -129,7 +129,7 @@ class RunRecording:
             )
             log(f"world/cameras/{camera.name}/image/silhouette", rr.AnnotationContext(SILHOUETTE), static=True)
 
-    def log_frame(self, frame: FrameInput) -> None:
+    def log_frame(self, frame: RenderedFrame) -> None:
         """Images, truth meshes, truth parameters and label areas of one frame (timings: `log_timings`)."""
         self.stream.set_time(TIMELINE, sequence=frame.frame)
         self._frames.append(frame.frame)

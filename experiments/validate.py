@@ -23,9 +23,10 @@ from omegaconf.errors import (
     ValidationError,
 )
 
-from experiments.checks import ConfigError, check_config, chosen_entries, unknown_key, without_hydra
+from experiments.checks import ConfigError, check_config, unknown_key, without_hydra
 from experiments.schemas import SCHEMA_PREFIX
 from tracker.compatibility import FITS, fit_of
+from tracker.registry import chosen_entries
 
 # Flags after which Hydra runs nothing (help, printing the config, shell completion): nothing to validate.
 _INFORMATIONAL_FLAGS = set(

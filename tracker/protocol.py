@@ -8,7 +8,7 @@ named columns, series, points and images (see the class). A tracker's own result
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Protocol
 
@@ -21,13 +21,27 @@ from tracker.render.offscreen import RenderedView
 
 
 @dataclass(frozen=True, eq=False)
-class FrameInput:
-    """One frame of a synthetic sequence: what a tracker's `step` sees (the truth aside, which it must not use).
+class Observation:
+    """What a tracker's `step` sees of one frame: each view's RGB image and, in runs that capture them, the
+    silhouettes background subtraction extracted from it. Never the truth.
+
+    images: view -> ``(h, w, 3)`` uint8 RGB; silhouettes: view -> ``(h, w)`` bool (body scenes: what
+    `tracker=tbf` observes).
+    """
+
+    frame: int
+    images: Mapping[str, np.ndarray]
+    silhouettes: Mapping[str, np.ndarray] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, eq=False)
+class RenderedFrame:
+    """One frame of a synthetic sequence as the run knows it: the truth and what the cameras rendered of it. The
+    tracker is given only its `observation`; the truth goes to the evaluation and the recording.
 
     truth: ``(n_parts, n_params)`` truth parameters; meshes: the truth surfaces that were rendered;
     views: rendered images keyed by camera name; visible_px: per view, ``(n_parts,)`` label pixel counts
-    (part k's count at index k); timings_ms: stage name -> milliseconds; silhouettes: per view, the silhouette
-    background subtraction extracted from the RGB (body scenes; what `tracker=tbf` observes).
+    (part k's count at index k); timings_ms: stage name -> milliseconds.
     """
 
     frame: int
@@ -36,7 +50,10 @@ class FrameInput:
     views: dict[str, RenderedView]
     visible_px: dict[str, np.ndarray]
     timings_ms: dict[str, float] = field(default_factory=dict)
-    silhouettes: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def observation(self, silhouettes: Mapping[str, np.ndarray] | None = None) -> Observation:
+        """What a tracker sees of this frame: the views' RGB images (and the captured ``silhouettes``)."""
+        return Observation(self.frame, {name: view.rgb for name, view in self.views.items()}, silhouettes or {})
 
 
 class Model(Protocol):
@@ -96,22 +113,49 @@ class StepResult:
     images: Mapping[str, Mapping[str, np.ndarray]] = field(default_factory=dict)
 
 
+@dataclass(frozen=True, eq=False)
+class SampleDictionary:
+    """The samples a tracker that searches a dictionary searched (tree filtering's pose samples), as the evaluation
+    judges them against the truth after the run (`tracker.evaluation.dictionary`): the best any search over them
+    could do, and the frames where the tracker's own cost could not tell. The tracker answers questions about its
+    samples and its observations; it is never given the truth.
+
+    poses: ``(n, k)`` the samples' pose vectors; model: the tracker's own model that they pose (the standard body it
+    chose, or the arm); parameters: a pose vector -> that model's parameters (the estimate the sample makes);
+    pose_of: model parameters -> the nearest pose vector of the samples' space (its coordinates, not a sample);
+    steps: ``(k,)`` the motion model's step on each pose component (distances in the samples' space, in steps);
+    prefers: ``(frame, a, b)`` -> whether that frame's observation is at least as likely under sample ``a`` as
+    under sample ``b`` by the tracker's own cost (False for a frame it did not use).
+    """
+
+    poses: np.ndarray
+    model: Any
+    parameters: Callable[[np.ndarray], np.ndarray]
+    pose_of: Callable[[np.ndarray], np.ndarray]
+    steps: np.ndarray
+    prefers: Callable[[int, int, int], bool]
+
+
 class Tracker(Protocol):
-    """What a run drives: `start` once with the model, cameras and frame-0 truth (a tracker may use it only to
-    initialise, as the papers' user-assisted alignment), `step` once per frame (images only), `close`."""
+    """What a run drives: `start` once with the model, the cameras and the frame-0 pose (``initial``: the run gives
+    frame 0's truth, standing in for the papers' user-assisted alignment), `step` once per frame with what the
+    cameras saw (`Observation`: images only), `close`. After `start`, a tracker that searches a dictionary of
+    samples describes it as ``dictionary`` (`SampleDictionary`), so that the evaluation can judge it."""
 
     name: ClassVar[str]
+    dictionary: SampleDictionary | None = None
 
-    def start(self, model: Model, cameras: Sequence[Camera], truth: np.ndarray, rng: np.random.Generator) -> None: ...
+    def start(self, model: Model, cameras: Sequence[Camera], initial: np.ndarray, rng: np.random.Generator) -> None: ...
 
-    def step(self, frame: FrameInput) -> StepResult | None: ...
+    def step(self, observation: Observation) -> StepResult | None: ...
 
     def describe(self) -> dict[str, Any]:
         """What `start` built, for the run's metrics (e.g. sample and tree sizes)."""
         return {}
 
     def summarize(self, table: Mapping[str, np.ndarray]) -> dict[str, Any]:
-        """The run's figures of the tracker's own columns (``table``: column -> ``(rows,)``, frame-major)."""
+        """The run's figures of the tracker's own columns: ``table`` holds those its `StepResult`s named, with
+        ``frame``, ``part`` and ``failure`` (column -> ``(rows,)``, one row per frame and part, frame-major)."""
         return {}
 
     def close(self) -> None:
@@ -125,8 +169,8 @@ class RenderOnly(Tracker):
 
     name: ClassVar[str] = "render_only"
 
-    def start(self, model: Model, cameras: Sequence[Camera], truth: np.ndarray, rng: np.random.Generator) -> None:
+    def start(self, model: Model, cameras: Sequence[Camera], initial: np.ndarray, rng: np.random.Generator) -> None:
         pass
 
-    def step(self, frame: FrameInput) -> None:
+    def step(self, observation: Observation) -> None:
         return None

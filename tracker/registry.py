@@ -42,7 +42,6 @@ class Entry:
     # Before the run: check(settings, frames=..., key=..., model=...) raises ValueError naming the key (settings: the
     # settings dataclass, or the component's settings as attributes; key: its config group; model: the model's name).
     check: Callable[..., None] | None = None
-    evaluation: Any = None  # models: how an estimate is judged (`tracker.evaluation`)
 
     @property
     def target(self) -> str:
@@ -148,3 +147,34 @@ RIGS = Registry("rig")
 TRACKERS = Registry("tracker")
 COSTS = Registry("cost", configure=True)
 MOTION_MODELS = Registry("motion")
+
+
+def chosen_entries(config: Mapping[str, Any]) -> dict[str, Entry]:
+    """Kind -> the registered component each chosen option of a plain run config builds (named by its
+    ``_target_``); kinds the config leaves out (a tracker without a cost) are left out. Raises ``ValueError`` for
+    a ``_target_`` no component is registered under."""
+    entries = {}
+    for kind, registry in REGISTRIES.items():
+        node = config.get(kind)
+        if node is None:
+            continue
+        entry = registry.entry_for(node.get("_target_", ""))
+        if entry is None:
+            known = ", ".join(e.target for e in registry)
+            raise ValueError(f"{kind}._target_={node.get('_target_')}: no registered {kind}, allowed {known}")
+        entries[kind] = entry
+    return entries
+
+
+def build_chosen(config: Mapping[str, Any]) -> dict[str, Any]:
+    """Kind -> each chosen component of a plain run config, built through the registries from its settings (the
+    tracker given the components it needs: a cost, a motion model)."""
+    entries = chosen_entries(config)
+    built = {
+        kind: entry.build(config[kind], REGISTRIES[kind].configure)
+        for kind, entry in entries.items()
+        if kind != "tracker"
+    }
+    tracker = entries["tracker"]
+    built["tracker"] = tracker.build(config["tracker"], **{kind: built[kind] for kind in tracker.needs})
+    return built

@@ -1,7 +1,7 @@
 """A synthetic sequence: the scene's truth motion -> rendered views, frame by frame, with per-stage timings.
 
-`simulate` is the loop every run drives; trackers consume its `FrameInput`s. It logs nothing: results go to
-whoever iterates (the recording and the tables in `experiments`).
+`simulate` is the loop every run drives; a tracker sees only each `RenderedFrame`'s observation. It logs nothing:
+results go to whoever iterates (the recording and the tables in `experiments`).
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from collections.abc import Iterator, Sequence
 import numpy as np
 
 from tracker.geometry.cameras import Camera
-from tracker.protocol import FrameInput, Model, Scene
+from tracker.protocol import Model, RenderedFrame, Scene
 from tracker.render.nuisance import SensorNuisance
 from tracker.render.offscreen import RenderedView, SceneRenderer
 
@@ -25,7 +25,7 @@ def simulate(
     frames: int,
     nuisance: SensorNuisance | None = None,
     rng: np.random.Generator | None = None,
-) -> Iterator[FrameInput]:
+) -> Iterator[RenderedFrame]:
     """Yield frames ``0 .. frames - 1`` of the ``scene``'s motion of ``model``, rendered from every camera; with a
     ``nuisance`` (and its ``rng``) the RGB images are what a real camera would give (depth and labels stay exact)."""
     n_parts = len(model.part_names)
@@ -41,7 +41,7 @@ def simulate(
                 for name, view in views.items()
             }
         rendered = time.perf_counter()
-        yield FrameInput(
+        yield RenderedFrame(
             frame=frame,
             truth=truth,
             meshes=meshes,

@@ -8,14 +8,14 @@ from typing import ClassVar
 
 import numpy as np
 
-from tracker.protocol import Points, StepResult, Tracker
+from tracker.protocol import Observation, Points, StepResult, Tracker
 from tracker.ranges import Positive
 from tracker.registry import COSTS, TRACKERS
 
 
 @dataclass(frozen=True)
 class HoldSettings:
-    """A baseline: the estimate never moves from frame 0's (the truth, as the papers' aligned start)."""
+    """A baseline: the estimate never moves from frame 0's (the initial pose, as the papers' aligned start)."""
 
     marker_px: Positive = 5.0  # where the overlay's points sit, from each image corner
 
@@ -27,10 +27,10 @@ class HoldStill(Tracker):
     def __init__(self, settings: HoldSettings) -> None:
         self.settings = settings
 
-    def start(self, model, cameras, truth, rng) -> None:
-        self.estimate, self.cameras, self.parts = np.array(truth), cameras, len(model.part_names)
+    def start(self, model, cameras, initial, rng) -> None:
+        self.estimate, self.cameras, self.parts = np.array(initial), cameras, len(model.part_names)
 
-    def step(self, frame) -> StepResult:
+    def step(self, frame: Observation) -> StepResult:
         d = self.settings.marker_px
         corners = {
             c.name: Points(np.array([[d, d], [c.width - d, c.height - d]]), np.array([0, 1]), ("near", "far"))
@@ -40,13 +40,13 @@ class HoldStill(Tracker):
             frame=frame.frame,
             estimate=self.estimate,
             part_columns={"held": np.ones(self.parts, bool)},
-            frame_columns={"frames_held": frame.frame},
+            frame_columns={"frames_held": frame.frame, "given": ",".join(sorted(vars(frame)))},
             series={"hold/frames": frame.frame},
             points={view: {"corners": points} for view, points in corners.items()},
         )
 
     def summarize(self, table) -> dict:
-        return {"frames_held_max": int(np.max(table["frames_held"]))}
+        return {"frames_held_max": int(np.max(table["frames_held"])), "summarized_from": sorted(table)}
 
 
 @COSTS.register("uniform")

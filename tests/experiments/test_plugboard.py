@@ -52,6 +52,9 @@ def test_a_users_tracker_runs_is_recorded_tabled_and_drawn(tmp_path):
     assert metrics["rms"]["forearm"]["r2_deg"] > 0  # the model's accuracy figures, for any tracker
     table = pd.read_parquet(out / "frames.parquet")
     assert table["held"].all() and list(table["frames_held"].unique()) == [0, 1, 2]
+    # The tracker is given each frame's images, never the truth; its summary reads its own columns, none of the truth.
+    assert set(table["given"]) == {"frame,images,silhouettes"}
+    assert metrics["summarized_from"] == ["failure", "frame", "frames_held", "given", "held", "part"]
     recorded = frames_by_entity(out / "run.rrd")
     assert recorded["/metrics/hold/frames"] == [0, 1, 2]
     assert recorded["/world/cameras/left/image/corners"] == [0, 1, 2]

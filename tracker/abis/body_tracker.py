@@ -65,9 +65,9 @@ from tracker.render.mesh import vertex_normals
 from tracker.render.offscreen import DepthLabels, SceneRenderer
 
 
-def initial_body_estimate(truth: np.ndarray, noise: InitialNoise, rng: np.random.Generator) -> np.ndarray:
-    """The frame-0 pose: the truth with noise on the root position and on every rotation vector component."""
-    estimate = np.array(truth, dtype=np.float64)
+def initial_body_estimate(initial: np.ndarray, noise: InitialNoise, rng: np.random.Generator) -> np.ndarray:
+    """The frame-0 pose: ``initial`` with noise on the root position and on every rotation vector component."""
+    estimate = np.array(initial, dtype=np.float64)
     estimate[:3] += rng.normal(0, noise.translation_m, 3)
     estimate[3:] += rng.normal(0, noise.rotation_rad, len(estimate) - 3)
     return estimate
@@ -81,7 +81,7 @@ class BodyAbis(AbisSequence):
         settings: AbisSettings,
         body: BodyMesh,
         cameras: Sequence[Camera],
-        truth: np.ndarray,
+        initial: np.ndarray,
         rng: np.random.Generator,
         renderer: SceneRenderer,
     ) -> None:
@@ -89,7 +89,7 @@ class BodyAbis(AbisSequence):
             settings,
             body.part_names,
             cameras,
-            initial_body_estimate(truth, settings.initial_noise, rng),
+            initial_body_estimate(initial, settings.initial_noise, rng),
             MeshPairs.empty(),
         )
         self.body, self._renderer = body, renderer

@@ -17,7 +17,7 @@ from tracker.abis.settings import AbisSettings
 from tracker.abis.visibility import VisibleSamples
 from tracker.geometry.cameras import Camera
 from tracker.observe.features import FeatureFrame, FeatureTracker
-from tracker.protocol import FrameInput, Points, StepResult
+from tracker.protocol import Observation, Points, StepResult
 from tracker.render.offscreen import DepthLabels
 from tracker.timing import elapsed_ms
 
@@ -171,7 +171,7 @@ class AbisSequence:
         self._motion = ImageMotion()  # the samples' image motion, for the model's prediction of occlusion
         self._frame = 0
 
-    def step(self, frame: FrameInput) -> AbisResult:
+    def step(self, observation: Observation) -> AbisResult:
         n_parts = len(self.part_names)
         names = [camera.name for camera in self.cameras]
         counts = {name: np.zeros((n_parts, len(COUNT_NAMES)), int) for name in names}
@@ -180,7 +180,7 @@ class AbisSequence:
         cost, iterations = np.zeros(n_parts), np.zeros(n_parts, int)
 
         start = time.perf_counter()
-        features = {name: self._trackers[name].step(frame.views[name].rgb) for name in names}
+        features = {name: self._trackers[name].step(observation.images[name]) for name in names}
         timings["features"] = elapsed_ms(start)
         if self._frame > 0:
             self._pairs = carry_over(self._pairs, features, counts, n_parts)  # 1. pairs whose feature was tracked
@@ -207,7 +207,7 @@ class AbisSequence:
         self._frame += 1
         return AbisResult.of(
             self.part_names,
-            frame=frame.frame,
+            frame=observation.frame,
             estimate=self._estimate.copy(),
             counts=counts,
             pairs={name: self._pairs[name].count_by_part(n_parts) for name in names},

@@ -60,14 +60,15 @@ from tracker.models.body_mesh import BodyMesh
 from tracker.models.dsq import PARAM_INDEX, pole_point
 from tracker.models.dsq_arm import DSQArm
 from tracker.observe.features import FeatureFrame
-from tracker.protocol import FrameInput, Tracker
+from tracker.protocol import Observation, Tracker
 from tracker.registry import TRACKERS
 from tracker.render.offscreen import DepthLabels, SceneRenderer
 
 
-def initial_estimate(arm: DSQArm, truth: np.ndarray, noise: InitialNoise, rng: np.random.Generator) -> np.ndarray:
-    """The frame-0 estimate: truth with noise on the root position, every rotation and every scale."""
-    estimate = np.array(truth, dtype=np.float64)
+def initial_estimate(arm: DSQArm, initial: np.ndarray, noise: InitialNoise, rng: np.random.Generator) -> np.ndarray:
+    """The frame-0 estimate: the ``initial`` parameters with noise on the root position, every rotation and every
+    scale."""
+    estimate = np.array(initial, dtype=np.float64)
     estimate[0, PARAM_INDEX["c1"] : PARAM_INDEX["c3"] + 1] += rng.normal(0, noise.translation_m, 3)
     estimate[:, PARAM_INDEX["r1"] : PARAM_INDEX["r3"] + 1] += rng.normal(0, noise.rotation_rad, (len(estimate), 3))
     estimate[:, PARAM_INDEX["a"]] *= 1 + rng.normal(0, noise.scale_fraction, len(estimate))
@@ -76,7 +77,7 @@ def initial_estimate(arm: DSQArm, truth: np.ndarray, noise: InitialNoise, rng: n
 
 @TRACKERS.register("abis", settings=AbisSettings)
 class AbisTracker(Tracker):
-    """`start` with the model, the cameras and the frame-0 truth; then `step` once per frame; `close`."""
+    """`start` with the model, the cameras and the frame-0 pose; then `step` once per frame; `close`."""
 
     name: ClassVar[str] = "abis"
 
@@ -86,23 +87,23 @@ class AbisTracker(Tracker):
         self._sequence: AbisSequence | None = None
 
     def start(
-        self, model: DSQArm | BodyMesh, cameras: Sequence[Camera], truth: np.ndarray, rng: np.random.Generator
+        self, model: DSQArm | BodyMesh, cameras: Sequence[Camera], initial: np.ndarray, rng: np.random.Generator
     ) -> None:
-        """Begin a sequence: frame 0's estimate is ``truth`` with the configured `InitialNoise` drawn from ``rng``
+        """Begin a sequence: frame 0's estimate is ``initial`` with the configured `InitialNoise` drawn from ``rng``
         (the paper's user-assisted alignment); after that the tracker sees images only. The arm is tracked by
         `ArmAbis`, a body by `tracker.abis.body_tracker.BodyAbis`."""
         if self._renderer is None:
             self._renderer = SceneRenderer(cameras[0].width, cameras[0].height)
         sequence = BodyAbis if isinstance(model, BodyMesh) else ArmAbis
-        self._sequence = sequence(self.settings, model, cameras, truth, rng, self._renderer)
+        self._sequence = sequence(self.settings, model, cameras, initial, rng, self._renderer)
 
     def close(self) -> None:
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
 
-    def step(self, frame: FrameInput) -> AbisResult:
-        return self._sequence.step(frame)
+    def step(self, observation: Observation) -> AbisResult:
+        return self._sequence.step(observation)
 
 
 class ArmAbis(AbisSequence):
@@ -113,7 +114,7 @@ class ArmAbis(AbisSequence):
         settings: AbisSettings,
         model: DSQArm,
         cameras: Sequence[Camera],
-        truth: np.ndarray,
+        initial: np.ndarray,
         rng: np.random.Generator,
         renderer: SceneRenderer,
     ) -> None:
@@ -121,7 +122,7 @@ class ArmAbis(AbisSequence):
             settings,
             model.part_names,
             cameras,
-            initial_estimate(model, truth, settings.initial_noise, rng),
+            initial_estimate(model, initial, settings.initial_noise, rng),
             Pairs.empty(),
         )
         self.model, self._renderer = model, renderer

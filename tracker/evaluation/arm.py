@@ -10,7 +10,9 @@ facets lie a fraction of a millimetre inside the true surface, so identical part
 estimated orientation in its parent's frame (the geodesic angle: eq 4's Euler angles are singular at r2 = 90
 degrees, where r1 and r3 swing freely while the orientation barely moves). Figures: the RMS error of every parameter
 of every part (angles wrapped to (-180, 180] degrees) and of the rotation (``rotation_deg``), the mean surface
-error, and for paper 1's part 2 (`PAPER_PART`) b1's RMS and range and r2's RMS.
+error, and for paper 1's part 2 (`PAPER_PART`) b1's RMS and range and r2's RMS. A dictionary's floor (tree
+filtering over a grid of the arm's poses): per frame the sample nearest the truth in the samples' space, each pose
+component in the motion model's steps, and part 2's figures had it been the estimate.
 """
 
 from __future__ import annotations
@@ -21,9 +23,11 @@ from typing import Any
 
 import numpy as np
 
+from tracker.evaluation import register_evaluation
 from tracker.geometry.rotations import euler_to_matrix, rotation_angle_deg
 from tracker.geometry.surface_distance import point_mesh_distance
 from tracker.models.dsq import ANGLE_NAMES, PARAM_INDEX, PARAM_NAMES
+from tracker.protocol import SampleDictionary
 
 PAPER_PART = 1  # paper 1's "part 2" (it counts from 1): the arm's second part, the forearm
 _R = slice(PARAM_INDEX["r1"], PARAM_INDEX["r3"] + 1)
@@ -89,3 +93,34 @@ class ArmEvaluation:
             figures["part2_b1_range"] = float(np.ptp(table["truth_b1"][table["part"] == part]))
             figures["part2_r2_rms_deg"] = rms[part]["r2_deg"]
         return figures
+
+    def floor(
+        self, arm: Any, dictionary: SampleDictionary, table: Mapping[str, np.ndarray]
+    ) -> tuple[dict[str, Any], np.ndarray]:
+        """Per frame the sample nearest the truth in the samples' space (each component in the motion model's
+        steps), and paper 1's figures for part 2 had it been the estimate (``floor_part2_b1_rms``,
+        ``floor_part2_r2_rms_deg``); and those samples."""
+        parts = arm.part_names
+        truths = np.stack(
+            [
+                np.stack([table[f"truth_{name}"][table["part"] == part] for name in PARAM_NAMES], axis=1)
+                for part in parts
+            ],
+            axis=1,
+        )  # (frames, parts, 17)
+        poses, steps = dictionary.poses, dictionary.steps
+        nearest = np.array(
+            [np.argmin(np.linalg.norm((poses - dictionary.pose_of(truth)) / steps, axis=1)) for truth in truths]
+        )
+        figures: dict[str, Any] = {}
+        if len(parts) > PAPER_PART:
+            floor = np.stack([dictionary.parameters(poses[k])[PAPER_PART] for k in nearest])
+            truth = truths[:, PAPER_PART]
+            b1, r2 = PARAM_INDEX["b1"], PARAM_INDEX["r2"]
+            figures["floor_part2_b1_rms"] = float(np.sqrt(np.mean((floor[:, b1] - truth[:, b1]) ** 2)))
+            wrapped = np.angle(np.exp(1j * (floor[:, r2] - truth[:, r2])))
+            figures["floor_part2_r2_rms_deg"] = float(np.degrees(np.sqrt(np.mean(wrapped**2))))
+        return figures, nearest
+
+
+register_evaluation("dsq_arm", ArmEvaluation())

@@ -36,8 +36,10 @@ from typing import Any
 
 import numpy as np
 
+from tracker.evaluation import register_evaluation
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.body_skeleton import JOINT_INDEX, joint_angle_differences
+from tracker.protocol import SampleDictionary
 
 OUTCOMES = ("fail", "error", "success")
 _VERTICAL_TOLERANCE_DEG = 1e-6
@@ -190,3 +192,25 @@ class BodyEvaluation:
             "swing_details": details,
             "swing_error_deg_mean": float(np.mean(np.abs(estimate - truth))),
         }
+
+    def floor(
+        self, body: BodyMesh, dictionary: SampleDictionary, table: Mapping[str, np.ndarray]
+    ) -> tuple[dict[str, Any], np.ndarray]:
+        """Per frame the sample nearest the truth in 3-D (root-aligned, the dictionary's body against the
+        subject's: `nearest_in_3d`), as MPJPE (``mpjpe_floor_mm``, per frame in ``floor_per_frame_mm``), as
+        joint-angle error (``joint_angle_floor_deg``) and as Fig 4(c)'s swings had it been the estimate
+        (``swings_floor``); and those samples."""
+        truths = np.stack(table["truth_pose"][table["part"] == body.part_names[0]])
+        nearest, distance_mm = nearest_in_3d(body, truths, dictionary.model, dictionary.poses)
+        truth_deg = np.array([body.right_arm_swing_deg(pose) for pose in truths])
+        floor_deg = np.array([dictionary.model.right_arm_swing_deg(dictionary.poses[k]) for k in nearest])
+        figures = {
+            "mpjpe_floor_mm": float(distance_mm.mean()),
+            "floor_per_frame_mm": distance_mm.round(1).tolist(),
+            "joint_angle_floor_deg": float(joint_angle_error_deg(truths, dictionary.poses[nearest]).mean()),
+            "swings_floor": score_swings(truth_deg, floor_deg, self.rule),
+        }
+        return figures, nearest
+
+
+register_evaluation("body_mesh", BodyEvaluation())

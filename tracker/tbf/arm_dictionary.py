@@ -14,21 +14,19 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
-from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Literal
 
 import numpy as np
 
-from tracker.evaluation.arm import PAPER_PART
 from tracker.geometry.rotations import euler_to_matrix, transform_points
 from tracker.models.articulated import jointed_translation
-from tracker.models.dsq import ANGLE_NAMES, PARAM_INDEX, PARAM_NAMES, dsq_points, pole_point
+from tracker.models.dsq import ANGLE_NAMES, PARAM_INDEX, dsq_points, pole_point
 from tracker.models.dsq_arm import DSQArm
 from tracker.ranges import Span, Vector3
 from tracker.settings import to_plain
-from tracker.tbf.motion import PoseSpace, RandomWalk
+from tracker.tbf.motion import PoseSpace
 from tracker.tbf.sample_spec import span_values
 
 _C = slice(PARAM_INDEX["c1"], PARAM_INDEX["c3"] + 1)
@@ -160,29 +158,3 @@ class ArmDictionary:
                 )
             )
         return np.array(out)
-
-
-def arm_floor(
-    dictionary: ArmDictionary, motion: RandomWalk, table: Mapping[str, np.ndarray]
-) -> tuple[dict, np.ndarray]:
-    """The best any filter could do with these samples: per frame the sample nearest the truth in pose space (each
-    axis in units of the motion model's step), and paper 1's figures for part 2 had it been the estimate
-    (``floor_part2_b1_rms``, ``floor_part2_r2_rms_deg``); and the nearest samples, per frame."""
-    parts = dictionary.part_names
-    truths = np.stack(
-        [np.stack([table[f"truth_{name}"][table["part"] == part] for name in PARAM_NAMES], axis=1) for part in parts],
-        axis=1,
-    )  # (frames, parts, 17)
-    poses, sigmas = dictionary.poses(), motion.base_sigmas(dictionary.space)
-    nearest = np.array(
-        [np.argmin(np.linalg.norm((poses - dictionary.pose_of(truth)) / sigmas, axis=1)) for truth in truths]
-    )
-    figures: dict = {}
-    if len(parts) > PAPER_PART:
-        floor = np.stack([dictionary.params(poses[k])[PAPER_PART] for k in nearest])
-        truth = truths[:, PAPER_PART]
-        b1, r2 = PARAM_INDEX["b1"], PARAM_INDEX["r2"]
-        figures["floor_part2_b1_rms"] = float(np.sqrt(np.mean((floor[:, b1] - truth[:, b1]) ** 2)))
-        wrapped = np.angle(np.exp(1j * (floor[:, r2] - truth[:, r2])))
-        figures["floor_part2_r2_rms_deg"] = float(np.degrees(np.sqrt(np.mean(wrapped**2))))
-    return figures, nearest

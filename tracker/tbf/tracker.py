@@ -5,13 +5,14 @@ stature and chest girth, measured on the subject as a tailor would), builds (or 
 sample set of that body seen by each camera of the rig and their tree (``thresholds``, or ``node_shares``), then
 sets the initial prior around the configured initial pose (upright, arms down, facing ``initial_yaw_deg``); `step`
 takes the frame's observed silhouettes (background subtraction, done by the run's capture stage:
-``frame.silhouettes``), moves each onto its view's samples' feet or places the person on the floor when ``align``
+``observation.silhouettes``), moves each onto its view's samples' feet or places the person on the floor when ``align``
 says so (`tracker.tbf.alignment`; from several views, where their centroid rays cross), and runs
 `tracker.tbf.filter.TreeFilter` on the views together (their likelihoods multiplied). The tracker never sees the
-truth after `start`; measuring the subject's size there stands for the paper's measuring of the person.
-`summarize` (after the run) measures the dictionary's floor against the truth and where the silhouette could not
-tell. The DSQ arm (``model=dsq_arm``) is tracked the same way over a grid of its parameters
-(`tracker.tbf.arm_dictionary`), from the truth at frame 0 as paper 1 starts.
+truth: measuring the subject's size at `start` stands for the paper's measuring of the person. It describes its
+samples as ``dictionary`` (`tracker.protocol.SampleDictionary`), by which the evaluation measures after the run
+what the samples allow and where the silhouette could not tell (`tracker.evaluation.dictionary`). The DSQ arm
+(``model=dsq_arm``) is tracked the same way over a grid of its parameters (`tracker.tbf.arm_dictionary`), from
+the initial pose at frame 0 as paper 1 starts.
 """
 
 from __future__ import annotations
@@ -25,7 +26,6 @@ from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
 
-from tracker.evaluation.body import joint_angle_error_deg, nearest_in_3d, score_swings
 from tracker.geometry.cameras import Camera
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.body_shapes import standard_shape
@@ -33,7 +33,7 @@ from tracker.models.dsq_arm import DSQArm
 from tracker.models.makehuman import Triangles, body_measurements, build_body, nearest_standard_body
 from tracker.motion.mocap import read_body_clip
 from tracker.motion.posture import arms_pose
-from tracker.protocol import FrameInput, StepResult, Tracker
+from tracker.protocol import Observation, SampleDictionary, StepResult, Tracker
 from tracker.ranges import Finite, Positive, Range
 from tracker.registry import TRACKERS
 from tracker.tbf.alignment import (
@@ -47,7 +47,7 @@ from tracker.tbf.alignment import (
     spot_pixels,
     world_offset,
 )
-from tracker.tbf.arm_dictionary import ArmDictionary, ArmGridSpec, arm_floor
+from tracker.tbf.arm_dictionary import ArmDictionary, ArmGridSpec
 from tracker.tbf.distances import Cost, EmptySilhouette
 from tracker.tbf.filter import FilterResult, FilterSettings, TreeFilter
 from tracker.tbf.motion import BODY_SPACE, RandomWalk
@@ -147,22 +147,22 @@ class TbfTracker(Tracker):
         self.tree: PoseTree | None = None
 
     def start(
-        self, model: BodyMesh | DSQArm, cameras: Sequence[Camera], truth: np.ndarray, rng: np.random.Generator
+        self, model: BodyMesh | DSQArm, cameras: Sequence[Camera], initial: np.ndarray, rng: np.random.Generator
     ) -> None:
         self.cameras = tuple(cameras)
         self.subject, self.part_names = model, model.part_names
         start = time.perf_counter()
         settings = self.settings
         cache_dir = Path(settings.cache_dir)
-        self.dictionary = self.body = None
-        if isinstance(model, DSQArm):  # its own grid of poses, started where paper 1 starts: at the truth
-            self.dictionary = ArmDictionary(model, settings.arm_samples)
-            posable, space, self.transitions = self.dictionary, self.dictionary.space, None
-            poses, initial = self.dictionary.poses(), self.dictionary.pose_of(truth)
+        self.arm_grid = self.body = None
+        if isinstance(model, DSQArm):  # its own grid of poses, started where paper 1 starts: at the initial pose
+            self.arm_grid = ArmDictionary(model, settings.arm_samples)
+            posable, space, self.transitions = self.arm_grid, self.arm_grid.space, None
+            poses, initial_pose = self.arm_grid.poses(), self.arm_grid.pose_of(initial)
         else:
             self.body = posable = self.standard_body(model)
             space, (poses, self.transitions) = BODY_SPACE, sample_poses(settings.samples, self.body)
-            initial = arms_pose(self.body, (0.0, 8.0, 0.0), (0.0, 8.0, 0.0), yaw_deg=settings.initial_yaw_deg)
+            initial_pose = arms_pose(self.body, (0.0, 8.0, 0.0), (0.0, 8.0, 0.0), yaw_deg=settings.initial_yaw_deg)
         self.samples = SampleViews(
             tuple(
                 load_or_build(
@@ -192,13 +192,21 @@ class TbfTracker(Tracker):
         self.anchors = [samples_anchor(view) for view in self.samples.sets] if settings.align == "feet" else None
         # frame -> the silhouettes the filter saw (finest level, packed) and the sample whose spot they were placed on
         self._seen: dict[int, tuple[list[np.ndarray], int | None]] = {}
-        self.filter.start(initial)
+        self.filter.start(initial_pose)
         self.placement = self.views_placement = None
         if settings.align == "ground" and len(self.cameras) == 1:  # the feet to place on at first: the initial
             self.placement = GroundPlacement(self.cameras[0], self.samples.sets[0], self.filter.initial_sample)
         if placed_by_views:
             self.views_placement = ViewsPlacement(self.cameras, self.samples, self.filter.initial_sample, spots)
         self._estimate = self.estimate_of(np.asarray(self.samples.poses[0]))
+        self.dictionary = SampleDictionary(
+            poses=self.samples.poses,
+            model=posable if self.body is None else self.body,
+            parameters=self.estimate_of,
+            pose_of=self.arm_grid.pose_of if self.arm_grid is not None else np.asarray,
+            steps=self.motion.base_sigmas(space),
+            prefers=self.prefers,
+        )
         self.setup_s = time.perf_counter() - start
         sigmas = ["/".join(f"{sigma:.3g}" for sigma in views) for views in self.filter.level_sigmas]
         log.info(
@@ -229,7 +237,7 @@ class TbfTracker(Tracker):
 
     def estimate_of(self, pose: np.ndarray) -> np.ndarray:
         """A sample's pose vector as the run's estimate: the body's pose vector itself, the arm's parameters."""
-        return self.dictionary.params(pose) if self.dictionary is not None else pose.copy()
+        return self.arm_grid.params(pose) if self.arm_grid is not None else pose.copy()
 
     def describe(self) -> dict[str, Any]:
         """What `start` built: the standard body chosen, the number of pose samples and the tree's nodes per level."""
@@ -244,16 +252,8 @@ class TbfTracker(Tracker):
         }
 
     def summarize(self, table: Mapping[str, np.ndarray]) -> dict[str, Any]:
-        """The tree search's mean effort (nodes evaluated per level, and the fraction of them pruned), what the
-        samples alone allow (`dictionary_floor`) and where the silhouette could not tell (`ambiguity`)."""
+        """The tree search's mean effort: nodes evaluated per level, and the fraction of them pruned."""
         frame = table["part"] == self.part_names[0]  # one row per frame
-        if self.dictionary is not None:
-            floor, nearest = arm_floor(self.dictionary, self.motion, table)
-        else:
-            truths = np.stack(table["truth_pose"][frame])
-            nearest, distance_mm = nearest_in_3d(self.subject, truths, self.body, self.samples.poses)
-            floor = self.dictionary_floor(truths, nearest, distance_mm)
-        floor.update(self.ambiguity(table["frame"][frame], table["est_sample"][frame], nearest))
         levels = sorted(column for column in table if column.startswith("nodes_level"))
         evaluated = [table[column][frame] for column in levels]
         kept = [table[column.replace("nodes", "kept")][frame] for column in levels]
@@ -263,47 +263,25 @@ class TbfTracker(Tracker):
             "pruned_fraction_mean": [
                 float(1 - np.nansum(k) / np.nansum(e)) for k, e in zip(kept, evaluated, strict=True)
             ],
-            **floor,
         }
 
-    def dictionary_floor(self, truths: np.ndarray, nearest: np.ndarray, distance_mm: np.ndarray) -> dict[str, Any]:
-        """The best any filter could do with these samples: per frame the sample nearest the truth in 3-D
-        (root-aligned, the tracker's body against the subject's: ``nearest``, ``distance_mm`` from `nearest_in_3d`),
-        as MPJPE (``mpjpe_floor_mm``), as joint-angle error (``joint_angle_floor_deg``) and as Fig 4(c)'s swings had
-        it been the estimate (``swings_floor``)."""
-        truth_deg = np.array([self.subject.right_arm_swing_deg(pose) for pose in truths])
-        floor_deg = np.array([self.body.right_arm_swing_deg(self.samples.poses[k]) for k in nearest])
-        return {
-            "mpjpe_floor_mm": float(distance_mm.mean()),
-            "floor_per_frame_mm": distance_mm.round(1).tolist(),
-            "joint_angle_floor_deg": float(joint_angle_error_deg(truths, self.samples.poses[nearest]).mean()),
-            "swings_floor": score_swings(truth_deg, floor_deg),
-        }
-
-    def ambiguity(self, frames: np.ndarray, estimates: np.ndarray, nearest: np.ndarray) -> dict[str, Any]:
-        """Per frame, whether the silhouettes the filter saw are at least as likely (by the run's cost at the finest
-        level; with several views, the product of their likelihoods, each sample moved onto the spot the
-        silhouettes were placed on, as the filter scores it) under the estimate's sample as under
-        ``nearest``, the sample nearest the truth in 3-D: then the cost itself prefers a pose no nearer the truth,
-        and no filter would have done better there. A frame whose estimate is the floor's sample, or that failed,
-        is not ambiguous."""
+    def prefers(self, frame: int, sample: int, other: int) -> bool:
+        """Whether the silhouettes the filter saw at ``frame`` are at least as likely under ``sample`` as under
+        ``other`` (by the run's cost at the finest level; with several views, the product of their likelihoods, each
+        sample moved onto the spot the silhouettes were placed on, as the filter scores it). False for a frame the
+        filter did not see (it failed)."""
+        if frame not in self._seen:
+            return False
         width, height = self.tree.levels[-1].resolution
-        flags = []
-        for frame, estimate, floor_sample in zip(frames, estimates, nearest, strict=True):
-            if frame not in self._seen or not np.isfinite(estimate) or int(estimate) == int(floor_sample):
-                flags.append(False)
-                continue
-            packed, reference = self._seen[frame]
-            seen = tuple(np.unpackbits(view, count=width * height).reshape(height, width) > 0 for view in packed)
-            distances = self.filter.score_samples(
-                len(self.tree.levels) - 1, seen, np.array([int(estimate), int(floor_sample)]), reference
-            )
-            likelihood = self.filter.log_likelihood(len(self.tree.levels) - 1, distances)
-            flags.append(bool(likelihood[0] >= likelihood[1]))
-        return {"ambiguous_frames": int(sum(flags)), "ambiguous_per_frame": flags}
+        packed, reference = self._seen[frame]
+        seen = tuple(np.unpackbits(view, count=width * height).reshape(height, width) > 0 for view in packed)
+        finest = len(self.tree.levels) - 1
+        distances = self.filter.score_samples(finest, seen, np.array([sample, other]), reference)
+        likelihood = self.filter.log_likelihood(finest, distances)
+        return bool(likelihood[0] >= likelihood[1])
 
-    def step(self, frame: FrameInput) -> TbfResult:
-        silhouettes = frame.silhouettes
+    def step(self, observation: Observation) -> TbfResult:
+        silhouettes = observation.silhouettes
         if not silhouettes:
             raise ValueError("tracker=tbf needs the frame's silhouette (the capture stage of a body scene)")
         start = time.perf_counter()
@@ -330,18 +308,21 @@ class TbfTracker(Tracker):
             return TbfResult.of(
                 self.part_names,
                 None,
-                frame=frame.frame,
+                frame=observation.frame,
                 estimate=self._estimate.copy(),
                 timings_ms={"filter": elapsed_ms(start)},
                 failure=f"{error}",
             )
-        self._seen[frame.frame] = ([np.packbits(self.filter.observation_at(finest, view)) for view in seen], reference)
+        self._seen[observation.frame] = (
+            [np.packbits(self.filter.observation_at(finest, view)) for view in seen],
+            reference,
+        )
         estimate = self._placed_estimate(found, shifts, placed, offset)
         self._estimate = estimate
         result = TbfResult.of(
             self.part_names,
             found,
-            frame=frame.frame,
+            frame=observation.frame,
             estimate=estimate,
             timings_ms={**found.timings_ms, "filter": elapsed_ms(start)},
         )
@@ -359,7 +340,7 @@ class TbfTracker(Tracker):
     ) -> np.ndarray:
         """The filter's sample where the alignment puts it: placed on the floor (one view's ground placement, or
         several views' offset), or its root moved back by the views' shifts (their mean)."""
-        if self.dictionary is not None:
+        if self.arm_grid is not None:
             return self.estimate_of(found.pose)
         if offset is not None:
             return self.views_placement.pose(found.sample, offset)

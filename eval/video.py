@@ -1,5 +1,7 @@
-"""A view's RGB frames as one AV1 video in MP4 (PyAV's bundled SVT-AV1): a run's images at a fraction of the bytes
-of per-frame JPEGs (about 0.3 KB a frame at 320x240 instead of 12), decoded natively by Rerun's viewer.
+"""The recordings' video format, both ways: a view's RGB frames as one AV1 video in MP4 (PyAV's bundled SVT-AV1), a
+run's images at a fraction of the bytes of per-frame JPEGs (about 0.3 KB a frame at 320x240 instead of 12), decoded
+natively by Rerun's viewer. The run's recording writes it (`VideoEncoder`); the readers of recordings take it back
+(`decode`, `eval.recordings`).
 
 Every frame of the run is encoded in order, its presentation time its frame index; `decode` gives them back.
 """
