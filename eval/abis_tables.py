@@ -14,7 +14,7 @@ from pathlib import Path
 import pandas as pd
 
 from eval.tables import markdown
-from tracker.evaluation.arm import PAPER_PART
+from tracker.presentation import PAPER_PART
 
 B1_TARGET_PERCENT = 10.0
 R2_TARGET_DEG = 3.0

@@ -23,8 +23,9 @@ from tracker.models.body_skeleton import JOINT_INDEX, JOINT_NAMES, PART_BONES, P
 from tracker.models.makehuman import build_body
 from tracker.registry import REGISTRIES, build_chosen
 from tracker.tbf.alignment import shifted
-from tracker.tbf.distances import ObservationScorer, weight_map
+from tracker.tbf.costs import weight_map
 from tracker.tbf.samples import LEVEL_RESOLUTIONS
+from tracker.tbf.scoring import ObservationScorer
 
 VERDICT_COLORS = {"success": "#2ca02c", "error": "#ff7f0e", "fail": "#d62728"}
 # The skeleton drawn: every bone from its parent down to the hands and feet (fingers and toes left out).

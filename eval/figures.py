@@ -12,7 +12,7 @@ import numpy as np
 
 from eval.recordings import read_rgb_frames
 from tracker.atomic import atomic_path
-from tracker.evaluation.arm import PAPER_PART
+from tracker.presentation import PAPER_PART
 
 log = logging.getLogger(__name__)
 
@@ -137,7 +137,7 @@ def fig9_part2_correspondences(run_dir: str | Path, out: str | Path | None = Non
 
 
 def _paper_part_rows(run_dir: Path):
-    """Paper 1's part 2 (`tracker.evaluation.arm.PAPER_PART`), frame by frame."""
+    """Paper 1's part 2 (`tracker.presentation.PAPER_PART`), frame by frame."""
     import pandas as pd
 
     table = pd.read_parquet(run_dir / "frames.parquet")

@@ -37,7 +37,7 @@ from tracker.models.dsq import PARAM_INDEX
 from tracker.registry import COSTS
 from tracker.render.offscreen import SceneRenderer
 from tracker.sequence import simulate
-from tracker.tbf.distances import ObservationScorer
+from tracker.tbf.scoring import ObservationScorer
 from tracker.tol import TINY
 
 log = logging.getLogger(__name__)
@@ -125,7 +125,7 @@ def bench_silhouettes(samples: int) -> dict[str, float]:
 
     from tracker.observe.silhouettes import SilhouetteCapture, resize_silhouette
     from tracker.sequence import background_frames
-    from tracker.tbf.distances import silhouette_distance
+    from tracker.tbf.costs import silhouette_distance
     from tracker.tbf.pose_sets import arm_grid, remove_near_duplicates
     from tracker.tbf.sample_build import load_or_build
 

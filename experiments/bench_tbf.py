@@ -15,13 +15,8 @@ import numpy as np
 
 from experiments.components import build, compose
 from tracker.tbf.alignment import shifted
-from tracker.tbf.distances import (
-    ObservationScorer,
-    RunBoundaries,
-    ShiftedRunBoundaries,
-    SilhouetteRuns,
-    window_pixels,
-)
+from tracker.tbf.costs import window_pixels
+from tracker.tbf.scoring import ObservationScorer, RunBoundaries, ShiftedRunBoundaries, SilhouetteRuns
 from tracker.tol import ZERO_LENGTH
 
 log = logging.getLogger(__name__)

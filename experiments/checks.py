@@ -1,9 +1,9 @@
 """What composition cannot check, before a run: allowed values, which options go together, components' own checks.
 
-Every rule comes from the registries (`tracker.registry`): a setting's allowed values from its type, a component's
-models and the tracker's needs from its registration, which tracker tracks which model from how many views
-from `tracker.compatibility`. Each failure is a `ConfigError` whose message
-is one line naming the key, the value and what is allowed.
+Every rule comes from the registrations (`tracker.registry`): a setting's allowed values from its type, the models a
+component goes with (for a tracker, from how many camera views and with what: `tracker.registry.Fit`) and the
+tracker's needs. Each failure is a `ConfigError` whose message is one line naming the key, the value and what is
+allowed, or what to add.
 """
 
 from __future__ import annotations
@@ -14,7 +14,6 @@ from typing import Any
 from omegaconf import DictConfig, ListConfig, OmegaConf, open_dict
 
 from experiments.schemas import RUN_SETTINGS
-from tracker.compatibility import fit_of
 from tracker.registry import REGISTRIES, Entry, chosen_entries
 from tracker.settings import check_values
 
@@ -59,30 +58,28 @@ def _dotted(plain: dict[str, Any], key: str) -> Any:
 
 
 def check_combination(entries: dict[str, Entry], choices: dict[str, str], plain: dict[str, Any]) -> None:
-    """The chosen options go together: each works with the model, the tracker tracks it from the rig's number
-    of views (`tracker.compatibility`), and it has what it needs and nothing it does not."""
+    """The chosen options go together: each goes with the model, the tracker tracks it from the rig's number of
+    views with what its fit needs set (`tracker.registry.Fit`), and it has what it needs and nothing it does not."""
     model, tracker = entries["model"].name, entries["tracker"]
     for group, entry in entries.items():
         if entry.models is not None and model not in entry.models:
-            raise ValueError(
-                f"{group}={choices[group]} needs model={'|'.join(entry.models)}, not model={choices['model']}"
-            )
-    fit = fit_of(tracker.name, model)
+            allowed = "|".join(entry.models)
+            if group == "tracker":
+                raise ValueError(f"tracker={tracker.name} does not track model={model}: allowed model={allowed}")
+            raise ValueError(f"{group}={choices[group]} needs model={allowed}, not model={choices['model']}")
+    fit = None if tracker.models is None else tracker.models[model]
     try:
         views = len(entries["rig"].build(plain["rig"]))
     except ValueError as error:  # a camera that cannot be built
         raise ValueError(f"rig={choices['rig']}: {error}") from None
+    combination = f"tracker={choices['tracker']} tracks model={choices['model']}"
     if fit is not None and not fit.allows(views):
-        advice = f"; add rig={fit.rig}" if fit.rig else ""
-        raise ValueError(
-            f"tracker={choices['tracker']} tracks model={choices['model']} from {fit.says}: "
-            f"rig={choices['rig']} has {views}{advice}"
-        )
-    for key, value in () if fit is None else fit.sets:
-        if _dotted(plain, key) is None:
-            raise ValueError(
-                f"tracker={choices['tracker']} tracks model={choices['model']} with {key} set: add {key}={value}"
-            )
+        advice = f"; add {fit.advice()}" if fit.rig else ""
+        raise ValueError(f"{combination} from {fit.says}: rig={choices['rig']} has {views}{advice}")
+    unset = [(key, value) for key, value in (fit.settings if fit else ()) if _dotted(plain, key) is None]
+    if unset:
+        keys = " and ".join(key for key, _ in unset)
+        raise ValueError(f"{combination} with {keys} set: add {' '.join(f'{k}={v}' for k, v in unset)}")
     missing = [group for group in tracker.needs if group not in entries]
     if missing:
         allowed = ", ".join(f"{group}={'|'.join(REGISTRIES[group].names())}" for group in missing)

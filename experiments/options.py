@@ -3,7 +3,8 @@
 
 One row per option file ``conf/<group>/<option>.yaml``: the component it builds (`tracker.registry`), what that
 component is (the first line of its docstring), its settings, and what it goes with (models, needs). Then which
-tracker tracks which model from how many camera views (`tracker.compatibility`).
+tracker tracks which model from how many camera views, and what it needs there (each tracker's registered
+`tracker.registry.Fit`).
 """
 
 from __future__ import annotations
@@ -13,8 +14,7 @@ import argparse
 from omegaconf import OmegaConf
 
 from experiments.schemas import CONFIG_DIR, GROUPS, SCHEMA_PREFIX
-from tracker.compatibility import FITS, Fit
-from tracker.registry import MODELS, REGISTRIES, Entry
+from tracker.registry import MODELS, REGISTRIES, TRACKERS, Entry, Fit
 
 README = CONFIG_DIR.parent / "README.md"
 BEGIN, END = "<!-- options: made by python -m experiments.options --write -->", "<!-- options: end -->"
@@ -43,26 +43,25 @@ def goes_with(entry: Entry) -> str:
     parts = []
     if entry.models:
         parts.append("model=" + "\\|".join(entry.models))
-    if entry.kind == "tracker" and entry.name in FITS:
-        parts.append("model=" + "\\|".join(FITS[entry.name]))
     parts += [f"{group}=…" for group in entry.needs]
     return ", ".join(parts)
 
 
 def compatibility_table() -> str:
-    """Trackers by models: the camera views each combination uses, and the rig and settings it picks; — where it
+    """Trackers by models: the camera views each combination uses, and the rig and settings it needs; — where it
     makes no sense."""
     models = MODELS.names()
     lines = ["| tracker | " + " | ".join(f"`model={m}`" for m in models) + " |", "|---" * (len(models) + 1) + "|"]
-    for tracker, fits in FITS.items():
+    for tracker in TRACKERS:
+        fits = tracker.models or dict.fromkeys(models, Fit())
         cells = [_fit_cell(fits[m]) if m in fits else "—" for m in models]
-        lines.append(f"| `tracker={tracker}` | " + " | ".join(cells) + " |")
+        lines.append(f"| `tracker={tracker.name}` | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
 def _fit_cell(fit: Fit) -> str:
-    picks = ([f"`rig={fit.rig}`"] if fit.rig else []) + [f"`{key}={value}`" for key, value in fit.sets]
-    return fit.says.replace(" camera", "") + (", picks " + ", ".join(picks) if picks else "")
+    needs = ([f"`rig={fit.rig}`"] if fit.rig else []) + [f"`{key}={value}`" for key, value in fit.settings]
+    return fit.says.replace(" camera", "") + (", with " + " ".join(needs) if needs else "")
 
 
 def table() -> str:
@@ -77,7 +76,7 @@ def readme_with_table(text: str) -> str:
     head, rest = text.split(BEGIN, 1)
     made = (
         f"{table()}\n\nWhich tracker tracks which model, from how many camera views (a rig with another number "
-        f"fails at start, in one line; `tracker/compatibility.py`):\n\n{compatibility_table()}"
+        f"fails at start, in one line, naming what to add; each tracker's registration):\n\n{compatibility_table()}"
     )
     return f"{head}{BEGIN}\n{made}\n{END}{rest.split(END, 1)[1]}"
 

@@ -13,9 +13,9 @@ weight map d_P, float images, when asked for), ``metrics/silhouette_iou/<view>``
 Sized for keeping: rows are batched into large chunks (a few hundred per run instead of one per entity and frame,
 so the file compresses across frames and the viewer loads it whole), images go as video, and a mesh's vertices are
 written again only when its shape changed (a part that moved rigidly gets a Transform3D of its last vertices).
-Nothing here knows a tracker: colours and panels come from `experiments.presentation`. Each recording has its own
-``recording_id`` and a default blueprint; the file is written under a temporary name and renamed by
-`RunRecording.close`, so a crashed run leaves no partial file.
+Nothing here knows a tracker: colours and panels come from the components' registrations (`tracker.presentation`,
+laid out by `experiments.presentation`). Each recording has its own ``recording_id`` and a default blueprint; the
+file is written under a temporary name and renamed by `RunRecording.close`, so a crashed run leaves no partial file.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ import rerun as rr
 
 from eval.video import VideoEncoder
 from experiments.components import Components
-from experiments.presentation import PALETTE, POINTS, default_blueprint, presentation
+from experiments.presentation import PALETTE, POINTS, default_blueprint
 from experiments.schemas import RecordSettings
 from tracker.atomic import AtomicFile
 from tracker.geometry.cameras import Camera
@@ -39,7 +39,7 @@ from tracker.geometry.rotations import fit_rigid
 from tracker.observe.silhouettes import CapturedFrame
 from tracker.protocol import Points, RenderedFrame, StepResult
 from tracker.registry import COSTS
-from tracker.tbf.distances import weight_map
+from tracker.tbf.costs import weight_map
 from tracker.tol import RIGID_MESH_M
 
 APPLICATION_ID = "articulated-tracking"
@@ -73,8 +73,8 @@ class RunRecording:
         self.model, self.record, self.evaluation = components.model, record, components.evaluation
         self.silhouettes = "silhouettes" in components.observes
         self.weight_maps = COSTS.names() if self.silhouettes and record.weight_maps and record.images else []
-        shown = [components.entries["tracker"].name, components.entries["model"].name]
-        looks = [presentation(name) for name in reversed(shown)]  # the tracker's colours over the model's
+        shown = [components.entries[kind].presentation for kind in ("tracker", "model")]  # its panels first
+        looks = shown[::-1]  # the tracker's colours over the model's
         self._state_colors = {state: colour for look in looks for state, colour in look.state_colors.items()}
         self._point_colors = {name: colour for look in looks for name, colour in look.point_colors.items()}
         self._videos = (

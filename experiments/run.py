@@ -24,7 +24,7 @@ from experiments.checks import ConfigError
 from experiments.components import import_plugins
 from experiments.job import finished_metrics, run_job
 from experiments.schemas import CONFIG_DIR, CONFIG_NAME
-from experiments.validate import plugins_named, validate_command_line, with_picks
+from experiments.validate import plugins_named, validate_command_line
 
 log = logging.getLogger(__name__)
 
@@ -48,17 +48,10 @@ def main(argv: list[str] | None = None) -> None:
     argv = sys.argv[1:] if argv is None else argv
     try:
         import_plugins(plugins_named(argv))  # their components and schemas, before anything is composed
-        picked = with_picks(argv, CONFIG_DIR, CONFIG_NAME)
-        validate_command_line(picked, CONFIG_DIR, CONFIG_NAME)
+        validate_command_line(argv, CONFIG_DIR, CONFIG_NAME)
     except ConfigError as error:
         print(f"error: {error}", file=sys.stderr)
         sys.exit(2)
-    if picked != argv:  # said once the run is sure to start
-        print(
-            f"{' '.join(picked[len(argv) :])}: what the tracker takes for this model (name another to override)",
-            file=sys.stderr,
-        )
-        sys.argv[1:] = picked  # what hydra.main reads
     hydra_main()
 
 

@@ -14,7 +14,6 @@ from pathlib import Path
 from hydra import compose, initialize_config_dir
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.errors import HydraException, MissingConfigException, OverrideParseException
-from omegaconf import OmegaConf
 from omegaconf.errors import (
     ConfigAttributeError,
     ConfigKeyError,
@@ -23,10 +22,8 @@ from omegaconf.errors import (
     ValidationError,
 )
 
-from experiments.checks import ConfigError, check_config, unknown_key, without_hydra
+from experiments.checks import ConfigError, check_config, unknown_key
 from experiments.schemas import SCHEMA_PREFIX
-from tracker.compatibility import FITS, fit_of
-from tracker.registry import chosen_entries
 
 # Flags after which Hydra runs nothing (help, printing the config, shell completion): nothing to validate.
 _INFORMATIONAL_FLAGS = set(
@@ -64,38 +61,6 @@ def validate_command_line(argv: list[str], config_dir: Path, config_name: str) -
             check_config(cfg, choices)
         except OmegaConfBaseException as error:
             raise ConfigError(_describe(error)) from None
-
-
-def with_picks(argv: list[str], config_dir: Path, config_name: str) -> list[str]:
-    """``argv`` with what the tracker's fit on the model picks (`tracker.compatibility.Fit`): ``rig=<option>``
-    when it names no rig and the composed rig has a number of views the tracker does not take, and each of the
-    fit's settings that it does not name and the composed config leaves null (e.g. ``tracker=abis
-    model=body_mesh``: ``rig=body_multi_vga model.texture_seed=0``). A sweep gets a pick when every job that needs
-    one needs the same."""
-    jobs = _jobs(argv)
-    if jobs is None or not any(fit.rig or fit.sets for fits in FITS.values() for fit in fits.values()):
-        return argv  # nothing to pick: composing every job twice at start would only cost time
-    overrides, _ = jobs
-    named = {_key(arg) for arg in overrides}
-    picks: dict[str, set[str]] = {}
-    for combination in sweep_combinations(overrides):
-        try:
-            cfg = _compose(config_dir, config_name, combination)
-            entries = chosen_entries(OmegaConf.to_container(without_hydra(cfg), resolve=True))
-            fit = fit_of(entries["tracker"].name, entries["model"].name)
-            if fit is None:
-                continue
-            for key, value in fit.sets:
-                if key not in named and OmegaConf.select(cfg, key) is None:
-                    picks.setdefault(key, set()).add(f"{key}={value}")
-            if "rig" in named or not fit.rig or fit.rig == cfg.hydra.runtime.choices["rig"]:
-                continue
-            views = len(entries["rig"].build(OmegaConf.to_container(cfg.rig, resolve=True)))
-        except (ConfigError, OmegaConfBaseException, ValueError, TypeError):
-            continue  # `validate_command_line` says why, in one line
-        if not fit.allows(views):
-            picks.setdefault("rig", set()).add(f"rig={fit.rig}")
-    return [*argv, *(picked.pop() for picked in picks.values() if len(picked) == 1)]
 
 
 def _key(override: str) -> str:

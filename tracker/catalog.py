@@ -9,5 +9,5 @@ from tracker.evaluation import arm, body  # noqa: F401  (each model's evaluation
 from tracker.geometry import rigs  # noqa: F401
 from tracker.models import dsq_arm, makehuman  # noqa: F401
 from tracker.motion import arm_sweep, mocap, scenes  # noqa: F401
-from tracker.tbf import distances, motion  # noqa: F401
+from tracker.tbf import costs, motion  # noqa: F401
 from tracker.tbf import tracker as tbf_tracker  # noqa: F401

@@ -15,7 +15,7 @@ from typing import Any, ClassVar, Protocol
 import numpy as np
 
 from tracker.geometry.cameras import Camera
-from tracker.registry import TRACKERS
+from tracker.registry import TRACKERS, Fit
 from tracker.render.mesh import SurfaceMesh
 from tracker.render.offscreen import RenderedView
 
@@ -162,7 +162,7 @@ class Tracker(Protocol):
         """Free what `start` took (a renderer, say)."""
 
 
-@TRACKERS.register("render_only")
+@TRACKERS.register("render_only", models={"dsq_arm": Fit((1, 4)), "body_mesh": Fit((1, 4))})
 @dataclass(frozen=True)
 class RenderOnly(Tracker):
     """No estimation: the run renders and records the scene (what every tracker observes)."""

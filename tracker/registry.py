@@ -6,10 +6,12 @@ not the truth motion, which is the scene). A component registers with ``@TRACKER
 ``COSTS.register("xor", xor)`` in its own module; `tracker.catalog` imports the built-in ones, and a user's module
 registers its own the same way (``plugins=[my.module]`` on the command line imports it).
 
-A registration states what the layer above derives everything from: the component's settings (`tracker.settings`:
-its config schema, defaults and allowed values), the other kinds it needs (a tracker's cost and motion model), the
-models it works with (a tracker's, and from how many views, are in `tracker.compatibility`), what it observes
-(``silhouettes``), and a start-time check.
+A registration is everything the layer above knows of a component, stated once beside its code: its settings
+(`tracker.settings`: its config schema, defaults and allowed values), the other kinds it needs (a tracker's cost
+and motion model), the models it goes with and, for a tracker, from how many camera views and with what (`Fit`),
+what it observes (``silhouettes``), how it looks in the recording (`tracker.presentation`) and a start-time check.
+The config schemas, the start-time checks, the README's option and compatibility tables and the recordings'
+layouts are all derived from the registrations.
 """
 
 from __future__ import annotations
@@ -20,7 +22,34 @@ from dataclasses import dataclass, field
 from types import SimpleNamespace
 from typing import Any
 
+from tracker.presentation import Presentation
 from tracker.settings import Setting, from_plain, settings_of
+
+
+@dataclass(frozen=True)
+class Fit:
+    """How a component goes with one model. For a tracker: from how many camera views (fewest, most; None: no most),
+    and what it needs there that the model's usual config leaves out: ``rig``, the rig option to add when the
+    composed rig has another number of views, and ``settings``, ``(key, value)`` pairs to set where the config
+    leaves them null. A combination that lacks them fails at start with one line naming them."""
+
+    views: tuple[int, int | None] = (1, None)
+    rig: str | None = None
+    settings: tuple[tuple[str, Any], ...] = ()
+
+    def allows(self, views: int) -> bool:
+        return self.views[0] <= views and (self.views[1] is None or views <= self.views[1])
+
+    @property
+    def says(self) -> str:
+        low, high = self.views
+        if high is None:
+            return f"{low} or more camera views"
+        return f"{low} camera view{'s' * (high > 1)}" if low == high else f"{low} to {high} camera views"
+
+    def advice(self) -> str:
+        """What to add to the command line for this fit: its rig and its settings."""
+        return " ".join([f"rig={self.rig}"] * bool(self.rig) + [f"{key}={value}" for key, value in self.settings])
 
 
 @dataclass(frozen=True)
@@ -37,8 +66,11 @@ class Entry:
     factory: Callable[..., Any]
     settings: type | None = None
     needs: Mapping[str, str] = field(default_factory=dict)  # kind -> the option suggested when it is missing
-    models: tuple[str, ...] | None = None  # the models it works with (None: any; trackers: `tracker.compatibility`)
+    # The models it goes with, each with its `Fit` (None: any model from any rig; registered as names alone, each
+    # from any number of views).
+    models: Mapping[str, Fit] | None = None
     observes: tuple[str, ...] = ()  # what the run must capture for it, e.g. "silhouettes"
+    presentation: Presentation = field(default_factory=Presentation)  # its panels and colours in the recording
     # Before the run: check(settings, frames=..., key=..., model=...) raises ValueError naming the key (settings: the
     # settings dataclass, or the component's settings as attributes; key: its config group; model: the model's name).
     check: Callable[..., None] | None = None
@@ -103,6 +135,10 @@ class Registry:
 
     def register(self, name: str, factory: Callable[..., Any] | None = None, **traits: Any):
         """Register ``factory`` under ``name`` (or, without it, return a decorator that does)."""
+
+        models = traits.get("models")
+        if models is not None and not isinstance(models, Mapping):  # names alone: any number of views
+            traits["models"] = {model: Fit() for model in models}
 
         def add(factory: Callable[..., Any]) -> Callable[..., Any]:
             entry = Entry(self.kind, name, factory, **traits)

@@ -1,5 +1,6 @@
 """A user's plugin, as a user would write it: a tracker and a silhouette cost of their own, registered here and
-nowhere else (`test_plugboard` runs them through the real command line with ``plugins=[this module]``)."""
+nowhere else, the tracker with the models it tracks from how many views and how it looks in the recording
+(`test_plugboard` runs them through the real command line with ``plugins=[this module]``)."""
 
 from __future__ import annotations
 
@@ -8,9 +9,10 @@ from typing import ClassVar
 
 import numpy as np
 
+from tracker.presentation import Panel, Presentation
 from tracker.protocol import Observation, Points, StepResult, Tracker
 from tracker.ranges import Positive
-from tracker.registry import COSTS, TRACKERS
+from tracker.registry import COSTS, TRACKERS, Fit
 
 
 @dataclass(frozen=True)
@@ -20,7 +22,13 @@ class HoldSettings:
     marker_px: Positive = 5.0  # where the overlay's points sit, from each image corner
 
 
-@TRACKERS.register("hold_still", settings=HoldSettings)
+HOLD_LOOK = Presentation(
+    panels=lambda parts: [Panel("frames held", "metrics/hold")],
+    state_colors={"near": (10, 20, 30), "far": (40, 50, 60)},
+)
+
+
+@TRACKERS.register("hold_still", settings=HoldSettings, models={"dsq_arm": Fit((2, 3))}, presentation=HOLD_LOOK)
 class HoldStill(Tracker):
     name: ClassVar[str] = "hold_still"
 

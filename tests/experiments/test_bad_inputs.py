@@ -89,10 +89,11 @@ AT_START = [
     ),
     (
         ["tracker=abis", "model=body_mesh", "rig=body_side"],
-        r"^tracker=abis tracks model=body_mesh from 3 to 4 camera views: rig=body_side has 1; add rig=body_multi_vga$",
+        r"^tracker=abis tracks model=body_mesh from 3 to 4 camera views: rig=body_side has 1; "
+        r"add rig=body_multi_vga model\.texture_seed=0$",
     ),
     (
-        ["tracker=abis", "model=body_mesh", "model.texture_seed=null"],
+        ["tracker=abis", "model=body_mesh", "rig=body_multi_vga", "model.texture_seed=null"],
         r"^tracker=abis tracks model=body_mesh with model\.texture_seed set: add model\.texture_seed=0$",
     ),
     (

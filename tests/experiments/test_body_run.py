@@ -8,7 +8,7 @@ from tests.conftest import MOCAP_DIR, run_cli
 from tests.experiments.test_run import frames_by_entity
 from tracker.models.body_skeleton import POSE_SIZE
 from tracker.motion.body_swing import BodySwing
-from tracker.tbf.distances import weight_map
+from tracker.tbf.costs import weight_map
 
 
 def test_a_body_run_records_silhouettes_weight_maps_and_their_quality(body_swing_run):

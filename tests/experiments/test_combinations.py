@@ -1,7 +1,8 @@
-"""The plug-board's combinations: every model with every tracker that tracks it (`tracker.compatibility.FITS`), from
+"""The plug-board's combinations: every model with every tracker that tracks it (each tracker's registered fits), from
 the fewest and the most views of the project's rigs for that model, runs 2 frames through the real command line;
 and one camera tracks as it did before several views were possible."""
 
+import dataclasses
 import json
 
 import pandas as pd
@@ -9,16 +10,16 @@ import pytest
 
 from experiments.components import build, compose
 from tests.conftest import SMALL_ARM_GRID, SMALL_GRID, TBF_RUN, run_cli
-from tracker.compatibility import FITS
+from tracker.registry import TRACKERS
 
 RIGS_OF_MODEL = {"dsq_arm": ("mono", "orthogonal3"), "body_mesh": ("body_side", "body_multi")}
 NEEDS = {"tbf": ("cost=nwxor", "motion=dm2")}
 SMALL_SAMPLES = {"body_mesh": tuple(SMALL_GRID), "dsq_arm": (SMALL_ARM_GRID,)}
 VIEWS = {rig: len(build(compose([f"rig={rig}"])).cameras) for rigs in RIGS_OF_MODEL.values() for rig in rigs}
 COMBINATIONS = [
-    (tracker, model, rig)
-    for tracker, fits in FITS.items()
-    for model, fit in fits.items()
+    (tracker.name, model, rig)
+    for tracker in TRACKERS
+    for model, fit in tracker.models.items()
     for rig in RIGS_OF_MODEL[model]
     if fit.allows(VIEWS[rig])
 ]
@@ -27,8 +28,10 @@ COMBINATIONS = [
 @pytest.mark.parametrize(("tracker", "model", "rig"), COMBINATIONS, ids=["-".join(c) for c in COMBINATIONS])
 def test_every_allowed_combination_runs_two_frames(tracker, model, rig, tmp_path):
     out = tmp_path / "out"
+    needed = [f"{key}={value}" for key, value in TRACKERS[tracker].models[model].settings]
     result = run_cli(
         out,
+        *needed,
         f"tracker={tracker}",
         f"model={model}",
         f"rig={rig}",
@@ -81,37 +84,27 @@ def test_a_cameras_rig_of_one_view_is_the_one_camera_rig(tbf_run, tmp_path):
     assert one_view == one_camera  # both measured here: to the last bit
 
 
-def test_a_fit_that_names_a_rig_picks_it_unless_the_command_line_names_one(monkeypatch):
-    """As model=body_mesh picks rig=body_side, a tracker that needs more views of a model picks its rig; a rig
-    named on the command line stays, and then fails at start saying which to add."""
+def test_a_combination_without_what_its_fit_needs_fails_at_start_naming_it():
+    """AbIS tracks the body from 3-4 views of a textured skin: composed with the body's usual one-camera rig and
+    plain skin, the command line is told what to add, in one line; given that (or the preset), it starts."""
     from experiments.checks import ConfigError
     from experiments.schemas import CONFIG_DIR
-    from experiments.validate import validate_command_line, with_picks
-    from tracker.compatibility import Fit
-
-    monkeypatch.setitem(FITS["render_only"], "body_mesh", Fit((3, 4), rig="body_multi"))
-    argv = ["model=body_mesh", "frames=2"]
-    assert with_picks(argv, CONFIG_DIR, "config") == [*argv, "rig=body_multi"]
-    validate_command_line([*argv, "rig=body_multi"], CONFIG_DIR, "config")
-    named = [*argv, "rig=body_side"]
-    assert with_picks(named, CONFIG_DIR, "config") == named
-    with pytest.raises(
-        ConfigError,
-        match=r"^tracker=render_only tracks model=body_mesh from 3 to 4 camera views: "
-        r"rig=body_side has 1; add rig=body_multi$",
-    ):
-        validate_command_line(named, CONFIG_DIR, "config")
-    assert with_picks(["model=dsq_arm"], CONFIG_DIR, "config") == ["model=dsq_arm"]  # its rig fits already
-
-
-def test_the_body_by_abis_picks_its_rig_and_a_textured_skin_unless_the_command_line_names_them():
-    from experiments.schemas import CONFIG_DIR
-    from experiments.validate import with_picks
+    from experiments.validate import validate_command_line
 
     argv = ["model=body_mesh", "tracker=abis"]
-    assert with_picks(argv, CONFIG_DIR, "config") == [*argv, "model.texture_seed=0", "rig=body_multi_vga"]
-    named = [*argv, "rig=body_multi", "model.texture_seed=7"]
-    assert with_picks(named, CONFIG_DIR, "config") == named
+    with pytest.raises(
+        ConfigError,
+        match=r"^tracker=abis tracks model=body_mesh from 3 to 4 camera views: rig=body_side has 1; "
+        r"add rig=body_multi_vga model.texture_seed=0$",
+    ):
+        validate_command_line(argv, CONFIG_DIR, "config")
+    with pytest.raises(
+        ConfigError,
+        match=r"^tracker=abis tracks model=body_mesh with model.texture_seed set: add model.texture_seed=0$",
+    ):
+        validate_command_line([*argv, "rig=body_multi"], CONFIG_DIR, "config")
+    validate_command_line([*argv, "rig=body_multi", "model.texture_seed=7"], CONFIG_DIR, "config")
+    validate_command_line(["experiment=abis_body"], CONFIG_DIR, "config")
 
 
 def test_a_tracker_fails_at_start_on_a_model_its_fits_leave_out(monkeypatch):
@@ -119,6 +112,9 @@ def test_a_tracker_fails_at_start_on_a_model_its_fits_leave_out(monkeypatch):
     from experiments.schemas import CONFIG_DIR
     from experiments.validate import validate_command_line
 
-    monkeypatch.setitem(FITS, "abis", {"dsq_arm": FITS["abis"]["dsq_arm"]})
+    abis = TRACKERS["abis"]
+    monkeypatch.setitem(
+        TRACKERS._entries, "abis", dataclasses.replace(abis, models={"dsq_arm": abis.models["dsq_arm"]})
+    )
     with pytest.raises(ConfigError, match=r"^tracker=abis does not track model=body_mesh: allowed model=dsq_arm$"):
         validate_command_line(["model=body_mesh", "tracker=abis", "rig=body_multi"], CONFIG_DIR, "config")

@@ -1,18 +1,20 @@
 """The plug-board: a tracker and a cost of a user's own (`tests.experiments.plugin_toys`, one module, and one YAML
 each, written here into the test's folder) run through the real command line, recorded and tabled, with no file of
-the project changed."""
+the project changed: the tracker's one registration also says which models it tracks from how many views (checked
+at start, shown in the compatibility table) and how it looks in the recording (its panel, its points' colours)."""
 
 import json
 import subprocess
 import sys
 
 import pandas as pd
+from rerun.chunk import RrdReader
 
 from eval.figures import write_figures
 from eval.tables import collect, sweep_table, table_4c
 from experiments.schemas import CONFIG_DIR
 from tests.conftest import SMALL_GRID
-from tests.experiments.test_run import frames_by_entity
+from tests.experiments.test_run import blueprint_origins, frames_by_entity
 from tracker.registry import COSTS, TRACKERS
 
 PROJECT = CONFIG_DIR.parent
@@ -23,7 +25,7 @@ OPTIONS = {
 }
 
 
-def run(tmp_path, name, *overrides):
+def command_line(tmp_path, name, *overrides) -> list[str]:
     conf = tmp_path / "conf"
     for path, text in OPTIONS.items():
         (conf / path).parent.mkdir(parents=True, exist_ok=True)
@@ -37,7 +39,11 @@ def run(tmp_path, name, *overrides):
         f"hydra.run.dir={tmp_path / name}",
         *overrides,
     ]
-    result = subprocess.run(command, cwd=PROJECT, capture_output=True, text=True, timeout=300)
+    return command
+
+
+def run(tmp_path, name, *overrides):
+    result = subprocess.run(command_line(tmp_path, name, *overrides), cwd=PROJECT, capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
     return tmp_path / name
 
@@ -67,6 +73,49 @@ def test_a_users_tracker_runs_is_recorded_tabled_and_drawn(tmp_path):
     ]
     runs = collect([out])
     assert sweep_table(runs).loc[0, "tracker"] == "hold_still"
+    # How it looks, from its registration: its panel in the default layout, its points in its states' colours.
+    assert "metrics/hold" in blueprint_origins(out / "run.rrd")
+    assert state_colors(out / "run.rrd", "/world/cameras/left/image/corners") == {
+        "near": (10, 20, 30, 255),
+        "far": (40, 50, 60, 255),
+    }
+
+
+def test_a_users_tracker_says_once_what_it_tracks_from_how_many_views(tmp_path):
+    """Its registration's fits: checked at start in one line, and a row of the README's compatibility table."""
+    for overrides, message in (
+        (["model=body_mesh"], "error: tracker=hold_still does not track model=body_mesh: allowed model=dsq_arm"),
+        (["rig=mono"], "error: tracker=hold_still tracks model=dsq_arm from 2 to 3 camera views: rig=mono has 1"),
+    ):
+        command = command_line(tmp_path, "refused", "tracker=hold_still", *overrides)
+        result = subprocess.run(command, cwd=PROJECT, capture_output=True, text=True)
+        assert result.returncode == 2 and result.stderr.strip() == message
+        assert not (tmp_path / "refused").exists()
+    table = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            f"import {PLUGIN}; from experiments.options import compatibility_table as t; print(t())",
+        ],
+        cwd=PROJECT,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    assert "| `tracker=hold_still` | 2 to 3 views | — |" in table.splitlines()
+
+
+def state_colors(path, entity: str) -> dict[str, tuple[int, ...]]:
+    """The colour (RGBA) of each state of the points logged at ``entity``: their annotation classes."""
+    colors = {}
+    for chunk in RrdReader(path).stream().to_chunks():
+        batch = chunk.to_record_batch()
+        if chunk.entity_path == entity and "AnnotationContext:context" in batch.schema.names:
+            for context in batch.column("AnnotationContext:context").to_pylist():
+                for annotation in context[0]:
+                    info = annotation["class_description"]["info"]
+                    colors[info["label"]] = tuple(int(info["color"]).to_bytes(4, "big"))
+    return colors
 
 
 def test_a_users_cost_serves_the_tree_filter(tmp_path):

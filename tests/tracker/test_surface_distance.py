@@ -67,9 +67,10 @@ def test_the_arms_forearm_turned_about_its_own_axis_slides_along_its_surface_but
     """The forearm is a surface of revolution (a1 = a2, eps2 = 1, equal tapering, no bending in x or y): turned about
     its own axis, its samples move (surface_error_mm) but stay on the true surface (surface_distance_mm)."""
     from experiments.components import build, compose
-    from tracker.evaluation.arm import PAPER_PART, ArmEvaluation
+    from tracker.evaluation.arm import ArmEvaluation
     from tracker.geometry.rotations import euler_to_matrix, matrix_to_euler, rotation_z
     from tracker.models.dsq import PARAM_INDEX
+    from tracker.presentation import PAPER_PART
 
     components = build(compose(["frames=2"]))
     arm, truth = components.model, components.scene.params(components.model, 0)

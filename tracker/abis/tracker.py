@@ -60,8 +60,9 @@ from tracker.models.body_mesh import BodyMesh
 from tracker.models.dsq import PARAM_INDEX, pole_point
 from tracker.models.dsq_arm import DSQArm
 from tracker.observe.features import FeatureFrame
+from tracker.presentation import Panel, Presentation, paper_part_first
 from tracker.protocol import Observation, Tracker
-from tracker.registry import TRACKERS
+from tracker.registry import TRACKERS, Fit
 from tracker.render.offscreen import DepthLabels, SceneRenderer
 
 
@@ -75,7 +76,28 @@ def initial_estimate(arm: DSQArm, initial: np.ndarray, noise: InitialNoise, rng:
     return arm.connect(estimate)
 
 
-@TRACKERS.register("abis", settings=AbisSettings)
+# Paper 1's three orthogonal views, or more; the body by the features of its textured skin, from 3 or 4 views at
+# 640x480 (at 320x240 the margins kept from silhouettes and occlusion edges leave too few features to pair).
+ABIS_FITS = {
+    "dsq_arm": Fit((1, 4)),
+    "body_mesh": Fit((3, 4), rig="body_multi_vga", settings=(("model.texture_seed", 0),)),
+}
+ABIS_LOOK = Presentation(
+    panels=lambda parts: [
+        *(Panel(f"{part} pairs", f"metrics/correspondences/{part}") for part in paper_part_first(parts)),
+        Panel("cost (eq 8, px^2)", "metrics/cost"),
+    ],
+    state_colors={
+        "tracked": (0, 220, 0),
+        "new": (0, 160, 255),
+        "discarded": (255, 40, 40),
+        "unpaired": (150, 150, 150),
+    },
+    point_colors={"estimate": (255, 255, 0)},
+)
+
+
+@TRACKERS.register("abis", settings=AbisSettings, models=ABIS_FITS, presentation=ABIS_LOOK)
 class AbisTracker(Tracker):
     """`start` with the model, the cameras and the frame-0 pose; then `step` once per frame; `close`."""
 

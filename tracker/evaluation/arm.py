@@ -27,9 +27,9 @@ from tracker.evaluation import register_evaluation
 from tracker.geometry.rotations import euler_to_matrix, rotation_angle_deg
 from tracker.geometry.surface_distance import point_mesh_distance
 from tracker.models.dsq import ANGLE_NAMES, PARAM_INDEX, PARAM_NAMES
+from tracker.presentation import PAPER_PART
 from tracker.protocol import SampleDictionary
 
-PAPER_PART = 1  # paper 1's "part 2" (it counts from 1): the arm's second part, the forearm
 _R = slice(PARAM_INDEX["r1"], PARAM_INDEX["r3"] + 1)
 
 

@@ -27,6 +27,7 @@ from tracker.models.dsq import (
     sample_grid,
 )
 from tracker.models.textures import block_noise_texture
+from tracker.presentation import Panel, Presentation, paper_part_first
 from tracker.ranges import RGB, Range, Seed
 from tracker.registry import MODELS
 from tracker.render.mesh import SurfaceMesh, vertex_normals
@@ -57,7 +58,17 @@ class Resolution:
     n_omega: GridSide
 
 
-@MODELS.register("dsq_arm")
+def _arm_panels(parts) -> list[Panel]:
+    first = paper_part_first(parts)[0]
+    return [
+        Panel(f"{first}: b1 (m) and r2 (rad), Fig 8", f"metrics/params/{first}", ("b1/*", "r2/*")),
+        Panel("rotation error (geodesic, deg)", "metrics/error", ("*/rotation_error_deg",)),
+        Panel("surface error, same (eta, omega) (mm)", "metrics/error", ("*/surface_error_mm",)),
+        Panel("point-to-surface (mm)", "metrics/error", ("*/surface_distance_mm",)),
+    ]
+
+
+@MODELS.register("dsq_arm", presentation=Presentation(panels=_arm_panels))
 @dataclass(eq=False)
 class DSQArm:
     """Paper 1's object: deformable superquadrics joined pole to pole, textured (eq 1-4)."""

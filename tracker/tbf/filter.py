@@ -7,7 +7,7 @@ product of its views' likelihoods, its log-likelihood the sum of theirs, each vi
     levels    from the top: the nodes under the surviving nodes of the level above are scored by their
               representative's silhouette distance at the level's resolution (the observation's weight map is
               computed once per level, and each representative is scored from its runs of inside pixels,
-              `tracker.tbf.distances.ObservationScorer`); a node's posterior
+              `tracker.tbf.scoring.ObservationScorer`); a node's posterior
               is ``exp(-d^2 / 2 sigma_l^2)`` (eq 10-11, vol(S) constant) times its members' prior mass; nodes
               below ``prune_fraction`` of the level's best are pruned;
     leaves    each member sample of a surviving leaf gets ``p(z | leaf) * prior(sample)`` (eq 12-13); the best
@@ -32,9 +32,10 @@ import numpy as np
 from tracker.observe.silhouettes import resize_silhouette
 from tracker.ranges import Positive, Range
 from tracker.settings import validate
-from tracker.tbf.distances import Cost, ObservationScorer, RunBoundaries, ShiftedRunBoundaries
+from tracker.tbf.costs import Cost
 from tracker.tbf.motion import BODY_SPACE, PosePrior, PoseSpace, RandomWalk
 from tracker.tbf.samples import PoseSampleSet, SampleViews
+from tracker.tbf.scoring import ObservationScorer, RunBoundaries, ShiftedRunBoundaries
 from tracker.tbf.tree import PoseTree
 from tracker.timing import elapsed_ms
 from tracker.tol import NEGLIGIBLE_PRIOR, TINY

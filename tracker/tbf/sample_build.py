@@ -35,7 +35,7 @@ from tracker.ranges import Range
 from tracker.sequence import label_areas
 from tracker.settings import validate
 from tracker.tbf import sample_store
-from tracker.tbf.distances import SilhouetteRuns, Window
+from tracker.tbf.costs import Window
 from tracker.tbf.samples import (
     RESOLUTIONS,
     Posable,
@@ -45,6 +45,7 @@ from tracker.tbf.samples import (
     reduce_labels,
     resolution_factor,
 )
+from tracker.tbf.scoring import SilhouetteRuns
 from tracker.tol import MIN_DEPTH_M
 
 log = logging.getLogger(__name__)

@@ -19,8 +19,8 @@ from typing import Literal
 
 import numpy as np
 
-from tracker.tbf.distances import SilhouetteRuns
 from tracker.tbf.samples import FORMAT_VERSION, PoseSampleSet, labels_name
+from tracker.tbf.scoring import SilhouetteRuns
 
 BLOCK = 1 << 16
 SAMPLED_BLOCKS = 64

@@ -7,8 +7,8 @@ k+1) at the finest of the tree's resolutions (`LEVEL_RESOLUTIONS`) and reduced t
 `tracker.observe.silhouettes.resize_silhouette` does for observed silhouettes, and takes the part covering most
 of it). Images are cropped to the window W: the rectangle holding every pose's projection (the bounding box of all
 posed vertices, 1 px margin, widened to whole coarsest pixels), which is also the window of the silhouette
-distances (`tracker.tbf.distances`). Each part's projected area A_j (eq 3) is counted at the finest resolution, and
-each silhouette's runs of inside pixels (`tracker.tbf.distances.SilhouetteRuns`) are kept at every resolution.
+distances (`tracker.tbf.costs`). Each part's projected area A_j (eq 3) is counted at the finest resolution, and
+each silhouette's runs of inside pixels (`tracker.tbf.scoring.SilhouetteRuns`) are kept at every resolution.
 
 Several cameras see the same poses as several sets, one per view (`SampleViews`): the tree and the filter work on
 the views together.
@@ -32,7 +32,8 @@ import numpy as np
 
 from tracker.atomic import exclusive, write_json
 from tracker.geometry.cameras import Camera
-from tracker.tbf.distances import SilhouetteRuns, SilhouetteStack, Window
+from tracker.tbf.costs import Window
+from tracker.tbf.scoring import SilhouetteRuns, SilhouetteStack
 
 
 class Posable(Protocol):

@@ -33,9 +33,10 @@ from tracker.models.dsq_arm import DSQArm
 from tracker.models.makehuman import Triangles, body_measurements, build_body, nearest_standard_body
 from tracker.motion.mocap import read_body_clip
 from tracker.motion.posture import arms_pose
+from tracker.presentation import Panel, Presentation
 from tracker.protocol import Observation, SampleDictionary, StepResult, Tracker
 from tracker.ranges import Finite, Positive, Range
-from tracker.registry import TRACKERS
+from tracker.registry import TRACKERS, Fit
 from tracker.tbf.alignment import (
     GroundPlacement,
     Placement,
@@ -48,7 +49,7 @@ from tracker.tbf.alignment import (
     world_offset,
 )
 from tracker.tbf.arm_dictionary import ArmDictionary, ArmGridSpec
-from tracker.tbf.distances import Cost, EmptySilhouette
+from tracker.tbf.costs import Cost, EmptySilhouette
 from tracker.tbf.filter import FilterResult, FilterSettings, TreeFilter
 from tracker.tbf.motion import BODY_SPACE, RandomWalk
 from tracker.tbf.sample_build import BuildSettings, load_or_build
@@ -131,11 +132,22 @@ def check_settings(settings: TbfSettings, frames: int, key: str, model: str) -> 
         read_body_clip(path, f"{key}.samples.clips[{index}]" + (f" ({pattern})" if path != pattern else ""), rate)
 
 
+TBF_LOOK = Presentation(
+    panels=lambda parts: [
+        Panel("tree: nodes evaluated and kept per level", "metrics/tree", ("level*/**",)),
+        Panel("posterior entropy (nats)", "metrics/tree", ("entropy",)),
+    ]
+)
+
+
 @TRACKERS.register(
     "tbf",
     settings=TbfSettings,
     needs={"cost": "nwxor", "motion": "dm2"},
+    # paper 2: one camera; from more, the views' likelihoods multiplied
+    models={"body_mesh": Fit((1, 4)), "dsq_arm": Fit((1, 4))},
     observes=("silhouettes",),
+    presentation=TBF_LOOK,
     check=check_settings,
 )
 class TbfTracker(Tracker):

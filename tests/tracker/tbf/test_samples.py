@@ -157,7 +157,7 @@ def test_a_sharded_parallel_build_equals_a_serial_one(body, varied_poses, tmp_pa
 
 
 def test_the_stored_runs_are_those_of_the_stored_images(body, varied_poses, tmp_path):
-    from tracker.tbf.distances import SilhouetteRuns
+    from tracker.tbf.scoring import SilhouetteRuns
 
     built = load_or_build(body, CAMERA, varied_poses[:40], tmp_path, progress=False)
     for resolution in RESOLUTIONS:

@@ -5,11 +5,12 @@ from tracker.evaluation.body import OUTCOMES, joint_error_mm, score_swing, score
 from tracker.geometry.rigs import mono
 from tracker.models.body_skeleton import JOINT_INDEX, PART_NAMES
 from tracker.registry import COSTS
-from tracker.tbf.distances import ObservationScorer, silhouette_distance
+from tracker.tbf.costs import silhouette_distance
 from tracker.tbf.filter import FilterSettings, TreeFilter
 from tracker.tbf.motion import LearnedTransitions, OccludedWiderWalk, PosePrior, RandomWalk
 from tracker.tbf.pose_sets import arm_grid
 from tracker.tbf.sample_build import load_or_build
+from tracker.tbf.scoring import ObservationScorer
 from tracker.tbf.tree import build_tree, thresholds_for_shares
 
 CAMERA = mono(position=(4.0, 0.0, 0.9), target=(0.0, 0.0, 0.9), focal_px=480.0, width=320, height=240)[0]

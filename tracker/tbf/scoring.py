@@ -1,190 +1,28 @@
-"""Silhouette distances of paper 2 (5.2): XOR (eq 6), core-weighted XOR (wXOR, eq 7-8), normalised wXOR (eq 9).
+"""Scoring one observed silhouette against many model silhouettes at once, exactly as `tracker.tbf.costs` defines
+the distance.
 
-All three are ``d(P, Q) = (1/N_W) sum_{x in W} d_P(x) XOR(P(x), Q(x))`` for the observed silhouette P and a model
-silhouette Q over the window W (a rectangle holding every pose of the sample set; N_W its pixel count), with the
-weight map d_P of P alone:
-    xor    d_P = 1
-    wxor   d_P = D_P + w D_Pbar           D_P: distance of a pixel inside P to the nearest pixel outside it,
-                                          D_Pbar: distance of a pixel outside P (within W) to the nearest in it
-    nwxor  d_P = D_P / (D_P + D_Pmed) + w' D_Pbar
-                                          D_Pmed: distance to P's medial axis (the thinned silhouette); the inner
-                                          term is 1 on the axis of a thin limb and of the torso alike; w' makes the
-                                          outer term's maximum over W equal the inner one's (1)
-Distances are Euclidean, in pixels of the silhouette's resolution. Silhouettes are ``(h, w)`` bool; a window is
-``(u0, v0, u1, v1)``, half-open pixel bounds.
-
-Each cost is a function of the observed silhouette (cropped to W) that returns its weights d_P there, registered
-by name in `tracker.registry.COSTS` with its settings (wXOR's ``w``) as keyword-only parameters; a new cost is one
-such function and its registration.
-
-Because d_P depends on P only, the distance is affine in Q's pixels: ``d = (c + sum_x a(x) Q(x)) / N_W`` with
-``a = d_P (1 - 2P)`` and ``c = sum d_P P``. `ObservationScorer` computes ``a`` and ``c`` once per observation and
-scores any number of model silhouettes at once. A model silhouette is stored as its runs of inside pixels along
-the window's pixels in row-major order (`SilhouetteRuns`), so with ``A`` the prefix sum of ``a`` the sum over Q is
-``sum over runs [s, e) of A(e) - A(s)``: two reads per run (a few hundred per silhouette at 320x240) instead of
-one per inside pixel (thousands). Where many silhouettes are scored at every frame (a tree's top level), their runs
-are kept as a sparse matrix with -1 at each run's start and +1 at its end (`RunBoundaries`), and the sums are one
-sparse product with A: ~8x faster than gathering A at the runs and adding them up per silhouette, for twice the
-memory of the runs (the same sums, to rounding: ~1e-13).
+Because a cost's weights d_P depend on the observation P only, the distance is affine in the model silhouette Q's
+pixels: ``d = (c + sum_x a(x) Q(x)) / N_W`` with ``a = d_P (1 - 2P)`` and ``c = sum d_P P``. `ObservationScorer`
+computes ``a`` and ``c`` once per observation and scores any number of model silhouettes at once. A model silhouette
+is stored as its runs of inside pixels along the window's pixels in row-major order (`SilhouetteRuns`), so with
+``A`` the prefix sum of ``a`` the sum over Q is ``sum over runs [s, e) of A(e) - A(s)``: two reads per run (a few
+hundred per silhouette at 320x240) instead of one per inside pixel (thousands). Where many silhouettes are scored
+at every frame (a tree's top level), their runs are kept as a sparse matrix with -1 at each run's start and +1 at
+its end (`RunBoundaries`), and the sums are one sparse product with A: ~8x faster than gathering A at the runs and
+adding them up per silhouette, for twice the memory of the runs (the same sums, to rounding: ~1e-13). A silhouette
+moved by whole pixels first (each sample scored on its own spot: `tracker.tbf.filter.TreeFilter`) is scored from the
+same runs, moved (`SilhouetteRuns.shifted_sums`, `ShiftedRunBoundaries`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-import cv2
 import numpy as np
 from scipy import sparse
-from skimage.morphology import skeletonize
 
-from tracker.ranges import NonNegative
-from tracker.registry import COSTS
-
-Window = tuple[int, int, int, int]
-
-
-class EmptySilhouette(ValueError):
-    """The observed silhouette has no pixel inside the window: the weighted costs are undefined."""
-
-
-def full_window(shape: tuple[int, int]) -> Window:
-    return (0, 0, shape[1], shape[0])
-
-
-def window_pixels(window: Window) -> int:
-    """N_W: the window's pixel count."""
-    u0, v0, u1, v1 = window
-    return (u1 - u0) * (v1 - v0)
-
-
-def euclidean_distance(away: np.ndarray) -> np.ndarray:
-    """Per pixel where ``away`` is true, the exact Euclidean distance (pixels) to the nearest pixel where it is
-    false; 0 where it is false.
-
-    OpenCV's precise transform finds the nearest pixel exactly but returns float32, whose last bit varies with the
-    process' floating-point state (it changes once an OpenGL context has rendered); the distance is the square root
-    of a whole number of squared pixels, so it is snapped to that and taken again in float64: the same bits every
-    time."""
-    distance = cv2.distanceTransform(away.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE).astype(np.float64)
-    np.multiply(distance, distance, out=distance)  # in place: a fresh array per step costs more than the step
-    np.rint(distance, out=distance)
-    return np.sqrt(distance, out=distance)
-
-
-def bounding_box(silhouette: np.ndarray) -> tuple[slice, slice]:
-    """The rows and columns of the smallest rectangle holding the silhouette (empty slices for none)."""
-    rows, columns = np.flatnonzero(silhouette.any(axis=1)), np.flatnonzero(silhouette.any(axis=0))
-    if not len(rows):
-        return slice(0, 0), slice(0, 0)
-    return slice(rows[0], rows[-1] + 1), slice(columns[0], columns[-1] + 1)
-
-
-def inside_distance(silhouette: np.ndarray) -> np.ndarray:
-    """D_P: per pixel of the silhouette, the Euclidean distance to the nearest pixel outside it (0 outside).
-    The image border counts as outside."""
-    distance = np.zeros(silhouette.shape)
-    box = bounding_box(silhouette)
-    distance[box] = _inside_distance_in_box(silhouette[box])
-    return distance
-
-
-def _inside_distance_in_box(boxed: np.ndarray) -> np.ndarray:
-    """`inside_distance` of a silhouette cropped to its bounding box, on the crop: framed by one pixel outside, as
-    a pixel's nearest outside pixel lies in that frame or nearer."""
-    return euclidean_distance(np.pad(boxed, 1))[1:-1, 1:-1]
-
-
-def outside_distance(silhouette: np.ndarray) -> np.ndarray:
-    """D_Pbar: per pixel outside the silhouette, the Euclidean distance to the nearest silhouette pixel."""
-    if not silhouette.any():
-        raise EmptySilhouette("the silhouette is empty: no distance to it")
-    return euclidean_distance(~silhouette)
-
-
-def medial_axis_distance(silhouette: np.ndarray) -> np.ndarray:
-    """D_Pmed: per pixel of the silhouette, the Euclidean distance to its thinned centre line (skeleton); 0
-    outside it."""
-    box = bounding_box(silhouette)
-    distance = np.zeros(silhouette.shape)
-    distance[box] = _medial_axis_distance_in_box(silhouette[box])
-    return distance
-
-
-def _medial_axis_distance_in_box(boxed: np.ndarray) -> np.ndarray:
-    """`medial_axis_distance` of a silhouette cropped to its bounding box, on the crop: thinned and measured framed
-    by one pixel outside, as thinning sees only a pixel's neighbours and the centre line lies inside."""
-    axis = skeletonize(np.pad(boxed, 1))
-    if not axis.any():
-        raise EmptySilhouette("the silhouette is empty: it has no medial axis")
-    return np.where(boxed, euclidean_distance(~axis)[1:-1, 1:-1], 0.0)
-
-
-@COSTS.register("xor")
-def xor(inside: np.ndarray) -> np.ndarray:
-    """Eq 6: every pixel where the silhouettes differ counts 1 (the fraction of the window that differs)."""
-    return np.ones(inside.shape)
-
-
-# wXOR and nwXOR compute their inner terms on the silhouette's bounding box (0 outside it) and add them onto the
-# outer term, which spans the window.
-
-
-@COSTS.register("wxor")
-def wxor(inside: np.ndarray, *, w: NonNegative = 1.0) -> np.ndarray:
-    """Eq 7-8: XOR weighted by the distance to the observed silhouette's contour, inside + w outside."""
-    box = bounding_box(inside)
-    core = _inside_distance_in_box(inside[box])
-    outer = outside_distance(inside)
-    weights = np.multiply(outer, w, out=outer)
-    weights[box] += core
-    return weights
-
-
-@COSTS.register("nwxor")
-def nwxor(inside: np.ndarray) -> np.ndarray:
-    """Eq 9: XOR weighted by the inside distance normalised by the local thickness, outside scaled to the same
-    maximum (w' makes the two terms' maxima equal)."""
-    box = bounding_box(inside)
-    boxed = inside[box]
-    core, to_axis = _inside_distance_in_box(boxed), _medial_axis_distance_in_box(boxed)
-    outer = outside_distance(inside)
-    inner = np.divide(core, core + to_axis, out=np.zeros_like(core), where=boxed)
-    farthest = outer.max()
-    weights = np.multiply(outer, inner.max() / farthest if farthest > 0 else 0.0, out=outer)
-    weights[box] += inner
-    return weights
-
-
-Cost = Callable[[np.ndarray], np.ndarray]  # the observed silhouette, cropped to the window -> its weights there
-
-
-def weight_map(cost: str | Cost, observed: np.ndarray, window: Window | None = None, **settings: Any) -> np.ndarray:
-    """``(h, w)`` float64 d_P of ``cost`` (a registered name, with ``settings``, or a configured cost) for the
-    observed silhouette, 0 outside the window. A cost that needs a silhouette to measure from (wXOR, nwXOR) raises
-    `EmptySilhouette` when the window holds none of it."""
-    u0, v0, u1, v1 = window or full_window(observed.shape)
-    weights = np.zeros(observed.shape)
-    weights[v0:v1, u0:u1] = window_weights(cost, observed, (u0, v0, u1, v1), **settings)
-    return weights
-
-
-def window_weights(cost: str | Cost, observed: np.ndarray, window: Window, **settings: Any) -> np.ndarray:
-    """`weight_map` over the window only: ``(v1 - v0, u1 - u0)``."""
-    weights_of = COSTS.build(cost, settings) if isinstance(cost, str) else cost
-    u0, v0, u1, v1 = window
-    return weights_of(np.asarray(observed, bool)[v0:v1, u0:u1])
-
-
-def silhouette_distance(
-    cost: str | Cost, observed: np.ndarray, model: np.ndarray, window: Window | None = None, **settings: Any
-) -> float:
-    """d(P, Q) for one pair, straight from the definition (the reference for `ObservationScorer`)."""
-    u0, v0, u1, v1 = window or full_window(observed.shape)
-    weights = weight_map(cost, observed, window, **settings)
-    differs = np.logical_xor(observed, model)[v0:v1, u0:u1]
-    return float((weights[v0:v1, u0:u1] * differs).sum() / window_pixels((u0, v0, u1, v1)))
+from tracker.tbf.costs import Cost, Window, window_pixels, window_weights
 
 
 @dataclass(frozen=True, eq=False)

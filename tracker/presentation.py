@@ -1,0 +1,47 @@
+"""How a component's outputs look in a run's recording, stated in its registration (`tracker.registry`) as plain data:
+the time-series panels it adds to the default layout and the colours of its 2-D points. The experiment layer
+turns them into the recording's blueprint (`experiments.presentation`); the core knows nothing of Rerun.
+
+A panel plots the series under one entity path of the recording: ``metrics/<name>`` for a tracker's
+`tracker.protocol.StepResult.series` and for the model's parameters (``metrics/params/...``) and errors
+(``metrics/error/...``). Points (`tracker.protocol.Points`) with states take their state's colour, points without
+their overlay's; what a presentation leaves out takes the recording's palette.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+RGB = tuple[int, int, int]
+PAPER_PART = 1  # paper 1's "part 2" (it counts from 1): the second part, whose pairs and errors Fig 8-9 show
+
+
+@dataclass(frozen=True)
+class Panel:
+    """A time-series plot: its ``title``, the entity path it shows (``origin``) and, when given, only the series at
+    these paths below it (``contents``, e.g. ``("entropy",)``)."""
+
+    title: str
+    origin: str
+    contents: tuple[str, ...] = ()
+
+
+def no_panels(part_names: Sequence[str]) -> tuple[Panel, ...]:
+    return ()
+
+
+@dataclass(frozen=True)
+class Presentation:
+    """A component's look: its panels for the model's part names (its own questions first), the colour of each
+    point state (e.g. a feature's "tracked"), and of each overlay of stateless points (e.g. "estimate")."""
+
+    panels: Callable[[Sequence[str]], Sequence[Panel]] = no_panels
+    state_colors: Mapping[str, RGB] = field(default_factory=dict)
+    point_colors: Mapping[str, RGB] = field(default_factory=dict)
+
+
+def paper_part_first(parts: Sequence[str]) -> list[str]:
+    """The parts with paper 1's part 2 (`PAPER_PART`) first: its pairs and errors are the ones Fig 8-9 show."""
+    parts = list(parts)
+    return [parts[PAPER_PART], *parts[:PAPER_PART], *parts[PAPER_PART + 1 :]] if len(parts) > PAPER_PART else parts
