@@ -1,6 +1,5 @@
-"""What AbIS does the same way on every model, frame by frame: the frame loop (`AbisSequence`), pair bookkeeping
-over the views' feature tracks, the label image's part interiors, the samples' image motion, and the result of a
-frame."""
+"""What AbIS does the same way on every model, frame by frame: the frame loop (`AbisSequence`) with its steps, pair
+bookkeeping over the views' feature tracks, the samples' image motion, and the result of a frame."""
 
 from __future__ import annotations
 
@@ -9,10 +8,10 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-import cv2
 import numpy as np
 
 from tracker.abis.correspondences import COUNT_NAMES, PairTable
+from tracker.abis.selection import selection_of
 from tracker.abis.settings import AbisSettings
 from tracker.abis.visibility import VisibleSamples
 from tracker.geometry.cameras import Camera
@@ -71,16 +70,6 @@ class AbisResult(StepResult):
             for view, seen in views.items()
         }
         return cls(part_columns=columns, series=series, points=points, **fields)
-
-
-def interior_labels(labels: np.ndarray, margin_px: int) -> np.ndarray:
-    """The label image with every pixel within ``margin_px`` of another label (or the background) set to 0."""
-    if margin_px <= 0:
-        return labels
-    kernel = np.ones((2 * margin_px + 1, 2 * margin_px + 1), np.uint8)
-    smallest = cv2.erode(labels, kernel)  # a pixel keeps its label only if its whole neighbourhood has it
-    largest = cv2.dilate(labels, kernel)
-    return np.where((smallest == labels) & (largest == labels), labels, 0)
 
 
 def feature_rows(features: FeatureFrame, ids: np.ndarray) -> np.ndarray:
@@ -151,8 +140,10 @@ class ImageMotion:
 class AbisSequence:
     """One sequence of AbIS on a model, frame by frame: features tracked in every view, pairs carried over (1), the
     parts fitted (2), the new estimate's visibility (3), each view's pairs kept, discarded and made (4), and the
-    frame's counts and result. A model's sequence says how it fits (`_fit`), sees (`_visibility`) and keeps its
-    pairs (`_upkeep`); it is built at `AbisTracker.start` with frame 0's estimate and its empty pair table."""
+    frame's counts and result. The selection (`tracker.abis.selection`) decides what is seen; a model's sequence
+    says how it fits (`_fit`), sees (`_visibility`), where its pairs' points are and how its samples move
+    (`_pair_points`, `_sample_motion`), and how new pairs form and are kept (`_new_pairs`, `_held`). It is built at
+    `AbisTracker.start` with frame 0's estimate and its empty pair table."""
 
     def __init__(
         self,
@@ -163,12 +154,13 @@ class AbisSequence:
         no_pairs: PairTable,
     ) -> None:
         self.settings, self.part_names, self.cameras = settings, tuple(part_names), list(cameras)
+        self.selection = selection_of(settings)
         self._estimate = estimate
         self._trackers = {  # feature ids are unique across views
             camera.name: FeatureTracker(settings.features, first_id=k << 40) for k, camera in enumerate(cameras)
         }
         self._pairs = {camera.name: no_pairs for camera in cameras}
-        self._motion = ImageMotion()  # the samples' image motion, for the model's prediction of occlusion
+        self._motion = ImageMotion()  # the samples' image motion, for the model image's prediction of occlusion
         self._frame = 0
 
     def step(self, observation: Observation) -> AbisResult:
@@ -197,7 +189,7 @@ class AbisSequence:
         views = {}
         for camera in self.cameras:
             name = camera.name
-            motion = self._motion.step(camera, points) if self.settings.selection == "zbuffer" else None
+            motion = self._motion.step(camera, points) if self.selection.uses_model_image else None
             discarded = self._upkeep(camera, features[name], zbuffers[name], visible[name], motion, posed, counts[name])
             states = feature_states(self._pairs[name].feature_ids, features[name], discarded)
             views[name] = ViewResult(features[name], states, visible[name])
@@ -218,17 +210,6 @@ class AbisSequence:
             failure=failure,
         )
 
-    def _fit(self, features: Mapping[str, FeatureFrame]) -> tuple[np.ndarray, np.ndarray, np.ndarray, str | None]:
-        """Step 2: every part fitted top-down against the current pairs: the estimate, per part eq 8's cost and
-        the iterations, and a failure (None, or why the previous estimate stands)."""
-        raise NotImplementedError
-
-    def _visibility(self) -> tuple[dict[str, DepthLabels | None], dict[str, VisibleSamples], np.ndarray, Any]:
-        """Step 3, for the estimate: per view its z-buffer (None under ``selection=none``) and the samples it sees;
-        every sample's world point (parts one after another: their image motion is followed); and the posed model
-        that upkeep reads pairs' points from (the arm's part transforms, the body's vertices)."""
-        raise NotImplementedError
-
     def _upkeep(
         self,
         camera: Camera,
@@ -239,7 +220,62 @@ class AbisSequence:
         posed: Any,
         counts: np.ndarray,
     ) -> np.ndarray:
-        """Step 4 in one view: discard hidden and false pairs, pair the unpaired features (counted into ``counts``,
-        ``(parts, 5)``); returns the discarded features' ids. ``motion``: every sample's image motion over the last
-        frame (None under ``selection=none``)."""
+        """Step 4 in one view: the pairs the selection no longer sees are discarded for occlusion, those off their
+        feature as false; the unpaired features pair with visible samples (new); all counted into ``counts``
+        ``(parts, 5)``. ``motion``: every sample's image motion over the last frame (with the model image);
+        ``posed``: what `_visibility` posed. Returns the discarded features' ids."""
+        pairs = self._pairs[camera.name]
+        moving = self.selection.uses_model_image
+        seen, uv = self.selection.seen(
+            camera,
+            zbuffer,
+            pairs.parts,
+            self._pair_points(pairs, posed),
+            self._sample_motion(pairs.parts, pairs.samples, motion) if moving else None,
+            visible,
+            self._sample_motion(visible.part, visible.sample, motion) if moving else None,
+        )
+        pairs, discarded = discard(pairs, seen, uv, features, self.settings.max_residual_px, counts)
+        unpaired = ~np.isin(features.ids, pairs.feature_ids) & ~np.isin(features.ids, discarded)
+        regions = self.selection.regions(zbuffer, features.points)
+        new = self._new_pairs(camera, features, unpaired, regions, visible, pairs, posed)
+        counts[:, NEW] = new.count_by_part(len(self.part_names))
+        self._pairs[camera.name] = self._held(camera, features, pairs, new, posed)
+        return discarded
+
+    def _fit(self, features: Mapping[str, FeatureFrame]) -> tuple[np.ndarray, np.ndarray, np.ndarray, str | None]:
+        """Step 2: every part fitted top-down against the current pairs: the estimate, per part eq 8's cost and
+        the iterations, and a failure (None, or why the previous estimate stands)."""
         raise NotImplementedError
+
+    def _visibility(self) -> tuple[dict[str, DepthLabels | None], dict[str, VisibleSamples], np.ndarray, Any]:
+        """Step 3, for the estimate: per view its z-buffer (None without the model image) and the samples it sees;
+        every sample's world point (parts one after another: their image motion is followed); and the posed model
+        that upkeep reads pairs' points from (the arm's part transforms, the body's vertices)."""
+        raise NotImplementedError
+
+    def _pair_points(self, pairs: PairTable, posed: Any) -> np.ndarray:
+        """``(n, 3)`` world points of ``pairs`` on the posed estimate."""
+        raise NotImplementedError
+
+    def _sample_motion(self, parts: np.ndarray, samples: np.ndarray, motion: np.ndarray) -> np.ndarray:
+        """``(n, 2)`` image motion of the samples ``samples`` of ``parts``, from every sample's ``motion``."""
+        raise NotImplementedError
+
+    def _new_pairs(
+        self,
+        camera: Camera,
+        features: FeatureFrame,
+        unpaired: np.ndarray,
+        regions: np.ndarray | None,
+        visible: VisibleSamples,
+        pairs: PairTable,
+        posed: Any,
+    ) -> PairTable:
+        """New pairs of the ``unpaired`` features (a mask) with samples of the part whose region holds each
+        (``regions``, -1 none; None: any part), none taken by ``pairs`` already."""
+        raise NotImplementedError
+
+    def _held(self, camera: Camera, features: FeatureFrame, pairs: PairTable, new: PairTable, posed: Any) -> PairTable:
+        """The view's pairs after the frame: those kept and the new ones."""
+        return pairs.extend(new)

@@ -1,5 +1,5 @@
 """AbIS's settings (paper 1's Analysis-by-Image-Synthesis), for the arm of deformable superquadrics and the skinned
-body alike (`tracker.abis.tracker`, `tracker.abis.body_tracker`): what each means, its default and why."""
+body alike (`tracker.abis.arm_sequence`, `tracker.abis.body_sequence`): what each means, its default and why."""
 
 from __future__ import annotations
 

@@ -79,6 +79,16 @@ def occlusion_edges(labels: np.ndarray, margin_px: int) -> np.ndarray:
     return (labels > 0) & (smallest < largest)
 
 
+def interior_labels(labels: np.ndarray, margin_px: int) -> np.ndarray:
+    """The label image with every pixel within ``margin_px`` of another label (or the background) set to 0."""
+    if margin_px <= 0:
+        return labels
+    kernel = np.ones((2 * margin_px + 1, 2 * margin_px + 1), np.uint8)
+    smallest = cv2.erode(labels, kernel)  # a pixel keeps its label only if its whole neighbourhood has it
+    largest = cv2.dilate(labels, kernel)
+    return np.where((smallest == labels) & (largest == labels), labels, 0)
+
+
 def reached_by_other_parts(
     uv: np.ndarray,
     parts: np.ndarray,

@@ -1,10 +1,11 @@
 import numpy as np
 import pytest
 
+from tracker.abis.arm_sequence import initial_estimate
 from tracker.abis.correspondences import COUNT_NAMES
-from tracker.abis.frame_steps import interior_labels
 from tracker.abis.settings import InitialNoise
-from tracker.abis.tracker import AbisTracker, initial_estimate
+from tracker.abis.tracker import AbisTracker
+from tracker.abis.visibility import interior_labels
 from tracker.models.dsq import PARAM_INDEX
 from tracker.protocol import Observation
 from tracker.sequence import simulate

@@ -18,12 +18,13 @@ what the mesh changes:
   0.1 pairs a frame, so by its own pairs the root would never move.)
 Not carried over: anchoring pairs to the texture (``tracker.anchor``, ``tracker.reanchor_every``: the arm's texture
 is mapped in its surface coordinates) and frame 0's scale noise: the tracker models the subject's own mesh, as
-paper 1 models the arm's known shape. Frame 0 is the truth with `InitialNoise`'s translation and rotation noise on
-the root position and every rotation vector component.
+paper 1 models the arm's known shape. Frame 0 is the initial pose with `InitialNoise`'s translation and rotation
+noise on the root position and every rotation vector component.
 """
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -40,24 +41,10 @@ from tracker.abis.body_fitting import (
 )
 from tracker.abis.correspondences import sample_keys
 from tracker.abis.fitting import Prior, fit_part
-from tracker.abis.frame_steps import (
-    NEW,
-    AbisSequence,
-    discard,
-    feature_rows,
-    interior_labels,
-)
+from tracker.abis.frame_steps import AbisSequence, feature_rows
 from tracker.abis.mesh_pairs import MeshPairs, ray_hits
 from tracker.abis.settings import AbisSettings, InitialNoise
-from tracker.abis.visibility import (
-    VisibleSamples,
-    facing_samples,
-    in_image,
-    occlusion_edges,
-    reached_by_other_parts,
-    visible_mask,
-    visible_samples,
-)
+from tracker.abis.visibility import VisibleSamples
 from tracker.geometry.cameras import Camera
 from tracker.models.body_mesh import BodyMesh
 from tracker.observe.features import FeatureFrame
@@ -104,19 +91,26 @@ class BodyAbis(AbisSequence):
         prior = settings.prior
         self._sigmas = None if prior is None else pose_prior_sigmas(prior.translation_m, prior.rotation_rad)
 
-    def _visibility(self) -> tuple[dict[str, DepthLabels | None], dict[str, VisibleSamples], np.ndarray, np.ndarray]:
+    def _visibility(
+        self,
+    ) -> tuple[Mapping[str, DepthLabels | None], dict[str, VisibleSamples], np.ndarray, np.ndarray]:
         """Per view the z-buffer and the vertices it sees (named by vertex index); every vertex's point, which is
         also the posed body upkeep reads."""
         vertices = self.body.posed_vertices(self._estimate)
         samples = [vertices[used] for used in self._part_vertices]
-        if self.settings.selection == "zbuffer":
-            zbuffers = self._renderer.render_depth_labels(self.cameras, self.body.surface_meshes(self._estimate))
-            visible = {c.name: self._by_vertex(visible_samples(c, zbuffers[c.name], samples)) for c in self.cameras}
-        else:  # no model image at all: the back-face test alone
-            zbuffers = dict.fromkeys(camera.name for camera in self.cameras)
-            normals = vertex_normals(vertices, self.body.faces)
-            facing = [normals[used] for used in self._part_vertices]
-            visible = {c.name: self._by_vertex(facing_samples(c, samples, facing)) for c in self.cameras}
+        zbuffers = self.selection.zbuffers(
+            self.cameras,
+            lambda: self._renderer.render_depth_labels(self.cameras, self.body.surface_meshes(self._estimate)),
+        )
+
+        @functools.cache
+        def normals() -> list[np.ndarray]:
+            every = vertex_normals(vertices, self.body.faces)
+            return [every[used] for used in self._part_vertices]
+
+        visible = {
+            c.name: self._by_vertex(self.selection.visible(c, zbuffers[c.name], samples, normals)) for c in self.cameras
+        }
         return zbuffers, visible, vertices, vertices
 
     def _by_vertex(self, visible: VisibleSamples) -> VisibleSamples:
@@ -152,60 +146,37 @@ class BodyAbis(AbisSequence):
             cost[part], iterations[part] = fitted.cost, fitted.iterations
         return estimate, cost, iterations, None
 
-    def _upkeep(
+    def _pair_points(self, pairs: MeshPairs, vertices: np.ndarray) -> np.ndarray:
+        """The pairs' points on the estimate's posed ``vertices``: their faces at their barycentric coordinates."""
+        return pairs.points(vertices, self.body.faces)
+
+    def _sample_motion(self, parts: np.ndarray, samples: np.ndarray, motion: np.ndarray) -> np.ndarray:
+        return motion[samples]  # a sample is named by its vertex
+
+    def _new_pairs(
         self,
         camera: Camera,
         features: FeatureFrame,
-        zbuffer: DepthLabels | None,
+        unpaired: np.ndarray,
+        regions: np.ndarray | None,
         visible: VisibleSamples,
-        motion: np.ndarray | None,
+        pairs: MeshPairs,
         vertices: np.ndarray,
-        counts: np.ndarray,
-    ) -> np.ndarray:
-        """``vertices``: the estimate's posed vertices (``motion``: each one's image motion)."""
-        n_parts = len(self.body.part_names)
-        pairs = self._pairs[camera.name]
-        points = pairs.points(vertices, self.body.faces)
-        seen, uv = np.zeros(len(pairs), bool), np.zeros((len(pairs), 2))
-        by_zbuffer = self.settings.selection == "zbuffer"
-        for part in np.unique(pairs.parts):
-            mine = pairs.parts == part
-            seen[mine], uv[mine] = (
-                visible_mask(camera, zbuffer, part, points[mine]) if by_zbuffer else in_image(camera, points[mine])
-            )
-        if by_zbuffer:  # the model image also predicts the pairs another part's edge is about to cover
-            seen[seen] = ~reached_by_other_parts(
-                uv[seen],
-                pairs.parts[seen],
-                motion[pairs.samples[seen]],
-                visible,
-                motion[visible.sample],
-                self.settings.occlusion_margin_px,
-                self.settings.features.window_px,
-            )
-        pairs, discarded = discard(pairs, seen, uv, features, self.settings.max_residual_px, counts)
-        unpaired = ~np.isin(features.ids, pairs.feature_ids) & ~np.isin(features.ids, discarded)
-        if by_zbuffer:  # the part whose region (away from silhouettes and occlusion edges) holds the feature
-            edges = occlusion_edges(zbuffer.labels, self.settings.occlusion_margin_px)
-            interior = np.where(edges, 0, interior_labels(zbuffer.labels, self.settings.boundary_margin_px))
-            pixel = np.rint(features.points).astype(int)
-            part_of = interior[pixel[:, 1], pixel[:, 0]].astype(int) - 1
-        else:  # bottom-up: the part of the nearest sample facing the camera, hidden or not
-            part_of = (
-                visible.part[cKDTree(visible.uv).query(features.points)[1]]
-                if len(visible)
-                else np.full(len(features.ids), -1)
-            )
+    ) -> MeshPairs:
+        """Each unpaired feature on the part whose region holds it (without regions, the part of the nearest
+        sample facing the camera, hidden or not), at the point under it (`_under_features`); a sample pairs once
+        per view: the first feature takes it."""
+        part_of = regions
+        if part_of is None:
+            nearest = cKDTree(visible.uv).query(features.points)[1] if len(visible) else None
+            part_of = visible.part[nearest] if nearest is not None else np.full(len(features.ids), -1)
         offered = np.flatnonzero(unpaired & (part_of >= 0))
         new = self._under_features(camera, vertices, features.ids[offered], features.points[offered], part_of[offered])
-        keys = sample_keys(new.parts, new.samples)  # a sample pairs once per view: the first feature takes it
+        keys = sample_keys(new.parts, new.samples)
         _, first = np.unique(keys, return_index=True)
         fresh = np.zeros(len(new), bool)
         fresh[first] = True
-        new = new.subset(fresh & ~np.isin(keys, sample_keys(pairs.parts, pairs.samples)))
-        counts[:, NEW] = new.count_by_part(n_parts)
-        self._pairs[camera.name] = pairs.extend(new)
-        return discarded
+        return new.subset(fresh & ~np.isin(keys, sample_keys(pairs.parts, pairs.samples)))
 
     def _under_features(
         self, camera: Camera, vertices: np.ndarray, feature_ids: np.ndarray, points: np.ndarray, parts: np.ndarray
