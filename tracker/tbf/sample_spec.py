@@ -1,4 +1,4 @@
-"""Where a tree filter's pose samples come from (`tracker.tbf.tracker.TbfSettings.samples`): a grid of right-arm
+"""Where a tree filter's pose samples come from (`tracker.tbf.settings.TbfSettings.samples`): a grid of right-arm
 poses, a capture session of the right arm moving, and/or BVH clips of any known skeleton with procedural variation
 (mirrored, turned, jittered), near-duplicates removed (`tracker.tbf.pose_sets`). `sample_poses` gives the poses
 and the transitions the clips' consecutive frames make between them (for ``motion=learned``).

@@ -20,77 +20,34 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any, ClassVar, Literal
+from typing import Any, ClassVar
 
 import numpy as np
 
 from tracker.geometry.cameras import Camera
 from tracker.models.body_mesh import BodyMesh
-from tracker.models.body_shapes import standard_shape
 from tracker.models.dsq_arm import DSQArm
-from tracker.models.makehuman import Triangles, body_measurements, build_body, nearest_standard_body
-from tracker.motion.mocap import read_body_clip
 from tracker.motion.posture import arms_pose
 from tracker.presentation import Panel, Presentation
 from tracker.protocol import Observation, SampleDictionary, StepResult, Tracker
-from tracker.ranges import Finite, Positive, Range
 from tracker.registry import TRACKERS, Fit
-from tracker.tbf.alignment import (
-    GroundPlacement,
-    Placement,
-    ViewsPlacement,
-    feet_anchor,
-    sample_spots,
-    samples_anchor,
-    shifted,
-    spot_pixels,
-    world_offset,
-)
-from tracker.tbf.arm_dictionary import ArmDictionary, ArmGridSpec
+from tracker.tbf.alignment import GroundPlacement, ViewsPlacement, sample_spots, spot_pixels
+from tracker.tbf.arm_dictionary import ArmDictionary
 from tracker.tbf.costs import Cost, EmptySilhouette
-from tracker.tbf.filter import FilterResult, FilterSettings, TreeFilter
-from tracker.tbf.motion import BODY_SPACE, RandomWalk
-from tracker.tbf.sample_build import BuildSettings, load_or_build
-from tracker.tbf.sample_spec import SampleSpec, clip_files, sample_poses
+from tracker.tbf.filter import FilterResult, TreeFilter
+from tracker.tbf.motion import BODY_SPACE, PoseSpace, RandomWalk
+from tracker.tbf.own_body import own_body
+from tracker.tbf.placing import AsSeen, FeetAligned, GroundPlaced, Placing, ViewsPlaced
+from tracker.tbf.sample_build import load_or_build
+from tracker.tbf.sample_spec import sample_poses
 from tracker.tbf.samples import SampleViews
+from tracker.tbf.settings import TbfSettings, check_settings
 from tracker.tbf.tree import PoseTree, load_or_build_tree, thresholds_for_shares
 from tracker.timing import elapsed_ms
 
 log = logging.getLogger(__name__)
-
-Share = Annotated[float, Range(0.0, 1.0, low_open=True)]
-
-
-@dataclass(frozen=True)
-class TbfSettings:
-    """Paper 2's silhouette tree-based filter: pose samples, a tree of them by silhouette distance, Bayesian
-    filtering down the tree with pruning."""
-
-    samples: SampleSpec = field(default_factory=SampleSpec)
-    # T_l: XOR distance (fraction of the window) at 80x60, 160x120, 320x240.
-    thresholds: tuple[Positive, Positive, Positive] = (0.006, 0.002, 0.001)
-    # Or T_l chosen for the sample set at hand: each level holds this share of the samples as nodes
-    # (`tracker.tbf.tree.thresholds_for_shares`; the paper's experiment A: 0.203, 0.882, 0.971). Replaces thresholds.
-    node_shares: tuple[Share, Share, Share] | None = None
-    filter: FilterSettings = field(default_factory=FilterSettings)
-    initial_yaw_deg: Finite = -90.0  # the initial pose: upright, arms down, facing this way (the body faces -y)
-    cache_dir: str = ".cache/tbf"  # sample sets and trees, keyed by everything that affects them
-    # How much of a cached sample set is read to trust it: a sampled digest of each array, or every byte.
-    cache_check: Literal["sampled", "full"] = "sampled"
-    build: BuildSettings = field(default_factory=BuildSettings)  # shards, processes, joblib backend
-    body_triangles: Triangles = 4500  # the tracker's model: the standard body (the subject may differ)
-    # Which standard body: MakeHuman's base mesh, or the one of `STANDARD_BODIES` nearest to the subject's
-    # stature and chest girth, measured on the subject as a tailor would (paper 2, section 7).
-    body: Literal["base", "nearest_standard"] = "base"
-    # The observed silhouette as it is, or moved by whole pixels so that its feet stand where the samples' do,
-    # the estimate's root moved back by as much (`tracker.tbf.alignment`): a person who steps about. Or placed on
-    # the floor: scaled by its feet's depth and moved onto the samples' feet, the root estimated on the ground from
-    # where the feet stand (`tracker.tbf.alignment.GroundPlacement`): a person who walks about.
-    align: Literal["none", "feet", "ground"] = "none"
-    # The DSQ arm's pose samples (model=dsq_arm; `tracker.tbf.arm_dictionary`): a grid of its parameters.
-    arm_samples: ArmGridSpec = field(default_factory=ArmGridSpec)
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -122,16 +79,6 @@ class TbfResult(StepResult):
         )
 
 
-def check_settings(settings: TbfSettings, frames: int, key: str, model: str) -> None:
-    """Before a run: every clip the samples come from is a readable clip of a known skeleton; the arm is not placed
-    on a floor."""
-    if model == "dsq_arm" and settings.align != "none":
-        raise ValueError(f"{key}.align={settings.align}: the arm stands on no floor, allowed none")
-    for index, path, rate in clip_files(settings.samples, key):
-        pattern = settings.samples.clips[index]
-        read_body_clip(path, f"{key}.samples.clips[{index}]" + (f" ({pattern})" if path != pattern else ""), rate)
-
-
 TBF_LOOK = Presentation(
     panels=lambda parts: [
         Panel("tree: nodes evaluated and kept per level", "metrics/tree", ("level*/**",)),
@@ -161,20 +108,67 @@ class TbfTracker(Tracker):
     def start(
         self, model: BodyMesh | DSQArm, cameras: Sequence[Camera], initial: np.ndarray, rng: np.random.Generator
     ) -> None:
-        self.cameras = tuple(cameras)
-        self.subject, self.part_names = model, model.part_names
+        self.cameras, self.part_names = tuple(cameras), model.part_names
         start = time.perf_counter()
-        settings = self.settings
-        cache_dir = Path(settings.cache_dir)
-        self.arm_grid = self.body = None
-        if isinstance(model, DSQArm):  # its own grid of poses, started where paper 1 starts: at the initial pose
-            self.arm_grid = ArmDictionary(model, settings.arm_samples)
-            posable, space, self.transitions = self.arm_grid, self.arm_grid.space, None
-            poses, initial_pose = self.arm_grid.poses(), self.arm_grid.pose_of(initial)
-        else:
-            self.body = posable = self.standard_body(model)
-            space, (poses, self.transitions) = BODY_SPACE, sample_poses(settings.samples, self.body)
-            initial_pose = arms_pose(self.body, (0.0, 8.0, 0.0), (0.0, 8.0, 0.0), yaw_deg=settings.initial_yaw_deg)
+        posable, space, poses, initial_pose = self._dictionary(model, initial)
+        self._samples_and_tree(posable, poses)
+        spots = sample_spots(self.cameras, self.samples) if self._placed_by_views else None
+        pixels = (
+            None
+            if spots is None
+            else [spot_pixels(self.cameras, spots, level.resolution) for level in self.tree.levels]
+        )
+        self.filter = TreeFilter(
+            self.samples,
+            self.tree,
+            self.cost,
+            self.motion,
+            self.settings.filter,
+            self.transitions,
+            space,
+            pixels,
+        )
+        # frame -> the silhouettes the filter saw (finest level, packed) and the sample whose spot they were placed on
+        self._seen: dict[int, tuple[list[np.ndarray], int | None]] = {}
+        self.filter.start(initial_pose)
+        self.placing = self._placing(spots)
+        self._estimate = self.estimate_of(np.asarray(self.samples.poses[0]))
+        self.dictionary = SampleDictionary(
+            poses=self.samples.poses,
+            model=model if self.body is None else self.body,
+            parameters=self.estimate_of,
+            pose_of=self.arm_grid.pose_of if self.arm_grid is not None else np.asarray,
+            steps=self.motion.base_sigmas(space),
+            prefers=self.prefers,
+        )
+        setup_s = time.perf_counter() - start
+        sigmas = ["/".join(f"{sigma:.3g}" for sigma in views) for views in self.filter.level_sigmas]
+        log.info(
+            "tbf: %d samples, tree %s nodes per level, likelihood sigma per level %s (%.1f s)",
+            len(self.samples),
+            self.tree.node_counts,
+            sigmas,
+            setup_s,
+        )
+
+    def _dictionary(
+        self, model: BodyMesh | DSQArm, initial: np.ndarray
+    ) -> tuple[Any, PoseSpace, np.ndarray, np.ndarray]:
+        """What the samples pose, the space of their pose vectors, the pose vectors and frame 0's pose: the body's
+        (the tracker's own body; upright, arms down, facing ``initial_yaw_deg``), or the arm's grid (started where
+        paper 1 starts: at the initial pose)."""
+        settings, self.arm_grid, self.body = self.settings, None, None
+        if isinstance(model, DSQArm):
+            self.arm_grid, self.transitions = ArmDictionary(model, settings.arm_samples), None
+            return self.arm_grid, self.arm_grid.space, self.arm_grid.poses(), self.arm_grid.pose_of(initial)
+        self.body, self.body_choice = own_body(model, settings.body, settings.body_triangles)
+        poses, self.transitions = sample_poses(settings.samples, self.body)
+        initial_pose = arms_pose(self.body, (0.0, 8.0, 0.0), (0.0, 8.0, 0.0), yaw_deg=settings.initial_yaw_deg)
+        return self.body, BODY_SPACE, poses, initial_pose
+
+    def _samples_and_tree(self, posable: Any, poses: np.ndarray) -> None:
+        """Each view's sample set of ``poses`` and their tree, from the cache or built into it."""
+        settings, cache_dir = self.settings, Path(self.settings.cache_dir)
         self.samples = SampleViews(
             tuple(
                 load_or_build(
@@ -187,65 +181,27 @@ class TbfTracker(Tracker):
         if settings.node_shares is not None:
             self.thresholds = thresholds_for_shares(self.samples, settings.node_shares)
         self.tree = load_or_build_tree(self.samples, self.thresholds, cache_dir / "trees")
-        placed_by_views = settings.align == "ground" and len(self.cameras) > 1  # where the views' rays cross
-        spots = sample_spots(self.cameras, self.samples) if placed_by_views else None
-        self.filter = TreeFilter(
-            self.samples,
-            self.tree,
-            self.cost,
-            self.motion,
-            settings.filter,
-            self.transitions,
-            space,
-            None
-            if spots is None
-            else [spot_pixels(self.cameras, spots, level.resolution) for level in self.tree.levels],
-        )
-        self.anchors = [samples_anchor(view) for view in self.samples.sets] if settings.align == "feet" else None
-        # frame -> the silhouettes the filter saw (finest level, packed) and the sample whose spot they were placed on
-        self._seen: dict[int, tuple[list[np.ndarray], int | None]] = {}
-        self.filter.start(initial_pose)
-        self.placement = self.views_placement = None
-        if settings.align == "ground" and len(self.cameras) == 1:  # the feet to place on at first: the initial
-            self.placement = GroundPlacement(self.cameras[0], self.samples.sets[0], self.filter.initial_sample)
-        if placed_by_views:
-            self.views_placement = ViewsPlacement(self.cameras, self.samples, self.filter.initial_sample, spots)
-        self._estimate = self.estimate_of(np.asarray(self.samples.poses[0]))
-        self.dictionary = SampleDictionary(
-            poses=self.samples.poses,
-            model=posable if self.body is None else self.body,
-            parameters=self.estimate_of,
-            pose_of=self.arm_grid.pose_of if self.arm_grid is not None else np.asarray,
-            steps=self.motion.base_sigmas(space),
-            prefers=self.prefers,
-        )
-        self.setup_s = time.perf_counter() - start
-        sigmas = ["/".join(f"{sigma:.3g}" for sigma in views) for views in self.filter.level_sigmas]
-        log.info(
-            "tbf: %d samples, tree %s nodes per level, likelihood sigma per level %s (%.1f s)",
-            len(self.samples),
-            self.tree.node_counts,
-            sigmas,
-            self.setup_s,
-        )
 
-    def standard_body(self, subject: BodyMesh) -> BodyMesh:
-        """The tracker's own model: MakeHuman's base mesh or the standard body nearest the subject
-        (`TbfSettings.body`), whatever the subject's own shape; ``body_choice`` says which, with both measured."""
-        measured = body_measurements(subject)
-        self.body_name = "base"
-        if self.settings.body == "nearest_standard":
-            self.body_name = nearest_standard_body(subject, self.settings.body_triangles)
-        body = build_body(triangles=self.settings.body_triangles, shape=standard_shape(self.body_name))
-        chosen = body_measurements(body)
-        self.body_choice = {
-            "name": self.body_name,
-            "stature_m": round(chosen.stature_m, 4),
-            "chest_girth_m": round(chosen.chest_girth_m, 4),
-            "subject_stature_m": round(measured.stature_m, 4),
-            "subject_chest_girth_m": round(measured.chest_girth_m, 4),
-        }
-        return body
+    @property
+    def _placed_by_views(self) -> bool:
+        """Placed on the floor where the views' centroid rays cross (several views)."""
+        return self.settings.align == "ground" and len(self.cameras) > 1
+
+    def _placing(self, spots: np.ndarray | None) -> Placing:
+        """The alignment mode (`TbfSettings.align`); the floor's placings start on the initial prior's sample."""
+        align, initial = self.settings.align, self.filter.initial_sample
+        finest = len(self.tree.levels) - 1
+
+        def at_finest(silhouette: np.ndarray) -> np.ndarray:
+            return self.filter.observation_at(finest, silhouette)
+
+        if align == "feet":
+            return FeetAligned(self.cameras, self.samples)
+        if self._placed_by_views:
+            return ViewsPlaced(ViewsPlacement(self.cameras, self.samples, initial, spots), at_finest)
+        if align == "ground":
+            return GroundPlaced(GroundPlacement(self.cameras[0], self.samples.sets[0], initial), at_finest)
+        return AsSeen()
 
     def estimate_of(self, pose: np.ndarray) -> np.ndarray:
         """A sample's pose vector as the run's estimate: the body's pose vector itself, the arm's parameters."""
@@ -293,29 +249,15 @@ class TbfTracker(Tracker):
         return bool(likelihood[0] >= likelihood[1])
 
     def step(self, observation: Observation) -> TbfResult:
-        silhouettes = observation.silhouettes
-        if not silhouettes:
+        """Place the frame's silhouettes (`placing`), filter them down the tree, and put the best sample where the
+        person stands."""
+        if not observation.silhouettes:
             raise ValueError("tracker=tbf needs the frame's silhouette (the capture stage of a body scene)")
         start = time.perf_counter()
-        finest = len(self.tree.levels) - 1
-        observed = [silhouettes[camera.name] for camera in self.cameras]
-        shifts = [self._alignment(view, silhouette) for view, silhouette in enumerate(observed)]
-        placed, offset = None, None
-        if self.placement is not None or self.views_placement is not None:
-            observed = [self.filter.observation_at(finest, silhouette) for silhouette in observed]
-        if self.placement is not None:  # one view; None: no feet below the horizon, taken as it is
-            placed = self.placement.place(observed[0])
-            observed[0] = placed.silhouette if placed else observed[0]
-        if self.views_placement is not None and (views_placed := self.views_placement.place(observed)) is not None:
-            observed, offset = views_placed
-        seen = tuple(
-            shifted(silhouette, *shift) if any(shift) else silhouette
-            for silhouette, shift in zip(observed, shifts, strict=True)
-        )
-        self.last_observation = seen  # what the filter sees (benchmarks score it again)
-        reference = None if self.views_placement is None else self.views_placement.reference
+        placed = self.placing.place([observation.silhouettes[camera.name] for camera in self.cameras])
+        self.last_observation = placed.silhouettes  # what the filter sees (benchmarks score it again)
         try:
-            found = self.filter.step(seen, reference)
+            found = self.filter.step(placed.silhouettes, placed.reference)
         except EmptySilhouette as error:  # nobody in view: keep the last estimate, say why
             return TbfResult.of(
                 self.part_names,
@@ -325,54 +267,16 @@ class TbfTracker(Tracker):
                 timings_ms={"filter": elapsed_ms(start)},
                 failure=f"{error}",
             )
-        self._seen[observation.frame] = (
-            [np.packbits(self.filter.observation_at(finest, view)) for view in seen],
-            reference,
-        )
-        estimate = self._placed_estimate(found, shifts, placed, offset)
-        self._estimate = estimate
+        finest = len(self.tree.levels) - 1
+        packed = [np.packbits(self.filter.observation_at(finest, view)) for view in placed.silhouettes]
+        self._seen[observation.frame] = (packed, placed.reference)
+        self._estimate = self.estimate_of(self.placing.estimate(found.sample, found.pose, placed))
         result = TbfResult.of(
             self.part_names,
             found,
             frame=observation.frame,
-            estimate=estimate,
+            estimate=self._estimate,
             timings_ms={**found.timings_ms, "filter": elapsed_ms(start)},
         )
-        if self.anchors is not None:
-            result.frame_columns.update(align_du_px=shifts[0][0], align_dv_px=shifts[0][1])
-        if self.placement is not None:
-            result.frame_columns.update(placement_scale=placed.scale if placed else float("nan"))
-        if self.views_placement is not None:
-            dx, dy = offset[:2] if offset is not None else (float("nan"), float("nan"))
-            result.frame_columns.update(placement_dx_m=float(dx), placement_dy_m=float(dy))
+        result.frame_columns.update(self.placing.columns(placed))
         return result
-
-    def _placed_estimate(
-        self, found: FilterResult, shifts: list[tuple[int, int]], placed: Placement | None, offset: np.ndarray | None
-    ) -> np.ndarray:
-        """The filter's sample where the alignment puts it: placed on the floor (one view's ground placement, or
-        several views' offset), or its root moved back by the views' shifts (their mean)."""
-        if self.arm_grid is not None:
-            return self.estimate_of(found.pose)
-        if offset is not None:
-            return self.views_placement.pose(found.sample, offset)
-        if placed is not None:
-            return self.placement.pose(found.sample, placed)
-        estimate = found.pose.copy()
-        if any(any(shift) for shift in shifts):  # the subject stands away from the samples' spot: so does the estimate
-            estimate[:3] += np.mean(
-                [
-                    world_offset(camera, estimate[:3], -du, -dv) if du or dv else np.zeros(3)
-                    for camera, (du, dv) in zip(self.cameras, shifts, strict=True)
-                ],
-                axis=0,
-            )
-        return estimate
-
-    def _alignment(self, view: int, observed: np.ndarray) -> tuple[int, int]:
-        """Whole pixels ``(du, dv)`` that move the observed feet onto view ``view``'s samples' (`TbfSettings.align`)."""
-        found = feet_anchor(observed) if self.anchors is not None else None
-        if found is None:
-            return 0, 0
-        anchor = self.anchors[view]
-        return int(round(anchor[0] - found[0])), int(round(anchor[1] - found[1]))

@@ -1,0 +1,57 @@
+"""Tree-based filtering's settings (paper 2, `tracker=tbf`): what each means, its default and why, and the check of
+them before a run."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Annotated, Literal
+
+from tracker.models.makehuman import Triangles
+from tracker.motion.mocap import read_body_clip
+from tracker.ranges import Finite, Positive, Range
+from tracker.tbf.arm_dictionary import ArmGridSpec
+from tracker.tbf.filter import FilterSettings
+from tracker.tbf.sample_build import BuildSettings
+from tracker.tbf.sample_spec import SampleSpec, clip_files
+
+Share = Annotated[float, Range(0.0, 1.0, low_open=True)]
+
+
+@dataclass(frozen=True)
+class TbfSettings:
+    """Paper 2's silhouette tree-based filter: pose samples, a tree of them by silhouette distance, Bayesian
+    filtering down the tree with pruning."""
+
+    samples: SampleSpec = field(default_factory=SampleSpec)
+    # T_l: XOR distance (fraction of the window) at 80x60, 160x120, 320x240.
+    thresholds: tuple[Positive, Positive, Positive] = (0.006, 0.002, 0.001)
+    # Or T_l chosen for the sample set at hand: each level holds this share of the samples as nodes
+    # (`tracker.tbf.tree.thresholds_for_shares`; the paper's experiment A: 0.203, 0.882, 0.971). Replaces thresholds.
+    node_shares: tuple[Share, Share, Share] | None = None
+    filter: FilterSettings = field(default_factory=FilterSettings)
+    initial_yaw_deg: Finite = -90.0  # the initial pose: upright, arms down, facing this way (the body faces -y)
+    cache_dir: str = ".cache/tbf"  # sample sets and trees, keyed by everything that affects them
+    # How much of a cached sample set is read to trust it: a sampled digest of each array, or every byte.
+    cache_check: Literal["sampled", "full"] = "sampled"
+    build: BuildSettings = field(default_factory=BuildSettings)  # shards, processes, joblib backend
+    body_triangles: Triangles = 4500  # the tracker's model: the standard body (the subject may differ)
+    # Which standard body: MakeHuman's base mesh, or the one of `STANDARD_BODIES` nearest to the subject's
+    # stature and chest girth, measured on the subject as a tailor would (paper 2, section 7).
+    body: Literal["base", "nearest_standard"] = "base"
+    # The observed silhouette as it is, or moved by whole pixels so that its feet stand where the samples' do,
+    # the estimate's root moved back by as much (`tracker.tbf.alignment`): a person who steps about. Or placed on
+    # the floor: scaled by its feet's depth and moved onto the samples' feet, the root estimated on the ground from
+    # where the feet stand (`tracker.tbf.alignment.GroundPlacement`): a person who walks about.
+    align: Literal["none", "feet", "ground"] = "none"
+    # The DSQ arm's pose samples (model=dsq_arm; `tracker.tbf.arm_dictionary`): a grid of its parameters.
+    arm_samples: ArmGridSpec = field(default_factory=ArmGridSpec)
+
+
+def check_settings(settings: TbfSettings, frames: int, key: str, model: str) -> None:
+    """Before a run: every clip the samples come from is a readable clip of a known skeleton; the arm is not placed
+    on a floor."""
+    if model == "dsq_arm" and settings.align != "none":
+        raise ValueError(f"{key}.align={settings.align}: the arm stands on no floor, allowed none")
+    for index, path, rate in clip_files(settings.samples, key):
+        pattern = settings.samples.clips[index]
+        read_body_clip(path, f"{key}.samples.clips[{index}]" + (f" ({pattern})" if path != pattern else ""), rate)
