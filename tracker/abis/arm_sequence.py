@@ -25,8 +25,9 @@ from tracker.abis.correspondences import (
     pixel_jacobian,
     refine_surface_coordinates,
 )
-from tracker.abis.fitting import PartProblem, Prior, ViewPairs, fit_part
+from tracker.abis.fitting import Prior, fit_part
 from tracker.abis.frame_steps import AbisSequence, feature_rows
+from tracker.abis.part_problem import PartProblem, ViewPairs
 from tracker.abis.settings import AbisSettings, InitialNoise
 from tracker.abis.visibility import VisibleSamples, outward_normals
 from tracker.geometry.cameras import Camera

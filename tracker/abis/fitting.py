@@ -1,22 +1,17 @@
-"""Fitting one part to its correspondences: paper 1, eq 7-9, by steepest descent (`sd`) or Levenberg-Marquardt (`lm`).
+"""Fitting one part to its correspondences: paper 1, eq 7-9, by steepest descent (`sd`) or Levenberg-Marquardt (`lm`),
+on any model's pixel problem (`PixelProblem`: the DSQ part's, `tracker.abis.part_problem`; a body part's,
+`tracker.abis.body_fitting`).
 
 The cost of part i is eq 8, ``E_i = sum_v sum_j (U_mj - U_j)^2 + (V_mj - V_j)^2`` over its pairs (model sample j
 seen in view v, paired with a tracked feature), optionally with eq 7's robust rho (Huber) through iteratively
-reweighted least squares. Both optimisers work in coordinates scaled by the Jacobian's column norms, since the
-17 parameters have unrelated units (metres, radians, exponents).
+reweighted least squares. Both optimisers work in coordinates scaled by the Jacobian's column norms, since a
+part's parameters have unrelated units (metres, radians, exponents).
 
-Gauge: eq 1-2 depend on a, a1, a2, a3 only through a*a1, a*a2, a*a3 (the bending and tapering terms divide by
-a*a3 too), so one of the four is redundant. After every step the fit rescales them to ``max(a1, a2, a3) = 1``,
-which leaves the surface unchanged and the paper's reading intact (a is the scale, a1..a3 aspects in (0, 1]).
-
-Rotations are stepped as increments ``R(r) Exp(w)`` in the part's frame and converted back to eq 4's Euler angles
-after every step (`tracker.abis.part_model`): the Euler angles themselves are singular at r2 = +-pi/2.
-
-Prior: a frame's pairs cannot pin all 17 parameters (b1 cos(theta) has a shear-like limit b1 -> inf, theta ->
-pi/2; a part seen in one view has unobservable depth). A `Prior` adds residual rows ``(q_k - q_ref_k) / sigma_k``
-to the cost (a MAP fit around the previous frame's estimate): a parameter the pairs say nothing about stays, and
-one pixel of image error weighs as much as one sigma of change. ``sigma = inf`` leaves a parameter free; without
-a prior the cost is eq 8 itself.
+Prior: a frame's pairs cannot pin every parameter (the DSQ's b1 cos(theta) has a shear-like limit b1 -> inf,
+theta -> pi/2; a part seen in one view has unobservable depth). A `Prior` adds residual rows
+``(q_k - q_ref_k) / sigma_k`` to the cost (a MAP fit around the previous frame's estimate): a parameter the pairs
+say nothing about stays, and one pixel of image error weighs as much as one sigma of change. ``sigma = inf``
+leaves a parameter free; without a prior the cost is eq 8 itself.
 """
 
 from __future__ import annotations
@@ -27,24 +22,14 @@ from typing import Literal
 
 import numpy as np
 
-from tracker.abis.part_model import free_parameter_indices, part_world_points, project_with_jacobian
+from tracker.abis.part_model import project_with_jacobian
 from tracker.geometry.cameras import Camera
-from tracker.geometry.rotations import (
-    euler_to_matrix,
-    matrix_to_euler,
-    matrix_to_rotation_vector,
-    rotation_vector_to_matrix,
-)
-from tracker.models.dsq import PARAM_INDEX, PARAM_NAMES, PARAM_RANGES
 from tracker.ranges import Count, Positive
 from tracker.settings import validate
 from tracker.tol import ZERO_LENGTH
 
-_ASPECTS = [PARAM_INDEX[name] for name in ("a1", "a2", "a3")]
-_ROTATION = np.array([PARAM_INDEX[name] for name in ("r1", "r2", "r3")])
 LM_INITIAL_DAMPING, LM_SMALLEST_DAMPING = 1e-3, 1e-9  # Marquardt's lambda, relative to the Hessian's diagonal
 ARMIJO = 1e-4  # steepest descent: a step must lower the cost by this fraction of its first-order prediction
-OPEN_BOUND_INSET = 1e-6  # a parameter with an open bound (a > 0, a1 in (0, 1]) stays this far inside it
 
 
 @dataclass(frozen=True)
@@ -68,16 +53,6 @@ class Prior:
 
     reference: np.ndarray  # (17,)
     sigmas: np.ndarray  # (17,), inf for none
-
-
-@dataclass(frozen=True, eq=False)
-class ViewPairs:
-    """One view's pairs for the part: the model points' surface coordinates and the observed feature pixels."""
-
-    camera: Camera
-    eta: np.ndarray  # (m,)
-    omega: np.ndarray  # (m,)
-    observed: np.ndarray  # (m, 2)
 
 
 @dataclass(frozen=True, eq=False)
@@ -180,54 +155,6 @@ class PixelProblem:
         )
 
 
-class PartProblem(PixelProblem):
-    """A DSQ part's pairs (and prior) as functions of its free parameters (`tracker.abis.part_model`)."""
-
-    def __init__(
-        self,
-        views: Sequence[ViewPairs],
-        parent_world: np.ndarray | None = None,
-        joint_in_parent: np.ndarray | None = None,
-        prior: Prior | None = None,
-    ) -> None:
-        self.views = [view for view in views if len(view.eta)]
-        super().__init__(
-            [view.camera for view in self.views],
-            [view.observed for view in self.views],
-            free_parameter_indices(parent_world is None),
-            prior,
-        )
-        self._eta = np.concatenate([view.eta for view in self.views]) if self.views else np.empty(0)
-        self._omega = np.concatenate([view.omega for view in self.views]) if self.views else np.empty(0)
-        self.parent_world, self.joint_in_parent = parent_world, joint_in_parent
-
-    def points(self, q: np.ndarray, with_jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
-        return part_world_points(
-            q,
-            self._eta,
-            self._omega,
-            self.parent_world,
-            self.joint_in_parent,
-            local_rotation=True,
-            with_jacobian=with_jacobian,
-        )
-
-    def start(self, q: np.ndarray) -> np.ndarray:
-        """``q`` (a copy) in the gauge ``max(a1, a2, a3) = 1``."""
-        return _normalise_gauge(np.array(q, dtype=np.float64))
-
-    def moved(self, q: np.ndarray, delta: np.ndarray) -> np.ndarray:
-        """``q`` moved by ``delta`` over the free parameters (rotation entries: a local increment w)."""
-        return _apply(q, self.free, delta)
-
-    def pressed(self, q: np.ndarray, gradient: np.ndarray) -> np.ndarray:
-        return _pressed_against_bounds(q, self.free, gradient)
-
-    def prior_difference(self, q: np.ndarray) -> np.ndarray:
-        """Rotations: the rotation vector of R(ref)^T R(q)."""
-        return _parameter_difference(q, self.prior.reference, self.free)
-
-
 def fit_part(q0: np.ndarray, problem: PixelProblem, settings: FitSettings = FitSettings()) -> FitResult:
     """Minimise the part's cost from ``q0`` over its free parameters; parameters stay in their ranges.
 
@@ -303,15 +230,6 @@ def _sd_step(q, problem, current, settings, state):
     return None, current
 
 
-def _parameter_difference(q: np.ndarray, reference: np.ndarray, free: np.ndarray) -> np.ndarray:
-    """q - reference over the free parameters; for the rotation, the rotation vector of R(ref)^T R(q)."""
-    difference = q[free] - reference[free]
-    is_rotation = np.isin(free, _ROTATION)
-    relative = euler_to_matrix(reference[_ROTATION]).T @ euler_to_matrix(q[_ROTATION])
-    difference[is_rotation] = matrix_to_rotation_vector(relative)
-    return difference
-
-
 def robust_cost(distances: np.ndarray, huber_px: float | None) -> tuple[float, np.ndarray]:
     """Eq 8's squares, or eq 7 with Huber's rho; and the IRLS weight of each pair."""
     if huber_px is None:
@@ -319,44 +237,6 @@ def robust_cost(distances: np.ndarray, huber_px: float | None) -> tuple[float, n
     k = huber_px
     cost = float(np.sum(np.where(distances <= k, distances**2, 2 * k * distances - k**2)))
     return cost, np.minimum(1.0, k / np.maximum(distances, ZERO_LENGTH))
-
-
-def _pressed_against_bounds(q: np.ndarray, free: np.ndarray, gradient: np.ndarray) -> np.ndarray:
-    """Free parameters at a bound of their range whose descent direction (-gradient) points out of it."""
-    pressed = np.zeros(len(free), bool)
-    for column, index in enumerate(free):
-        if index in _ROTATION:
-            continue
-        low, high = _bounds(index)
-        pressed[column] = (q[index] <= low and gradient[column] > 0) or (q[index] >= high and gradient[column] < 0)
-    return pressed
-
-
-def _bounds(index: int) -> tuple[float, float]:
-    allowed = PARAM_RANGES[PARAM_NAMES[index]]
-    inset = OPEN_BOUND_INSET
-    return allowed.low + (inset if allowed.low_open else 0.0), allowed.high - (inset if allowed.high_open else 0.0)
-
-
-def _apply(q: np.ndarray, free: np.ndarray, delta: np.ndarray) -> np.ndarray:
-    """q moved by ``delta`` over the free parameters; the rotation entries of delta are a local increment w."""
-    candidate = q.copy()
-    is_rotation = np.isin(free, _ROTATION)
-    candidate[free[~is_rotation]] += delta[~is_rotation]
-    turned = euler_to_matrix(q[_ROTATION]) @ rotation_vector_to_matrix(delta[is_rotation])
-    candidate[_ROTATION] = matrix_to_euler(turned, near=q[_ROTATION])
-    for index in free[~is_rotation]:  # stay inside eq 1-2's ranges
-        low, high = _bounds(index)
-        candidate[index] = min(max(candidate[index], low), high)
-    return _normalise_gauge(candidate)
-
-
-def _normalise_gauge(q: np.ndarray) -> np.ndarray:
-    """Rescale (a, a1, a2, a3) to max(a1, a2, a3) = 1 without changing the surface."""
-    largest = q[_ASPECTS].max()
-    q[PARAM_INDEX["a"]] *= largest
-    q[_ASPECTS] /= largest
-    return q
 
 
 def _column_scale(jacobian: np.ndarray) -> np.ndarray:

@@ -14,11 +14,8 @@ product of its views' likelihoods, its log-likelihood the sum of theirs, each vi
               sample is the estimate, and the normalised values are the next frame's posterior.
 Frame 0's prior is a Gaussian around the initial pose (`TreeFilter.start`).
 
-Eq 10's sigma: the three costs measure on different scales (XOR a fraction of the window, wXOR pixels of depth,
-nwXOR in between) and each level has its own resolution, so sigma_l is ``likelihood_sigma`` times the cost's
-typical step between neighbouring samples at level l: the median, over `CALIBRATION_SAMPLES` samples taken as
-observations, of the distance to their nearest other sample (`neighbour_scale`). One ``likelihood_sigma`` then
-serves every cost and motion model.
+Eq 10's sigma_l is ``likelihood_sigma`` times the cost's typical step between neighbouring samples at level l
+(`tracker.tbf.calibration`), so one ``likelihood_sigma`` serves every cost and motion model.
 """
 
 from __future__ import annotations
@@ -32,6 +29,7 @@ import numpy as np
 from tracker.observe.silhouettes import resize_silhouette
 from tracker.ranges import Positive, Range
 from tracker.settings import validate
+from tracker.tbf.calibration import neighbour_step
 from tracker.tbf.costs import Cost
 from tracker.tbf.motion import BODY_SPACE, PosePrior, PoseSpace, RandomWalk
 from tracker.tbf.samples import PoseSampleSet, SampleViews
@@ -39,8 +37,6 @@ from tracker.tbf.scoring import ObservationScorer, RunBoundaries, ShiftedRunBoun
 from tracker.tbf.tree import PoseTree
 from tracker.timing import elapsed_ms
 from tracker.tol import NEGLIGIBLE_PRIOR, TINY
-
-CALIBRATION_SAMPLES = 200
 
 
 @dataclass(frozen=True)
@@ -61,29 +57,6 @@ class FilterSettings:
         validate(self)
 
 
-def neighbour_scale(
-    samples: PoseSampleSet, cost: Cost, resolution: tuple[int, int], count: int = CALIBRATION_SAMPLES
-) -> float:
-    """The median distance (with ``cost``, at ``resolution``) from a sample's silhouette, taken as the
-    observation, to the nearest other sample's; over ``count`` samples picked evenly through the set (one view's)."""
-    stack = samples.silhouettes(resolution)
-    u0, v0, u1, v1 = stack.window
-    full = np.zeros((v1, u1), bool)
-    nearest = []
-    for index in np.unique(np.linspace(0, len(samples) - 1, min(count, len(samples))).astype(int)):
-        full[v0:v1, u0:u1] = stack.mask(index)
-        if not full.any():
-            continue
-        distances = ObservationScorer(cost, full, stack.window).scores(stack)
-        distances[index] = np.inf
-        distances[distances == 0] = np.inf  # identical silhouettes are no step
-        if np.isfinite(distances).any():
-            nearest.append(distances.min())
-    if not nearest:
-        raise ValueError("no two samples' silhouettes differ: the sample set cannot be told apart")
-    return float(np.median(nearest))
-
-
 def summed(terms) -> np.ndarray:
     """The views' terms added up, in the views' order (one view: its term as it is)."""
     total = None
@@ -102,14 +75,6 @@ class FilterResult:
     prior_terms: int  # kernel evaluations of eq 14
     entropy: float  # of the posterior over samples (nats)
     timings_ms: dict[str, float]
-
-
-def _identity(cost: Cost) -> str:
-    """A cost's name and settings (a configured registered cost), or its function's qualified name."""
-    settings = getattr(cost, "settings", {})
-    return getattr(cost, "name", getattr(cost, "__qualname__", repr(cost))) + "".join(
-        f" {k}={v!r}" for k, v in sorted(settings.items())
-    )
 
 
 class TreeFilter:
@@ -158,14 +123,7 @@ class TreeFilter:
         self._occluded = samples.occluded(motion.occlusion_area_px)
         # Per level, each view's sigma (eq 10): its own neighbour step.
         self.level_sigmas = [
-            tuple(
-                settings.likelihood_sigma
-                * view.derived(
-                    f"neighbour_scale {_identity(cost)} {'x'.join(map(str, level.resolution))} {CALIBRATION_SAMPLES}",
-                    lambda resolution=level.resolution, view=view: neighbour_scale(view, cost, resolution),
-                )
-                for view in samples.sets
-            )
+            tuple(settings.likelihood_sigma * neighbour_step(view, cost, level.resolution) for view in samples.sets)
             for level in tree.levels
         ]
         # Pruning keeps nodes within this of the level's best log-posterior: prune_fraction per view, as each view

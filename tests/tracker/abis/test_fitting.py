@@ -1,7 +1,8 @@
 import numpy as np
 import pytest
 
-from tracker.abis.fitting import FitSettings, PartProblem, ViewPairs, fit_part
+from tracker.abis.fitting import FitSettings, fit_part
+from tracker.abis.part_problem import PartProblem, ViewPairs
 from tracker.models.dsq import PARAM_INDEX, pole_point
 
 SHAPE_PERTURBATION = {"a1": 0.05, "t1": 0.05, "b1": 0.01, "eps1": 0.05}

@@ -7,8 +7,9 @@ import pytest
 from tracker.geometry.rigs import View, cameras
 from tracker.models.body_skeleton import PART_NAMES
 from tracker.registry import COSTS
+from tracker.tbf.calibration import neighbour_scale
 from tracker.tbf.costs import silhouette_distance
-from tracker.tbf.filter import FilterSettings, TreeFilter, neighbour_scale
+from tracker.tbf.filter import FilterSettings, TreeFilter
 from tracker.tbf.motion import OccludedWiderWalk
 from tracker.tbf.pose_sets import arm_grid
 from tracker.tbf.sample_build import load_or_build

@@ -1,0 +1,137 @@
+"""A DSQ part's fit problem (paper 1, eq 1-8): its pairs as pixels over its free parameters (`PartProblem`, on
+`tracker.abis.fitting`'s optimisers), its gauge, its parameters' ranges and its rotations' increments.
+
+Gauge: eq 1-2 depend on a, a1, a2, a3 only through a*a1, a*a2, a*a3 (the bending and tapering terms divide by
+a*a3 too), so one of the four is redundant. After every step the fit rescales them to ``max(a1, a2, a3) = 1``,
+which leaves the surface unchanged and the paper's reading intact (a is the scale, a1..a3 aspects in (0, 1]).
+
+Rotations are stepped as increments ``R(r) Exp(w)`` in the part's frame and converted back to eq 4's Euler angles
+after every step (`tracker.abis.part_model`): the Euler angles themselves are singular at r2 = +-pi/2.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from tracker.abis.fitting import PixelProblem, Prior
+from tracker.abis.part_model import free_parameter_indices, part_world_points
+from tracker.geometry.cameras import Camera
+from tracker.geometry.rotations import (
+    euler_to_matrix,
+    matrix_to_euler,
+    matrix_to_rotation_vector,
+    rotation_vector_to_matrix,
+)
+from tracker.models.dsq import PARAM_INDEX, PARAM_NAMES, PARAM_RANGES
+
+_ASPECTS = [PARAM_INDEX[name] for name in ("a1", "a2", "a3")]
+_ROTATION = np.array([PARAM_INDEX[name] for name in ("r1", "r2", "r3")])
+OPEN_BOUND_INSET = 1e-6  # a parameter with an open bound (a > 0, a1 in (0, 1]) stays this far inside it
+
+
+@dataclass(frozen=True, eq=False)
+class ViewPairs:
+    """One view's pairs for the part: the model points' surface coordinates and the observed feature pixels."""
+
+    camera: Camera
+    eta: np.ndarray  # (m,)
+    omega: np.ndarray  # (m,)
+    observed: np.ndarray  # (m, 2)
+
+
+class PartProblem(PixelProblem):
+    """A DSQ part's pairs (and prior) as functions of its free parameters (`tracker.abis.part_model`)."""
+
+    def __init__(
+        self,
+        views: Sequence[ViewPairs],
+        parent_world: np.ndarray | None = None,
+        joint_in_parent: np.ndarray | None = None,
+        prior: Prior | None = None,
+    ) -> None:
+        self.views = [view for view in views if len(view.eta)]
+        super().__init__(
+            [view.camera for view in self.views],
+            [view.observed for view in self.views],
+            free_parameter_indices(parent_world is None),
+            prior,
+        )
+        self._eta = np.concatenate([view.eta for view in self.views]) if self.views else np.empty(0)
+        self._omega = np.concatenate([view.omega for view in self.views]) if self.views else np.empty(0)
+        self.parent_world, self.joint_in_parent = parent_world, joint_in_parent
+
+    def points(self, q: np.ndarray, with_jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        return part_world_points(
+            q,
+            self._eta,
+            self._omega,
+            self.parent_world,
+            self.joint_in_parent,
+            local_rotation=True,
+            with_jacobian=with_jacobian,
+        )
+
+    def start(self, q: np.ndarray) -> np.ndarray:
+        """``q`` (a copy) in the gauge ``max(a1, a2, a3) = 1``."""
+        return _normalise_gauge(np.array(q, dtype=np.float64))
+
+    def moved(self, q: np.ndarray, delta: np.ndarray) -> np.ndarray:
+        """``q`` moved by ``delta`` over the free parameters (rotation entries: a local increment w)."""
+        return _apply(q, self.free, delta)
+
+    def pressed(self, q: np.ndarray, gradient: np.ndarray) -> np.ndarray:
+        return _pressed_against_bounds(q, self.free, gradient)
+
+    def prior_difference(self, q: np.ndarray) -> np.ndarray:
+        """Rotations: the rotation vector of R(ref)^T R(q)."""
+        return _parameter_difference(q, self.prior.reference, self.free)
+
+
+def _parameter_difference(q: np.ndarray, reference: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """q - reference over the free parameters; for the rotation, the rotation vector of R(ref)^T R(q)."""
+    difference = q[free] - reference[free]
+    is_rotation = np.isin(free, _ROTATION)
+    relative = euler_to_matrix(reference[_ROTATION]).T @ euler_to_matrix(q[_ROTATION])
+    difference[is_rotation] = matrix_to_rotation_vector(relative)
+    return difference
+
+
+def _pressed_against_bounds(q: np.ndarray, free: np.ndarray, gradient: np.ndarray) -> np.ndarray:
+    """Free parameters at a bound of their range whose descent direction (-gradient) points out of it."""
+    pressed = np.zeros(len(free), bool)
+    for column, index in enumerate(free):
+        if index in _ROTATION:
+            continue
+        low, high = _bounds(index)
+        pressed[column] = (q[index] <= low and gradient[column] > 0) or (q[index] >= high and gradient[column] < 0)
+    return pressed
+
+
+def _bounds(index: int) -> tuple[float, float]:
+    allowed = PARAM_RANGES[PARAM_NAMES[index]]
+    inset = OPEN_BOUND_INSET
+    return allowed.low + (inset if allowed.low_open else 0.0), allowed.high - (inset if allowed.high_open else 0.0)
+
+
+def _apply(q: np.ndarray, free: np.ndarray, delta: np.ndarray) -> np.ndarray:
+    """q moved by ``delta`` over the free parameters; the rotation entries of delta are a local increment w."""
+    candidate = q.copy()
+    is_rotation = np.isin(free, _ROTATION)
+    candidate[free[~is_rotation]] += delta[~is_rotation]
+    turned = euler_to_matrix(q[_ROTATION]) @ rotation_vector_to_matrix(delta[is_rotation])
+    candidate[_ROTATION] = matrix_to_euler(turned, near=q[_ROTATION])
+    for index in free[~is_rotation]:  # stay inside eq 1-2's ranges
+        low, high = _bounds(index)
+        candidate[index] = min(max(candidate[index], low), high)
+    return _normalise_gauge(candidate)
+
+
+def _normalise_gauge(q: np.ndarray) -> np.ndarray:
+    """Rescale (a, a1, a2, a3) to max(a1, a2, a3) = 1 without changing the surface."""
+    largest = q[_ASPECTS].max()
+    q[PARAM_INDEX["a"]] *= largest
+    q[_ASPECTS] /= largest
+    return q
