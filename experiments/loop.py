@@ -73,10 +73,14 @@ def estimate(tracker: Tracker, frame: RenderedFrame, observation: Observation) -
 
 
 def evaluate(components: Components, frame: RenderedFrame, result: StepResult | None) -> tuple[dict, dict]:
-    """The model's evaluation columns of the frame (`tracker.evaluation`): per part, per frame."""
+    """The model's evaluation columns of the frame (`tracker.evaluation`): per part, per frame; timed as
+    ``evaluate``."""
     if components.evaluation is None:
         return {}, {}
-    return components.evaluation.columns(components.model, frame.truth, None if result is None else result.estimate)
+    start = time.perf_counter()
+    columns = components.evaluation.columns(components.model, frame.truth, None if result is None else result.estimate)
+    frame.timings_ms["evaluate"] = elapsed_ms(start)
+    return columns
 
 
 def record_frame(
