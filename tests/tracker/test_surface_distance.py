@@ -83,3 +83,21 @@ def test_the_arms_forearm_turned_about_its_own_axis_slides_along_its_surface_but
     assert part["surface_distance_mm"][PAPER_PART] < 0.5  # ... along the surface (facets' chords: < 0.5 mm)
     same, _ = ArmEvaluation().columns(arm, truth, truth.copy())
     assert np.all(same["surface_distance_mm"] < 0.5) and np.all(same["surface_error_mm"] == 0.0)
+
+
+def test_on_the_arms_meshes_every_point_gets_the_nearest_of_every_triangle_to_the_bit():
+    """The DSQ parts' meshes hold slivers and fans beside small facets (radii over a factor of ten): points near,
+    on and far from each surface get exactly what trying every triangle gives."""
+    from experiments.components import build, compose
+
+    components = build(compose(["frames=2"]))
+    arm = components.model
+    rng = np.random.default_rng(3)
+    for part, mesh in enumerate(arm.surface_meshes(components.scene.params(arm, 0))):
+        samples = arm.sample_points(components.scene.params(arm, 5))[part]
+        points = samples + rng.normal(scale=rng.choice([1e-4, 3e-3, 5e-2], size=(len(samples), 1)), size=samples.shape)
+        corners = [mesh.vertices[mesh.faces[:, j]] for j in range(3)]
+        every = np.array(
+            [point_triangle_distance(np.repeat(p[None], len(mesh.faces), 0), *corners).min() for p in points]
+        )
+        np.testing.assert_array_equal(point_mesh_distance(points, mesh.vertices, mesh.faces), every)

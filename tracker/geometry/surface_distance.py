@@ -1,21 +1,25 @@
 """Distances from points to a triangle mesh: the nearest point on the surface, not the nearest vertex.
 
 `point_triangle_distance` is Ericson's closest point on a triangle (Real-Time Collision Detection, 5.1.5), for many
-point-triangle pairs at once. `point_mesh_distance` tries each point against the triangles whose centroids are
-nearest to it (`CANDIDATES`, from a KD-tree) and keeps that answer where it is provably the nearest: a triangle
-whose centroid is farther than ``r`` from the point is at least ``r - R`` away, ``R`` the largest distance from a
-centroid to its own corners. The other points are tried against every triangle whose centroid lies within their
-best distance plus ``R``, so the result is exact. The largest triangles form a group of their own (their ``R``
-would make the shortcut fail for every point).
+point-triangle pairs at once. `point_mesh_distance` is exact, with far fewer pairs than every point against every
+triangle: each point is first tried against the `CANDIDATES` triangles whose centroids are nearest to it, which
+bounds its distance from above (``best``); then against every other triangle that could be nearer. No point of a
+triangle is farther from its centroid than its farthest corner (its radius ``r``), so only a triangle whose
+centroid lies within ``best + r`` of the point can be nearer. The triangles are grouped by radius, each group's
+radii within a factor of `RADIUS_STEP`, and each group's centroids are searched (a KD-tree) within ``best`` plus its
+largest radius: slivers and fans do not widen the search for the rest.
 """
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 from scipy.spatial import cKDTree
 
-CANDIDATES = 16  # triangles tried first per point, by centroid distance
-LARGE_QUANTILE = 0.97  # triangles larger than this share of them are tried against every point
+CANDIDATES = 4  # triangles tried first per point, by centroid distance: the distance's first upper bound
+RADIUS_STEP = 2.0  # a group of triangles spans radii within this factor
+SPHERE_SLACK_M = 1e-9  # a triangle counts as possibly nearer within this: rounding never drops the nearest
 
 
 def point_triangle_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -51,39 +55,36 @@ def _dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def point_mesh_distance(points: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """``(n,)`` distance from each point to the nearest point of the mesh's surface (exact; see the module).
-
-    The few largest triangles (beyond `LARGE_QUANTILE` of the centroid-to-corner radii, e.g. a cap's fan) are
-    searched on their own, so that ``R`` for the others stays small and the shortcut mostly holds."""
+    """``(n,)`` distance from each point ``(n, 3)`` to the nearest point of the mesh's surface (exact; see the
+    module)."""
     points = np.asarray(points, dtype=np.float64)
     corners = np.asarray(vertices, dtype=np.float64)[np.asarray(faces)]  # (m, 3, 3)
     centroids = corners.mean(axis=1)
     radii = np.linalg.norm(corners - centroids[:, None], axis=2).max(axis=1)
-    large = radii > np.quantile(radii, LARGE_QUANTILE)
-    best = np.full(len(points), np.inf)
-    for group in (np.flatnonzero(large), np.flatnonzero(~large)):
-        if len(group):
-            best = np.minimum(best, _nearest_in(points, corners, centroids, radii, group))
+    k = min(CANDIDATES, len(corners))
+    _, nearest = cKDTree(centroids).query(points, k=k)
+    nearest = np.asarray(nearest).reshape(len(points), k)
+    best = _pairs(points, corners, np.repeat(np.arange(len(points)), k), nearest.ravel()).reshape(-1, k).min(axis=1)
+    for group in _radius_groups(radii):
+        lists = cKDTree(centroids[group]).query_ball_point(points, best + radii[group].max() + SPHERE_SLACK_M)
+        point = np.repeat(np.arange(len(points)), [len(found) for found in lists])
+        triangle = group[np.fromiter(itertools.chain.from_iterable(lists), np.int64, len(point))]
+        near = (
+            np.linalg.norm(points[point] - centroids[triangle], axis=1) - radii[triangle]
+            <= best[point] + SPHERE_SLACK_M
+        )
+        point, triangle = point[near], triangle[near]
+        if len(point):
+            np.minimum.at(best, point, _pairs(points, corners, point, triangle))
     return best
 
 
-def _nearest_in(
-    points: np.ndarray, corners: np.ndarray, centroids: np.ndarray, radii: np.ndarray, group: np.ndarray
-) -> np.ndarray:
-    """``(n,)`` exact distance from each point to the nearest of the triangles ``group``."""
-    tree, reach = cKDTree(centroids[group]), float(radii[group].max())
-    k = min(CANDIDATES, len(group))
-    centroid_distance, nearest = (a.reshape(len(points), k) for a in tree.query(points, k=k))
-    distance = _pairs(points, corners, np.repeat(np.arange(len(points)), k), group[nearest.ravel()])
-    best = distance.reshape(len(points), k).min(axis=1)
-    unsure = np.flatnonzero(best > centroid_distance[:, -1] - reach) if k < len(group) else np.array([], int)
-    if len(unsure):  # a triangle beyond the candidates might be nearer: try every one that could be, at once
-        near = tree.query_ball_point(points[unsure], best[unsure] + reach)
-        counts = np.array([len(triangles) for triangles in near])
-        triangles = group[np.concatenate([np.asarray(t, dtype=np.int64) for t in near])]
-        distance = _pairs(points, corners, np.repeat(unsure, counts), triangles)
-        best[unsure] = np.minimum(best[unsure], np.minimum.reduceat(distance, np.r_[0, np.cumsum(counts)[:-1]]))
-    return best
+def _radius_groups(radii: np.ndarray) -> list[np.ndarray]:
+    """The triangles' indices in groups of radii within a factor of `RADIUS_STEP` (degenerate ones with the
+    smallest)."""
+    smallest = max(float(radii[radii > 0].min()) if np.any(radii > 0) else 1.0, 1e-300)
+    level = np.floor(np.log(np.maximum(radii, smallest) / smallest) / np.log(RADIUS_STEP)).astype(np.int64)
+    return [np.flatnonzero(level == value) for value in np.unique(level)]
 
 
 def _pairs(points: np.ndarray, corners: np.ndarray, point_index: np.ndarray, triangle_index: np.ndarray) -> np.ndarray:
