@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from eval.tables import markdown
+from eval.runs import markdown
 from tracker.presentation import PAPER_PART
 
 B1_TARGET_PERCENT = 10.0

@@ -14,20 +14,18 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from eval.figures import pyplot, save_png
-from eval.recordings import read_images, read_rgb_frames
+from eval.plotting import pyplot, save_png
+from eval.recordings import read_rgb_frames
 from tracker import catalog  # noqa: F401  (registers the built-in components)
-from tracker.evaluation.body import SwingRule, nearest_in_3d, outcome
+from tracker.evaluation.body import SwingRule, outcome
+from tracker.models.body_mesh import BodyMesh
 from tracker.models.body_shapes import standard_shape
 from tracker.models.body_skeleton import JOINT_INDEX, JOINT_NAMES, PART_BONES, PART_COLORS
 from tracker.models.makehuman import build_body
-from tracker.registry import REGISTRIES, build_chosen
-from tracker.tbf.alignment import shifted
-from tracker.tbf.costs import weight_map
-from tracker.tbf.samples import LEVEL_RESOLUTIONS
-from tracker.tbf.scoring import ObservationScorer
+from tracker.registry import build_chosen, chosen_entries
 
 VERDICT_COLORS = {"success": "#2ca02c", "error": "#ff7f0e", "fail": "#d62728"}
+
 # The skeleton drawn: every bone from its parent down to the hands and feet (fingers and toes left out).
 _DRAWN = [name for name in JOINT_NAMES if not any(s in name for s in ("Finger", "Index", "Thumb", "Toe"))]
 
@@ -68,17 +66,23 @@ def error_caption(frame: int, row: pd.Series) -> str:
     return f"frame {frame}: {row['joint_error_mm']:.0f} mm ({row['joint_error_aligned_mm']:.0f} aligned)"
 
 
+def estimated_body(metrics: dict) -> BodyMesh:
+    """The body a run's estimated poses belong to: the tracker's own standard body where it chose one (tree
+    filtering, ``body`` in its metrics), else the run's model (AbIS tracks the subject's own mesh)."""
+    config = metrics["config"]
+    if "body" in metrics:
+        return build_body(triangles=config["tracker"]["body_triangles"], shape=standard_shape(metrics["body"]["name"]))
+    return chosen_entries(config)["model"].build(config["model"])
+
+
 def posture_strip(run_dir: Path, frames: Sequence[int], out: Path, caption=swing_caption) -> Path:
-    """Paper 2's Fig 4(b) and Fig 5: the input frames with the estimated posture's skeleton drawn over them (the
-    tracker's standard body, projected by the run's camera; bones in their part's colour), each titled by
-    ``caption(frame, its frames.parquet row)``."""
+    """Paper 2's Fig 4(b) and Fig 5: the input frames of the run's first camera with the estimated posture's
+    skeleton drawn over them (`estimated_body`, projected by the camera; bones in their part's colour), each titled
+    by ``caption(frame, its frames.parquet row)``."""
     plt = pyplot()
     metrics = json.loads((run_dir / "metrics.json").read_text())
-    config = metrics["config"]
-    rigs = REGISTRIES["rig"]
-    camera = rigs.build(rigs.entry_for(config["rig"]["_target_"]).name, config["rig"])[0]
-    body_name = metrics.get("body", {}).get("name", "base")
-    body = build_body(triangles=config["tracker"]["body_triangles"], shape=standard_shape(body_name))
+    camera = build_chosen(metrics["config"])["rig"][0]
+    body = estimated_body(metrics)
     table = pd.read_parquet(run_dir / "frames.parquet").drop_duplicates("frame").set_index("frame")
     images = read_rgb_frames(run_dir / "run.rrd", camera.name)
     part_of = {bone: part for part, bones in enumerate(PART_BONES.values()) for bone in bones}
@@ -103,6 +107,45 @@ def posture_strip(run_dir: Path, frames: Sequence[int], out: Path, caption=swing
     return save_png(plt, figure, out)
 
 
+def fig5_strip(run_dir: Path, out: Path, count: int = 7) -> Path:
+    """Paper 2's Fig 5 for one clip: ``count`` frames spread over the run with the estimate drawn over the input."""
+    frames = pd.read_parquet(run_dir / "frames.parquet", columns=["frame"])["frame"].unique()
+    picked = np.unique(np.linspace(0, len(frames) - 1, count).round().astype(int))
+    return posture_strip(run_dir, [int(frames[k]) for k in picked], out, caption=error_caption)
+
+
+def error_against_floor(run_dir: Path, out: Path, label: str | None = None) -> Path:
+    """Per frame: the joint error (absolute and root-aligned), against the dictionary's floor where the tracker
+    searched one, with the frames where its own cost prefers the estimate to the floor's sample shaded
+    (ambiguous). ``label``: what the title calls the run (its folder's name)."""
+    plt = pyplot()
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    table = pd.read_parquet(run_dir / "frames.parquet").drop_duplicates("frame")
+    figure, axis = plt.subplots(figsize=(10, 2.8))
+    for frame, ambiguous in zip(table["frame"], metrics.get("ambiguous_per_frame", ()), strict=False):
+        if ambiguous:
+            axis.axvspan(frame - 0.5, frame + 0.5, color="#d62728", alpha=0.12, linewidth=0)
+    axis.plot(table["frame"], table["joint_error_mm"], color="#1f77b4", linewidth=1.0, label="MPJPE")
+    axis.plot(table["frame"], table["joint_error_aligned_mm"], color="#ff7f0e", linewidth=1.0, label="root-aligned")
+    title = f"{label or run_dir.name}: MPJPE {metrics['mpjpe_mm']:.0f} mm"
+    title += f", root-aligned {metrics['mpjpe_root_aligned_mm']:.0f} mm"
+    if "floor_per_frame_mm" in metrics:
+        axis.plot(
+            table["frame"], metrics["floor_per_frame_mm"], "k--", linewidth=1.0, label="floor (3-D nearest sample)"
+        )
+        axis.set_xlabel("frame (shaded: the tracker's cost prefers the estimate to the floor's sample)")
+        title += (
+            f", floor {metrics['mpjpe_floor_mm']:.0f} mm; "
+            f"{metrics['ambiguous_frames']} of {metrics['frames_done']} frames ambiguous"
+        )
+    else:
+        axis.set_xlabel("frame")
+    axis.set_ylabel("mm")
+    axis.set_title(title, fontsize=9, loc="left")
+    axis.legend(loc="upper right", fontsize=8, ncol=3)
+    return save_png(plt, figure, out)
+
+
 def realism_plot(table: pd.DataFrame, out: Path) -> Path:
     """Each cost's swings (of 24) against the realism knob: Success solid, followed (Success or Error) dashed.
     ``table``: columns ``realism``, ``cost``, ``success``, ``followed``."""
@@ -117,63 +160,3 @@ def realism_plot(table: pd.DataFrame, out: Path) -> Path:
     axis.set_ylim(-0.5, 24.5)
     axis.legend(fontsize=7, ncol=2)
     return save_png(plt, figure, out)
-
-
-def competing_samples(runs: Mapping[str, Path], out: Path) -> Path:
-    """Why a cost goes wrong, for the worst frame of each run (label -> run folder, recorded with images): the
-    observed silhouette as the filter saw it (moved onto the samples' feet) with the cost's weight map d_P, then the
-    sample the filter chose and the sample nearest the truth in 3-D, each drawn against the observation (grey both,
-    red only the observation, blue only the sample) with its distance under the run's cost. When the chosen
-    sample's distance is the smaller, the cost itself preferred the wrong posture."""
-    plt = pyplot()
-    figure, axes = plt.subplots(len(runs), 3, figsize=(9.0, 3.0 * len(runs)), squeeze=False)
-    for row, (label, run_dir) in enumerate(runs.items()):
-        subject, tracker, table = _restarted_tracker(run_dir)
-        frame = int((table["swing_est_deg"] - table["swing_truth_deg"]).abs().idxmax())
-        observed = read_images(run_dir / "run.rrd", f"/world/cameras/{tracker.cameras[0].name}/image/silhouette")[frame]
-        du, dv = (
-            int(table.loc[frame, c]) if c in table and pd.notna(table.loc[frame, c]) else 0
-            for c in ("align_du_px", "align_dv_px")
-        )
-        observed = shifted(observed.astype(bool), du, dv)
-        stack = tracker.samples.sets[0].silhouettes(LEVEL_RESOLUTIONS[-1])  # experiment A: one camera
-        scores = ObservationScorer(tracker.cost, observed, stack.window).scores(stack)
-        chosen = int(table.loc[frame, "est_sample"])
-        nearest = int(
-            nearest_in_3d(
-                subject,
-                np.asarray(table.loc[frame, "truth_pose"])[None],
-                tracker.dictionary.model,
-                tracker.samples.poses,
-            )[0][0]
-        )
-        axes[row, 0].imshow(weight_map(tracker.cost, observed, stack.window), cmap="magma")
-        axes[row, 0].set_title(f"{label}, frame {frame}: observed, d_P", fontsize=8)
-        for column, (name, index) in enumerate((("chosen", chosen), ("nearest in 3-D", nearest)), start=1):
-            model = np.zeros_like(observed)
-            u0, v0, u1, v1 = stack.window
-            model[v0:v1, u0:u1] = stack.mask(index)
-            overlay = np.full(observed.shape + (3,), 255, np.uint8)
-            overlay[observed & model] = (150, 150, 150)
-            overlay[observed & ~model] = (220, 40, 40)
-            overlay[~observed & model] = (40, 90, 220)
-            axes[row, column].imshow(overlay)
-            swing = tracker.dictionary.model.right_arm_swing_deg(tracker.samples.poses[index])
-            axes[row, column].set_title(
-                f"{name}: arm {swing:.0f}° (truth {table.loc[frame, 'swing_truth_deg']:.0f}°), d = {scores[index]:.4g}",
-                fontsize=8,
-            )
-        for axis in axes[row]:
-            axis.set_xticks([]), axis.set_yticks([])
-            axis.set_xlim(stack.window[0], stack.window[2]), axis.set_ylim(stack.window[3], stack.window[1])
-    return save_png(plt, figure, out)
-
-
-def _restarted_tracker(run_dir: Path):
-    """The run's subject and its tracker started again from the run's config (its samples and tree come from the
-    cache), and the run's table one row per frame."""
-    built = build_chosen(json.loads((run_dir / "metrics.json").read_text())["config"])
-    table = pd.read_parquet(run_dir / "frames.parquet").drop_duplicates("frame").set_index("frame")
-    subject, tracker = built["model"], built["tracker"]
-    tracker.start(subject, built["rig"], np.asarray(table.iloc[0]["truth_pose"]), np.random.default_rng(0))
-    return subject, tracker, table

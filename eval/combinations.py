@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 
 from eval.real_motion import runs_by_clip
-from eval.tables import collect
+from eval.runs import collect
 
 
 def body_table(root: Path, rows: dict[str, str]) -> pd.DataFrame:

@@ -1,217 +1,90 @@
-"""Figures from run directories. ``python -m eval.figures <run_dir>`` writes them beside the run's outputs."""
+"""Every figure that applies to a run, beside its outputs: ``python -m eval.figures <run_dir> [...]``.
+
+A figure applies when the run's table has the columns it draws, its ``metrics.json`` the figures it reads, and its
+recording the images it shows (`RUN_FIGURES`), whatever the tracker and the model:
+    views.png                     each view's recorded images at four frames          any run with images
+    fig6_input_views.png,         paper 1's Fig 6 and 7: the input, and the estimated  the DSQ arm estimated
+    fig7_estimated_views.png      model rendered from the same views
+    fig8_part2_b1_r2.png          paper 1's Fig 8: part 2's b1 and r2                 the DSQ arm estimated
+    fig9_part2_correspondences.png  paper 1's Fig 9: part 2's pairs                   AbIS's pairs on the arm
+    fig5_strip.png                paper 2's Fig 5: the estimated skeleton over the    the body estimated
+                                  input at seven frames
+    error_against_floor.png       the joint error per frame, against the dictionary's the body estimated
+                                  floor where the tracker searched one
+    fig4c_swings.png              Fig 4(c)'s evidence: the right arm's angle, truth   the body's arm swings
+                                  against estimate, each swing's verdict
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
 import logging
-from collections.abc import Sequence
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
-from eval.recordings import read_rgb_frames
-from tracker.atomic import atomic_path
-from tracker.presentation import PAPER_PART
+from eval.arm_figures import fig6_fig7_sheets, fig8_part2_b1_r2, fig9_part2_correspondences
+from eval.body_figures import error_against_floor, fig5_strip, swing_traces
+from eval.plotting import views_sheet
 
 log = logging.getLogger(__name__)
 
 
-def views_sheet(run_dir: str | Path, frames: Sequence[int] | None = None, out: str | Path | None = None) -> Path:
-    """A PNG grid of the recorded RGB views: one column per view, one row per frame (default: 4 spread frames)."""
-    run_dir = Path(run_dir)
-    views = json.loads((run_dir / "metrics.json").read_text())["views"]
-    images = {view: read_rgb_frames(run_dir / "run.rrd", view) for view in views}
-    available = sorted(images[views[0]])
-    if frames is None:
-        frames = [available[i] for i in np.linspace(0, len(available) - 1, min(4, len(available))).astype(int)]
-    return _sheet(images, frames, Path(out) if out is not None else run_dir / "views.png")
+@dataclass(frozen=True)
+class RunFigure:
+    """A figure of one run: what draws it into the run's folder (its paths), and what it needs of the run: the
+    ``frames.parquet`` columns it draws, the ``metrics.json`` keys it reads, and whether the recording's images."""
+
+    draw: Callable[[Path], list[Path]]
+    columns: frozenset[str] = frozenset()
+    metrics: frozenset[str] = frozenset()
+    images: bool = False
+
+    def applies(self, columns: set[str], metrics: dict) -> bool:
+        recorded = metrics.get("config", {}).get("record", {}).get("images", False)
+        return self.columns <= columns and self.metrics <= metrics.keys() and (recorded or not self.images)
 
 
-def _sheet(images: dict[str, dict[int, np.ndarray]], frames: Sequence[int], out: Path) -> Path:
-    """Images (view -> frame -> RGB) in a grid: one column per view, one row per frame."""
-    plt = pyplot()
-    views = list(images)
-    figure, axes = plt.subplots(len(frames), len(views), figsize=(3.2 * len(views), 2.5 * len(frames)), squeeze=False)
-    for row, frame in enumerate(frames):
-        for column, view in enumerate(views):
-            axis = axes[row, column]
-            axis.imshow(images[view][frame])
-            axis.set_xticks([]), axis.set_yticks([])
-            if row == 0:
-                axis.set_title(view)
-            if column == 0:
-                axis.set_ylabel(f"frame {frame}")
-    return save_png(plt, figure, out)
+def _swings(run: Path) -> list[Path]:
+    """Fig 4(c)'s evidence for a run whose truth made at least one complete right-arm swing."""
+    if not json.loads((run / "metrics.json").read_text())["swing_details"]["start"]:
+        return []
+    return [swing_traces({run.name: run}, run / "fig4c_swings.png")]
 
 
-def fig6_fig7_sheets(run_dir: str | Path, frames: Sequence[int] | None = None) -> list[Path]:
-    """Paper 1, Fig 6 and Fig 7: the input images, and the estimated model rendered from the same views, at the
-    same frames (default: five spread over the run)."""
-    from tracker import catalog  # noqa: F401  (registers the built-in components)
-    from tracker.registry import REGISTRIES
-    from tracker.render.offscreen import SceneRenderer
-
-    run_dir = Path(run_dir)
-    metrics = json.loads((run_dir / "metrics.json").read_text())
-    config = metrics["config"]
-    model = REGISTRIES["model"].build(metrics["choices"]["model"], config["model"])
-    rigs = REGISTRIES["rig"]
-    cameras = rigs.build(rigs.entry_for(config["rig"]["_target_"]).name, config["rig"])
-    table = _estimates(run_dir, model)
-    if frames is None:
-        done = sorted(table)
-        frames = sorted(set(np.linspace(done[0], done[-1], min(5, len(done))).round().astype(int).tolist()))
-    with SceneRenderer(cameras[0].width, cameras[0].height) as renderer:
-        estimated = {frame: renderer.render(cameras, model.surface_meshes(table[frame])) for frame in frames}
-    images = {camera.name: {frame: views[camera.name].rgb for frame, views in estimated.items()} for camera in cameras}
-    return [
-        views_sheet(run_dir, frames, run_dir / "fig6_input_views.png"),
-        _sheet(images, frames, run_dir / "fig7_estimated_views.png"),
-    ]
-
-
-def _estimates(run_dir: Path, model) -> dict[int, np.ndarray]:
-    """Frame -> the estimated ``(n_parts, 17)`` parameters of the DSQ arm, from the run's table."""
-    import pandas as pd
-
-    from tracker.models.dsq import PARAM_NAMES
-
-    table = pd.read_parquet(run_dir / "frames.parquet")
-    columns = [f"est_{name}" for name in PARAM_NAMES]
-    return {
-        int(frame): np.stack([rows[rows["part"] == part][columns].to_numpy()[0] for part in model.part_names])
-        for frame, rows in table.groupby("frame")
-    }
-
-
-def fig8_part2_b1_r2(run_dir: str | Path, out: str | Path | None = None) -> Path:
-    """Paper 1, Fig 8: part 2's bending b1 and rotation r2, estimated and true, over the frames."""
-    plt = pyplot()
-    run_dir = Path(run_dir)
-    rows = _paper_part_rows(run_dir)
-    figure, (bend, turn) = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
-    bend.plot(rows["frame"], rows["truth_b1"], "k-", label="true")
-    bend.plot(rows["frame"], rows["est_b1"], "C1.-", markersize=3, label="estimated")
-    bend.set_ylabel("b1 (m)")
-    turn.plot(rows["frame"], np.degrees(rows["truth_r2"]), "k-", label="true")
-    turn.plot(rows["frame"], np.degrees(rows["est_r2"]), "C0.-", markersize=3, label="estimated")
-    turn.set_ylabel("r2 (degrees)")
-    turn.set_xlabel("frame")
-    _shade_hidden(bend, rows), _shade_hidden(turn, rows)
-    metrics = json.loads((run_dir / "metrics.json").read_text())
-    bend.set_title(
-        f"part 2 ({rows['part'].iloc[0]}): b1 RMS {metrics['part2_b1_rms'] * 1e3:.1f} mm "
-        f"(range {metrics['part2_b1_range'] * 1e3:.0f} mm), r2 RMS {metrics['part2_r2_rms_deg']:.2f} deg, "
-        f"{_tracker_name(metrics)}",
-        fontsize=9,
-    )
-    bend.legend(loc="upper right", fontsize=8)
-    return save_png(plt, figure, Path(out) if out else run_dir / "fig8_part2_b1_r2.png")
-
-
-def fig9_part2_correspondences(run_dir: str | Path, out: str | Path | None = None) -> Path:
-    """Paper 1, Fig 9: part 2's new, discarded and tracked pairs per frame, over all views (top) and in each view
-    (below; grey where part 2 is mostly hidden in that view)."""
-    plt = pyplot()
-    run_dir = Path(run_dir)
-    rows = _paper_part_rows(run_dir)
-    views = json.loads((run_dir / "metrics.json").read_text())["views"]
-    figure, axes = plt.subplots(
-        1 + len(views),
-        1,
-        figsize=(7, 3.8 + 1.6 * len(views)),
-        sharex=True,
-        gridspec_kw={"height_ratios": [2.2] + [1] * len(views)},
-    )
-    styles = {"tracked": "C2-", "new": "C0-", "discarded_occlusion": "C3-", "discarded_error": "C1--", "lost": "C7:"}
-    for axis, view in zip(axes, [None, *views], strict=True):
-        suffix = "" if view is None else f"_{view}"
-        for count, style in styles.items():
-            axis.plot(rows["frame"], rows[count + suffix], style, label=count.replace("_", " "))
-        _shade_hidden(axis, rows, view)
-        axis.set_ylabel("pairs of part 2" if view is None else view)
-    axes[0].legend(fontsize=8, ncol=3)
-    axes[-1].set_xlabel("frame")
-    return save_png(plt, figure, Path(out) if out else run_dir / "fig9_part2_correspondences.png")
-
-
-def _paper_part_rows(run_dir: Path):
-    """Paper 1's part 2 (`tracker.presentation.PAPER_PART`), frame by frame."""
-    import pandas as pd
-
-    table = pd.read_parquet(run_dir / "frames.parquet")
-    if "est_b1" not in table.columns:
-        raise ValueError(f"{run_dir} has no estimates of the DSQ arm (run it with a tracker, e.g. tracker=abis)")
-    part = table["part"].drop_duplicates().iloc[PAPER_PART]
-    return table[table["part"] == part].sort_values("frame")
-
-
-def _tracker_name(metrics: dict) -> str:
-    """The run's tracker, with its optimiser where it has one (AbIS: lm or sd)."""
-    optimizer = metrics["config"]["tracker"].get("fit", {}).get("optimizer")
-    return f"tracker {metrics['choices']['tracker']}" + (f", optimizer {optimizer}" if optimizer else "")
-
-
-def _shade_hidden(axis, rows, view: str | None = None) -> None:
-    """Grey where part 2 is mostly hidden (under 20% of its largest visible area) in ``view``, or in any view."""
-    columns = [c for c in rows.columns if c.startswith("visible_px_") and (view is None or c.endswith(f"_{view}"))]
-    hidden = np.zeros(len(rows), bool)
-    for column in columns:
-        pixels = rows[column].to_numpy()
-        hidden |= pixels < 0.2 * max(pixels.max(), 1)
-    frames = rows["frame"].to_numpy()
-    for frame in frames[hidden]:
-        axis.axvspan(frame - 0.5, frame + 0.5, color="0.9", linewidth=0, zorder=0)
-
-
-def pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-def save_png(plt, figure, out: Path) -> Path:
-    figure.tight_layout()
-    with atomic_path(out) as temporary:
-        figure.savefig(temporary, format="png", dpi=100)
-    plt.close(figure)
-    return out
-
-
-# Each figure and the frames.parquet columns it draws: a run gets every figure its table has the columns of.
-FIGURES = (
-    (fig6_fig7_sheets, {"est_a", "est_b1", "est_r2"}),
-    (fig8_part2_b1_r2, {"truth_b1", "est_b1", "truth_r2", "est_r2"}),
-    (fig9_part2_correspondences, {"est_b1", "tracked", "new", "discarded_occlusion", "discarded_error", "lost"}),
+_ARM_ESTIMATE = frozenset({"est_a", "est_b1", "est_r2", "truth_b1", "truth_r2"})
+_BODY_ESTIMATE = frozenset({"truth_pose", "est_pose", "joint_error_mm", "joint_error_aligned_mm"})
+_PAIRS = frozenset({"tracked", "new", "discarded_occlusion", "discarded_error", "lost"})
+RUN_FIGURES = (
+    RunFigure(lambda run: [views_sheet(run)], images=True),
+    RunFigure(fig6_fig7_sheets, _ARM_ESTIMATE, images=True),
+    RunFigure(lambda run: [fig8_part2_b1_r2(run)], _ARM_ESTIMATE, frozenset({"part2_b1_rms"})),
+    RunFigure(lambda run: [fig9_part2_correspondences(run)], _ARM_ESTIMATE | _PAIRS),
+    RunFigure(lambda run: [fig5_strip(run, run / "fig5_strip.png")], _BODY_ESTIMATE, images=True),
+    RunFigure(lambda run: [error_against_floor(run, run / "error_against_floor.png")], _BODY_ESTIMATE),
+    RunFigure(_swings, frozenset({"swing_truth_deg", "swing_est_deg"}), frozenset({"swing_details"})),
 )
 
 
 def write_figures(run_dir: str | Path) -> list[Path]:
-    """Every figure the run supports: the views sheet, and those whose columns its table has (Fig 6-8: estimates
-    of the DSQ arm; Fig 9: AbIS's pair counts on the arm)."""
+    """Every figure of `RUN_FIGURES` that applies to the run, written into its folder; their paths."""
     import pyarrow.parquet as pq
 
     run_dir = Path(run_dir)
     columns = set(pq.read_schema(run_dir / "frames.parquet").names)
-    written = [views_sheet(run_dir)]
-    for figure, needs in FIGURES:
-        if needs <= columns:
-            made = figure(run_dir)
-            written.extend(made if isinstance(made, list) else [made])
-    return written
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    return [path for figure in RUN_FIGURES if figure.applies(columns, metrics) for path in figure.draw(run_dir)]
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("run_dir", type=Path)
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("run_dirs", nargs="+", type=Path)
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(message)s")
-    for path in write_figures(args.run_dir):
-        log.info("wrote %s", path)
+    for run_dir in args.run_dirs:
+        for path in write_figures(run_dir):
+            log.info("wrote %s", path)
 
 
 if __name__ == "__main__":

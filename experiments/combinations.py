@@ -22,7 +22,7 @@ from pathlib import Path
 from omegaconf import OmegaConf
 
 from eval.combinations import arm_table, body_table
-from eval.tables import markdown
+from eval.runs import markdown
 from experiments.cli_runs import LIGHT_RECORDING, run_experiment
 from experiments.real_motion import FPS, HELD_OUT
 from experiments.schemas import CONFIG_DIR

@@ -9,8 +9,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from eval.body_figures import competing_samples, posture_strip, realism_plot, swing_traces
-from eval.tables import markdown, table_4c, table_4c_bounds, table_6d, table_order
+from eval.body_figures import posture_strip, realism_plot, swing_traces
+from eval.cost_figures import competing_samples
+from eval.paper_2_tables import table_4c, table_4c_bounds, table_6d, table_order
+from eval.runs import markdown
 from experiments.components import compose
 from tracker.models.body_shapes import STANDARD_BODIES, MacroShape
 from tracker.models.makehuman import build_body, nearest_standard_body

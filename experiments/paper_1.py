@@ -17,7 +17,7 @@ import pandas as pd
 
 from eval.abis_tables import B1_TARGET_PERCENT, R2_TARGET_DEG, abis_runs, seeds_table
 from eval.figures import write_figures
-from eval.tables import markdown
+from eval.runs import markdown
 from experiments.cli_runs import LIGHT_RECORDING, run_experiment, run_sweep
 from tracker.atomic import atomic_path
 

@@ -10,8 +10,9 @@ import shutil
 import time
 from pathlib import Path
 
-from eval.real_motion import error_against_floor, fig5_strip, real_motion_table
-from eval.tables import markdown
+from eval.body_figures import error_against_floor, fig5_strip
+from eval.real_motion import real_motion_table
+from eval.runs import markdown
 from experiments.cli_runs import LIGHT_RECORDING, run_experiment
 from tracker.atomic import atomic_path
 from tracker.motion.mocap import available_frames, read_clip
@@ -58,7 +59,7 @@ def real_motion(reports: Path) -> tuple[str, str]:
         full = root / clip / "full"
         figures += [
             fig5_strip(full, reports / f"fig5_{clip}.png"),
-            error_against_floor(full, reports / f"fig5_{clip}_error.png"),
+            error_against_floor(full, reports / f"fig5_{clip}_error.png", clip),
         ]
     table = real_motion_table(root, {folder: label for folder, (label, _) in VARIANTS.items()})
     with atomic_path(reports / "tbf_real.csv") as temporary:

@@ -36,7 +36,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from eval.tables import collect, machine, table_4c, write_reports
+from eval.paper_2_tables import table_4c
+from eval.runs import collect, machine
+from eval.tables import write_reports
 from experiments.cli_runs import LIGHT_RECORDING, run_sweep
 from experiments.combinations import combinations
 from experiments.experiment_a import experiment_a_figures, paper_2_markdown, realism_overrides

@@ -1,6 +1,6 @@
 import numpy as np
 
-from eval.figures import views_sheet
+from eval.plotting import views_sheet
 from eval.recordings import read_rgb_frames
 
 

@@ -2,7 +2,8 @@ import matplotlib.image
 import numpy as np
 import pandas as pd
 
-from eval.figures import _estimates, fig6_fig7_sheets, fig8_part2_b1_r2, fig9_part2_correspondences, write_figures
+from eval.arm_figures import _estimates, fig6_fig7_sheets, fig8_part2_b1_r2, fig9_part2_correspondences
+from eval.figures import write_figures
 from tracker.models.dsq import PARAM_NAMES
 
 

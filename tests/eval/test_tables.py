@@ -1,6 +1,8 @@
 import pandas as pd
 
-from eval.tables import PAPER_4C, collect, table_4c, table_4c_bounds, table_6d, write_reports
+from eval.paper_2_tables import PAPER_4C, table_4c, table_4c_bounds, table_6d
+from eval.runs import collect
+from eval.tables import write_reports
 
 
 def test_tables_collect_tbf_runs_next_to_the_papers_numbers(tbf_run, tmp_path):

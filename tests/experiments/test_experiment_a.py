@@ -8,7 +8,8 @@ import pandas as pd
 import pytest
 from PIL import Image
 
-from eval.body_figures import competing_samples, posture_strip, realism_plot, swing_traces
+from eval.body_figures import posture_strip, realism_plot, swing_traces
+from eval.cost_figures import competing_samples
 from experiments.experiment_a import realism_overrides
 from tracker.models.body_shapes import STANDARD_BODIES
 

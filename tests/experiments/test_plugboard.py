@@ -11,7 +11,9 @@ import pandas as pd
 from rerun.chunk import RrdReader
 
 from eval.figures import write_figures
-from eval.tables import collect, sweep_table, table_4c
+from eval.paper_2_tables import table_4c
+from eval.runs import collect
+from eval.tables import sweep_table
 from experiments.schemas import CONFIG_DIR
 from tests.conftest import SMALL_GRID
 from tests.experiments.test_run import blueprint_origins, frames_by_entity

@@ -9,7 +9,8 @@ import pandas as pd
 import pytest
 from PIL import Image
 
-from eval.real_motion import error_against_floor, fig5_strip, real_motion_table
+from eval.body_figures import error_against_floor, fig5_strip
+from eval.real_motion import real_motion_table
 from experiments.real_motion import FPS, HELD_OUT, VARIANTS
 from experiments.schemas import CONFIG_DIR
 from experiments.validate import validate_command_line

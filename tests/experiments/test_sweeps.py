@@ -6,7 +6,8 @@ import sys
 
 import pytest
 
-from eval.tables import collect, sweep_table
+from eval.runs import collect
+from eval.tables import sweep_table
 
 SWEEP = ["frames=2", "record.images=false", "seed=0,1", "rig=orthogonal3,mono"]
 

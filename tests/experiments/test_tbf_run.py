@@ -36,3 +36,16 @@ def test_the_tbf_blueprint_shows_the_silhouette_and_the_tree_search(tbf_run):
     assert f"world/cameras/{view}/image" in origins  # the image, and the silhouette beside and over it
     assert {"world", "metrics/params/swing", "metrics/tree", "metrics/silhouette_iou"} <= origins
     assert "metrics/correspondences" not in origins  # AbIS's pairs have no place here
+
+
+def test_eval_figures_writes_every_figure_of_a_body_run(tbf_run, tmp_path):
+    """A tree-filtering run of the body: its views, Fig 5's strip and its error against the dictionary's floor, by
+    the command a user runs; 6 frames hold no complete swing, so no Fig 4(c) evidence."""
+    import shutil
+    import subprocess
+    import sys
+
+    run = shutil.copytree(tbf_run, tmp_path / "run")
+    subprocess.run([sys.executable, "-m", "eval.figures", str(run)], check=True, capture_output=True)
+    assert {"views.png", "fig5_strip.png", "error_against_floor.png"} <= {path.name for path in run.iterdir()}
+    assert "fig4c_swings.png" not in {path.name for path in run.iterdir()}
