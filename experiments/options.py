@@ -1,5 +1,6 @@
-"""The README's table of config options, made from the option files and the registries:
-``python -m experiments.options`` prints it; ``--write`` puts it into README.md between its markers.
+"""The table of config options (docs/configuration.md) and the compatibility table (README.md), made from the option
+files and the registrations: ``python -m experiments.options`` prints them; ``--write`` puts them between their
+markers (`experiments.generated`).
 
 One row per option file ``conf/<group>/<option>.yaml``: the component it builds (`tracker.registry`), what that
 component is (the first line of its docstring), its settings, and what it goes with (models, needs). Then which
@@ -10,14 +11,14 @@ tracker tracks which model from how many camera views, and what it needs there (
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from omegaconf import OmegaConf
 
+from experiments.generated import DOCS, README, write_block
 from experiments.schemas import CONFIG_DIR, GROUPS, SCHEMA_PREFIX
 from tracker.registry import MODELS, REGISTRIES, TRACKERS, Entry, Fit
 
-README = CONFIG_DIR.parent / "README.md"
-BEGIN, END = "<!-- options: made by python -m experiments.options --write -->", "<!-- options: end -->"
 
 
 def option_entries() -> list[tuple[str, str, Entry]]:
@@ -72,21 +73,23 @@ def table() -> str:
     return "\n".join(lines)
 
 
-def readme_with_table(text: str) -> str:
-    head, rest = text.split(BEGIN, 1)
-    made = (
-        f"{table()}\n\nWhich tracker tracks which model, from how many camera views (a rig with another number "
-        f"fails at start, in one line, naming what to add; each tracker's registration):\n\n{compatibility_table()}"
-    )
-    return f"{head}{BEGIN}\n{made}\n{END}{rest.split(END, 1)[1]}"
+COMMAND = "python -m experiments.options --write"
+CONFIGURATION = DOCS / "configuration.md"
+
+
+def write() -> list[Path]:
+    """The option table into docs/configuration.md and the compatibility table into the README."""
+    write_block(CONFIGURATION, "options", COMMAND, table())
+    write_block(README, "compatibility", COMMAND, compatibility_table())
+    return [CONFIGURATION, README]
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--write", action="store_true", help=f"write the table into {README.name}")
+    parser.add_argument("--write", action="store_true", help="write the tables into docs/configuration.md, README.md")
     if parser.parse_args().write:
-        README.write_text(readme_with_table(README.read_text()))
-        print(f"wrote the option table into {README}")
+        for path in write():
+            print(f"wrote {path}")
     else:
         print(table(), compatibility_table(), sep="\n\n")
 

@@ -104,8 +104,10 @@ def test_bad_overrides_through_the_cli_exit_nonzero_and_leave_no_files(tmp_path,
     assert list(Path(tmp_path).iterdir()) == []  # no runs/ or multirun/ folder, no log
 
 
-def test_the_readme_option_table_is_the_one_the_registries_make():
-    from experiments.options import README, readme_with_table
+def test_the_option_and_compatibility_tables_are_the_ones_the_registrations_make():
+    from experiments.generated import README, with_block
+    from experiments.options import COMMAND, CONFIGURATION, compatibility_table, table
 
-    text = README.read_text()
-    assert readme_with_table(text) == text, "run: python -m experiments.options --write"
+    for path, name, made in ((CONFIGURATION, "options", table()), (README, "compatibility", compatibility_table())):
+        text = path.read_text()
+        assert with_block(text, name, COMMAND, made) == text, f"{path.name}: run {COMMAND}"

@@ -18,13 +18,12 @@ its root then covers, taken back into the observed image, and ``scale`` times th
 estimate's root (its height stays the sample's, whose feet are on the floor). The estimate is turned about the
 vertical by the person's bearing from the camera against the sample's: off the camera's axis a person is seen
 from the side by that angle. At a camera 0.9 m high and 4.5 m away one pixel row of the feet spans 5 cm of floor,
-and the toes or the heels are lowest by the stance: the depth is the weak part (measured: 9 cm median root error
-on the held-out walk 69_20; scaling by the silhouettes' areas instead did worse, 35 and 86 mm more MPJPE on
-143_33 and 69_20, as a wrong arm posture changes the area).
+and the toes or the heels are lowest by the stance: the depth is the weak part. (Scaling by the silhouettes'
+areas instead did worse: a wrong arm posture changes the area.)
 
 From two or more calibrated views (`ViewsPlacement`) the person stands where the rays through his silhouettes'
 centroids cross (his spot), and each sample where its own cross (`sample_spots`): a posture's spot moves with its
-limbs (on 143_33, the estimate's and the dictionary's nearest posture's lay 0.7-8.5 cm apart). His silhouettes are
+limbs (by centimetres between neighbouring postures). His silhouettes are
 scaled and moved as if he stood on a reference sample's spot (the last estimate's); the filter then scores each
 sample moved by whole pixels from where each view sees its own spot to where it sees the reference's
 (`spot_pixels`), as if he had been placed on that sample's spot, and the estimate is moved across the floor until

@@ -163,7 +163,7 @@ class PosePrior:
         self.support_fraction, self.max_support = support_fraction, max_support
         self._neighbours: dict[bytes, KernelNeighbours] = {}
         self.last_mass_used = 1.0
-        self._within_reach(motion.base_sigmas(space))  # the no-occlusion tree up front (~0.1 s at 57k samples)
+        self._within_reach(motion.base_sigmas(space))  # the no-occlusion tree up front
         self.learned = isinstance(motion, LearnedTransitions)
         if self.learned:
             if transitions is None or not len(transitions):

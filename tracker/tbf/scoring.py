@@ -8,8 +8,8 @@ is stored as its runs of inside pixels along the window's pixels in row-major or
 ``A`` the prefix sum of ``a`` the sum over Q is ``sum over runs [s, e) of A(e) - A(s)``: two reads per run (a few
 hundred per silhouette at 320x240) instead of one per inside pixel (thousands). Where many silhouettes are scored
 at every frame (a tree's top level), their runs are kept as a sparse matrix with -1 at each run's start and +1 at
-its end (`RunBoundaries`), and the sums are one sparse product with A: ~8x faster than gathering A at the runs and
-adding them up per silhouette, for twice the memory of the runs (the same sums, to rounding: ~1e-13). A silhouette
+its end (`RunBoundaries`), and the sums are one sparse product with A, faster than gathering A at the runs and
+adding them up per silhouette, for twice the memory of the runs (the same sums, to rounding). A silhouette
 moved by whole pixels first (each sample scored on its own spot: `tracker.tbf.filter.TreeFilter`) is scored from the
 same runs, moved (`SilhouetteRuns.shifted_sums`, `ShiftedRunBoundaries`).
 """
