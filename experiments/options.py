@@ -20,7 +20,6 @@ from experiments.schemas import CONFIG_DIR, GROUPS, SCHEMA_PREFIX
 from tracker.registry import MODELS, REGISTRIES, TRACKERS, Entry, Fit
 
 
-
 def option_entries() -> list[tuple[str, str, Entry]]:
     """(group, option, the component it builds) for every option file, in group order."""
     return [

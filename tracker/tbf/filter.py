@@ -86,8 +86,9 @@ class TreeFilter:
     is placed on one sample's spot (the reference's, given to `step`); each sample is scored moved by whole pixels,
     the reference's spot pixel minus its own, as if the observation had been placed on its own spot. Scored where
     they stand, the samples whose limbs put their spot where the reference's is would win (the cost would prefer
-    poses farther from the truth than the dictionary's nearest). The top level, scored whole, moves a sample by the difference of the two pixels each rounded, which
-    makes it one sparse product (`ShiftedRunBoundaries`); the levels below by the difference rounded."""
+    poses farther from the truth than the dictionary's nearest). The top level, scored whole, moves a sample by the
+    difference of the two pixels each rounded, which makes it one sparse product (`ShiftedRunBoundaries`); the
+    levels below by the difference rounded."""
 
     def __init__(
         self,
