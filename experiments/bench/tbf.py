@@ -7,13 +7,18 @@ machine's measured memory bandwidth.
 
 from __future__ import annotations
 
+import argparse
 import logging
 import statistics
 import time
 
 import numpy as np
 
-from experiments.components import build, compose
+from experiments.bench.common import report_machine
+from experiments.components import Components, build, compose
+from tracker.observe.silhouettes import SilhouetteCapture
+from tracker.protocol import Observation
+from tracker.sequence import background_frames, simulate
 from tracker.tbf.alignment import shifted
 from tracker.tbf.costs import window_pixels
 from tracker.tbf.scoring import ObservationScorer, RunBoundaries, ShiftedRunBoundaries, SilhouetteRuns
@@ -24,72 +29,74 @@ log = logging.getLogger(__name__)
 
 def bench_tbf(frames: int, experiment: str, overrides: list[str]) -> dict[str, object]:
     """TBF estimation per frame with the composed ``experiment=<experiment>`` config (plus ``overrides``; e.g.
-    tbf_table4c: the arm swing on ~3,400 samples, tbf_paper_scale: a held-out CMU clip on ~57,000): the filter's
-    median, and for the nodes it evaluated the same scoring done naively, node by
-    node (XOR of the two silhouettes, times the weights, summed), with the bytes the vectorised scoring read."""
-    from tracker.observe.silhouettes import SilhouetteCapture
-    from tracker.sequence import background_frames, simulate
-
+    tbf_table4c: the arm swing, tbf_paper_scale: a held-out CMU clip at the paper's scale): the filter's median, and
+    for the nodes it evaluated the same scoring done naively, node by node (XOR of the two silhouettes, times the
+    weights, summed), with the bytes the vectorised scoring read."""
     run = build(compose([f"experiment={experiment}", *overrides]))
-    body, rig, scene, tracker, render = run.model, run.cameras, run.scene, run.tracker, run.settings.render
-    frames = min(frames, run.settings.frames)  # a clip's preset runs it whole, and it holds no more
-    tracker.start(body, rig, scene.params(body, 0), np.random.default_rng(0))
-    nuisance, rng = render.nuisance(), np.random.default_rng(1)
-    with render.renderer(rig[0].width, rig[0].height) as renderer:
-        capture = SilhouetteCapture.learn(background_frames(rig, renderer, 20, nuisance, rng))
-        observed = [
-            f.observation(capture.step({c.name: f.views[c.name].rgb for c in rig}).silhouettes)
-            for f in simulate(body, scene, rig, renderer, frames, nuisance, rng)
-        ]
-    filter_ = tracker.filter
-    estimate_ms, first_ms, evaluated, worst = [], [], [], 0.0
-    frame_scoring, level1_scoring = [], []  # per frame: (weights, vectorised, naive) seconds, bytes
-    level1_ways = []  # per frame: all of level 1 scored from its runs, from its run boundaries (seconds)
-    top_runs = [
-        stack.runs.subset(filter_.tree.levels[0].representatives)
-        for stack in filter_.samples.silhouettes(filter_.tree.levels[0].resolution)
-    ]
-    for frame in observed:
-        start = time.perf_counter()
-        result = tracker.step(frame)  # the tracker's whole step: placing the silhouette, then the filter
-        estimate_ms.append(1e3 * (time.perf_counter() - start))
-        silhouettes = tracker.last_observation  # what the filter saw, per view
-        if not first_ms:
-            first_ms.append(result.timings_ms)
-        # The same scoring again, vectorised and naive: on the nodes this frame evaluated, and on all of level 1.
-        evaluated.append(sum(len(nodes) for nodes in filter_.last_evaluated))
-        totals = np.zeros(4)
-        for k, nodes in enumerate(filter_.last_evaluated):
-            figures, difference = _compare_scoring(filter_, k, silhouettes, nodes)
-            totals, worst = totals + figures, max(worst, difference)
-        frame_scoring.append(totals)
-        figures, difference = _compare_scoring(filter_, 0, silhouettes, np.arange(len(filter_.tree.levels[0])))
-        level1_scoring.append(figures)
+    tracker, frames = run.tracker, min(frames, run.settings.frames)  # a clip's preset runs it whole
+    tracker.start(run.model, run.cameras, run.scene.params(run.model, 0), np.random.default_rng(0))
+    observed, filter_ = observations(run, frames), tracker.filter
+    top = filter_.tree.levels[0]
+    top_runs = [stack.runs.subset(top.representatives) for stack in filter_.samples.silhouettes(top.resolution)]
+    per_frame, worst = [], 0.0
+    for observation in observed:
+        figures, difference = frame_figures(tracker, top_runs, observation)
+        per_frame.append(figures)
         worst = max(worst, difference)
-        level1_ways.append(_level1_ways(filter_, top_runs, silhouettes))
-    frame_scoring, level1_scoring = np.median(frame_scoring, axis=0), np.median(level1_scoring, axis=0)
-    level1_ways = np.median(level1_ways, axis=0)
     return {
         "samples": len(filter_.samples),
         "nodes": filter_.tree.node_counts,
         "frames": frames,
-        "views": len(rig),
-        "estimate_ms": statistics.median(estimate_ms),
-        "estimate_ms_max": max(estimate_ms),
-        "nodes_evaluated": statistics.median(evaluated),
-        "weights_ms": 1e3 * frame_scoring[0],
-        "scoring_vectorised_ms": 1e3 * frame_scoring[1],
-        "scoring_naive_ms": 1e3 * frame_scoring[2],
-        "bytes_per_frame": frame_scoring[3],
-        "level1_vectorised_ms": 1e3 * level1_scoring[1],
-        "level1_naive_ms": 1e3 * level1_scoring[2],
-        "level1_bytes": level1_scoring[3],
+        "views": len(run.cameras),
+        "estimate_ms_max": max(f["estimate_ms"] for f in per_frame),
+        **{key: statistics.median(f[key] for f in per_frame) for key in per_frame[0] if key != "stages_ms"},
         "bandwidth_gb_s": _memory_bandwidth_gb_s(),
-        "level1_runs_ms": 1e3 * level1_ways[0],
-        "level1_boundaries_ms": 1e3 * level1_ways[1],
         "max_relative_difference": worst,
-        "first_frame_ms": first_ms[0],
+        "first_frame_ms": per_frame[0]["stages_ms"],
     }
+
+
+def observations(run: Components, frames: int) -> list[Observation]:
+    """The preset's first ``frames`` frames as the tracker observes them, silhouettes extracted (not timed)."""
+    rig, render = run.cameras, run.settings.render
+    nuisance, rng = render.nuisance(), np.random.default_rng(1)
+    with render.renderer(rig[0].width, rig[0].height) as renderer:
+        capture = SilhouetteCapture.learn(background_frames(rig, renderer, 20, nuisance, rng))
+        return [
+            frame.observation(capture.step({c.name: frame.views[c.name].rgb for c in rig}).silhouettes)
+            for frame in simulate(run.model, run.scene, rig, renderer, frames, nuisance, rng)
+        ]
+
+
+def frame_figures(tracker, top_runs: list[SilhouetteRuns], observation: Observation) -> tuple[dict, float]:
+    """One frame: the tracker's whole step (placing the silhouettes, then the filter) timed, then the same scoring
+    again, vectorised and naive, on the nodes it evaluated and on all of level 1 (seconds, bytes); and the largest
+    relative difference between the two."""
+    filter_ = tracker.filter
+    start = time.perf_counter()
+    result = tracker.step(observation)
+    estimate_ms = 1e3 * (time.perf_counter() - start)
+    silhouettes = tracker.last_observation  # what the filter saw, per view
+    totals, worst = np.zeros(4), 0.0  # weights, vectorised, naive (seconds), bytes
+    for k, nodes in enumerate(filter_.last_evaluated):
+        figures, difference = _compare_scoring(filter_, k, silhouettes, nodes)
+        totals, worst = totals + figures, max(worst, difference)
+    level1, difference = _compare_scoring(filter_, 0, silhouettes, np.arange(len(filter_.tree.levels[0])))
+    runs_s, boundaries_s = _level1_ways(filter_, top_runs, silhouettes)
+    return {
+        "estimate_ms": estimate_ms,
+        "stages_ms": result.timings_ms,
+        "nodes_evaluated": sum(len(nodes) for nodes in filter_.last_evaluated),
+        "weights_ms": 1e3 * totals[0],
+        "scoring_vectorised_ms": 1e3 * totals[1],
+        "scoring_naive_ms": 1e3 * totals[2],
+        "frame_bytes": totals[3],
+        "level1_vectorised_ms": 1e3 * level1[1],
+        "level1_naive_ms": 1e3 * level1[2],
+        "level1_bytes": level1[3],
+        "level1_runs_ms": 1e3 * runs_s,
+        "level1_boundaries_ms": 1e3 * boundaries_s,
+    }, max(worst, difference)
 
 
 def _level1_ways(filter_, top_runs: list[SilhouetteRuns], silhouettes: tuple[np.ndarray, ...]) -> np.ndarray:
@@ -184,13 +191,13 @@ def _timed(function) -> float:
     return time.perf_counter() - start
 
 
-def run(frames: int, experiment: str, overrides: list[str]) -> None:
+def run(args: argparse.Namespace) -> None:
     """Bench the filter and log what it measured."""
-    figures = bench_tbf(frames, experiment, overrides)
+    figures = bench_tbf(args.frames, args.experiment, args.overrides)
     log.info(
         "TBF, experiment=%s %s: %d samples, tree %s nodes per level, %d view(s)",
-        experiment,
-        " ".join(overrides),
+        args.experiment,
+        " ".join(args.overrides),
         figures["samples"],
         figures["nodes"],
         figures["views"],
@@ -201,6 +208,11 @@ def run(frames: int, experiment: str, overrides: list[str]) -> None:
         figures["estimate_ms_max"],
         figures["frames"],
     )
+    _report_scoring(figures)
+    report_machine()
+
+
+def _report_scoring(figures: dict) -> None:
     log.info(
         "  per frame, the observation's weight maps %.2f ms (shared), then scoring the %.0f nodes it "
         "evaluated: from runs %.3f ms, naive per-node loop %.2f ms: %.1fx",
@@ -232,7 +244,7 @@ def run(frames: int, experiment: str, overrides: list[str]) -> None:
     )
     log.info(
         "  bytes read by the vectorised scoring: %.2f MB/frame = %.3f ms at the measured %.1f GB/s",
-        figures["bytes_per_frame"] / 1e6,
-        1e3 * figures["bytes_per_frame"] / (figures["bandwidth_gb_s"] * 1e9),
+        figures["frame_bytes"] / 1e6,
+        1e3 * figures["frame_bytes"] / (figures["bandwidth_gb_s"] * 1e9),
         figures["bandwidth_gb_s"],
     )

@@ -1,4 +1,4 @@
-"""Sweep benchmarks: ``python -m experiments.bench_sweeps speed|resume [--launchers joblib basic ray]``.
+"""Sweep benchmarks: ``python -m experiments.bench.sweeps speed|resume [--launchers joblib basic ray]``.
 
 Both sweep the six Fig 4(c) cells (``experiment=tbf_table4c cost=xor,wxor,nwxor motion=dm1,dm2``) through the real
 CLI into a scratch folder (``--out``, default ``multirun/bench_sweeps``), on a warm sample cache (run the sweep

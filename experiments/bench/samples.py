@@ -16,6 +16,7 @@ On the poses of ``experiment=tbf_paper_scale`` (or the overrides' set), in one r
 
 from __future__ import annotations
 
+import argparse
 import json
 import logging
 import os
@@ -26,7 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.components import build, compose
+from experiments.bench.common import report_machine
+from experiments.components import Components, build, compose
 from tracker.render.labels import LabelRenderer
 from tracker.render.mesh import SurfaceMesh
 from tracker.render.offscreen import SceneRenderer
@@ -138,12 +140,31 @@ def bench_build(overrides: list[str]) -> dict[str, float]:
     return times
 
 
-def run(poses_count: int, build_too: bool, overrides: list[str]) -> None:
-    overrides = overrides or ["experiment=tbf_paper_scale"]
+def run(args: argparse.Namespace) -> None:
+    overrides = args.overrides or ["experiment=tbf_paper_scale"]
     composed = build(compose(overrides))
-    tracker = composed.tracker
-    poses, _ = sample_poses(tracker.settings.samples, composed.model)
-    chosen = poses[np.linspace(0, len(poses) - 1, poses_count).astype(int)]
+    poses, _ = sample_poses(composed.tracker.settings.samples, composed.model)
+    _report_rendering(composed, poses, args.poses, overrides)
+    chosen = poses[np.linspace(0, len(poses) - 1, 4 * args.poses).astype(int)]
+    images = bench_set_images(chosen, composed.model, composed.cameras[0])
+    log.info(
+        "a set's images (3 resolutions, areas) of %d poses: before %.2f ms/pose (one process), now %.2f "
+        "ms/pose (%s): %.1fx; pixels differing at 80x60 in all: %d",
+        len(chosen),
+        images["before_ms"],
+        images["now_ms"],
+        f"shards over {os.cpu_count()} cores",
+        images["before_ms"] / images["now_ms"],
+        images["differing_px_80x60"],
+    )
+    if args.build:
+        _report_build(overrides, len(poses))
+    report_machine()
+
+
+def _report_rendering(composed: Components, poses: np.ndarray, count: int, overrides: list[str]) -> None:
+    """Label rendering of ``count`` of the ``poses``, per part as before and batched."""
+    chosen = poses[np.linspace(0, len(poses) - 1, count).astype(int)]
     camera = composed.cameras[0]
     layout = sample_build._layout(
         Path(tempfile.mkdtemp()),
@@ -157,7 +178,7 @@ def run(poses_count: int, build_too: bool, overrides: list[str]) -> None:
     figures = bench_rendering(chosen, composed.model, camera, layout.tile, layout.near)
     log.info(
         "label rendering, %d poses of %s (window %s of %dx%d):",
-        poses_count,
+        count,
         " ".join(overrides),
         layout.window,
         camera.width,
@@ -172,32 +193,21 @@ def run(poses_count: int, build_too: bool, overrides: list[str]) -> None:
         figures["differing_px_mean"],
         figures["differing_px_max"],
     )
-    chosen = poses[np.linspace(0, len(poses) - 1, 4 * poses_count).astype(int)]
-    images = bench_set_images(chosen, composed.model, camera)
+
+
+def _report_build(overrides: list[str], poses: int) -> None:
+    log.info("building the set cold (%d poses), then starting on the cached set ...", poses)
+    times = bench_build(overrides)
     log.info(
-        "a set's images (3 resolutions, areas) of %d poses: before %.2f ms/pose (one process), now %.2f "
-        "ms/pose (%s): %.1fx; pixels differing at 80x60 in all: %d",
-        len(chosen),
-        images["before_ms"],
-        images["now_ms"],
-        f"shards over {os.cpu_count()} cores",
-        images["before_ms"] / images["now_ms"],
-        images["differing_px_80x60"],
+        "  poses %.1f s, sample set (%d, cold) %.1f s, tree %.1f s: %.1f s in all",
+        times["poses_s"],
+        times["samples"],
+        times["samples_s"],
+        times["tree_s"],
+        times["poses_s"] + times["samples_s"] + times["tree_s"],
     )
-    if build_too:
-        log.info("building the set cold (%d poses), then starting on the cached set ...", len(poses))
-        times = bench_build(overrides)
-        log.info(
-            "  poses %.1f s, sample set (%d, cold) %.1f s, tree %.1f s: %.1f s in all",
-            times["poses_s"],
-            times["samples"],
-            times["samples_s"],
-            times["tree_s"],
-            times["poses_s"] + times["samples_s"] + times["tree_s"],
-        )
-        log.info(
-            "  tracker start on them: %.1f s the first time (the likelihood calibration, then cached), %.1f s "
-            "the second",
-            times["first_start_s"],
-            times["second_start_s"],
-        )
+    log.info(
+        "  tracker start on them: %.1f s the first time (the likelihood calibration, then cached), %.1f s the second",
+        times["first_start_s"],
+        times["second_start_s"],
+    )

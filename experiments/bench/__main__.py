@@ -1,0 +1,36 @@
+"""Benchmarks, apart from the tests: ``python -m experiments.bench <target> [options]``, each target a module of this
+package that says what it measures:
+
+``render`` the off-screen renderer's passes; ``abis`` AbIS per frame, lm against sd; ``silhouettes`` sample-set
+build, silhouette capture and the costs' scoring; ``samples`` label rendering and the paper-scale set built cold;
+``tbf`` the tree-based filter per frame, vectorised scoring against naive. ``python -m experiments.bench.sweeps``
+times and resumes sweeps on each launcher.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+
+TARGETS = ("render", "abis", "silhouettes", "samples", "tbf")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("target", choices=TARGETS)
+    parser.add_argument("--poses", type=int, default=300, help="samples: poses rendered both ways")
+    parser.add_argument("--build", action="store_true", help="samples: also build the whole set and tree cold")
+    parser.add_argument("--frames", type=int, default=60)
+    parser.add_argument("--samples", type=int, default=10_000, help="pose samples (silhouettes)")
+    parser.add_argument("--experiment", default="tbf_table4c", help="tbf: the experiment preset")
+    parser.add_argument("overrides", nargs="*", help="samples, tbf: config overrides on top of the experiment")
+    parser.add_argument("--size", default="320x240", help="WIDTHxHEIGHT of every view (render, abis)")
+    args = parser.parse_intermixed_args()  # overrides may come after options
+    args.width, args.height = (int(v) for v in args.size.lower().split("x"))
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    importlib.import_module(f"experiments.bench.{args.target}").run(args)
+
+
+if __name__ == "__main__":
+    main()
