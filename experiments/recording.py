@@ -23,7 +23,6 @@ from __future__ import annotations
 import datetime
 import uuid
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -32,15 +31,14 @@ import rerun as rr
 from eval.video import VideoEncoder
 from experiments.components import Components
 from experiments.presentation import PALETTE, POINTS, default_blueprint
+from experiments.recorded_meshes import MeshLog
 from experiments.schemas import RecordSettings
 from tracker.atomic import AtomicFile
 from tracker.geometry.cameras import Camera
-from tracker.geometry.rotations import fit_rigid
 from tracker.observe.silhouettes import CapturedFrame
 from tracker.protocol import Points, RenderedFrame, StepResult
 from tracker.registry import COSTS
 from tracker.tbf.costs import weight_map
-from tracker.tol import RIGID_MESH_M
 
 APPLICATION_ID = "articulated-tracking"
 TIMELINE = "frame"
@@ -52,16 +50,6 @@ SILHOUETTE = [
     rr.AnnotationInfo(id=0, label="outside", color=(0, 0, 0, 0)),
     rr.AnnotationInfo(id=1, label="silhouette", color=(255, 230, 0, 255)),
 ]
-
-
-@dataclass(frozen=True)
-class LoggedMesh:
-    """A mesh entity as the viewer shows it: ``vertices`` as logged, moved by a logged transform (``moved``) to
-    ``shown`` (world, float64)."""
-
-    vertices: np.ndarray
-    shown: np.ndarray
-    moved: bool
 
 
 class RunRecording:
@@ -92,8 +80,8 @@ class RunRecording:
         )
         self.stream.save(self._file.temporary, default_blueprint=blueprint)
         self._log_static(components.cameras)
-        self._static: set[str] = set()  # entities whose static part (faces, colours, classes) is logged
-        self._meshes: dict[str, LoggedMesh] = {}
+        self._static: set[str] = set()  # entities whose point states (classes, colours) are logged
+        self._meshes = MeshLog(self.stream)  # meshes written again only when they change shape
         self._frames: list[int] = []  # the run's frames, as logged
         self._series: dict[str, tuple[list[int], list[float]]] = {}  # entity -> its frames and values, sent on close
 
@@ -141,7 +129,7 @@ class RunRecording:
             for part, pixels in zip(self.model.part_names, frame.visible_px[view], strict=True):
                 self._scalar(f"metrics/visible_px/{view}/{part}", pixels)
         if self._meshes_due(frame.frame):
-            self._log_meshes("truth", frame.meshes)
+            self._meshes.log("truth", frame.meshes)
         self._log_params("truth", frame.truth)
 
     def log_capture(self, captured: CapturedFrame) -> None:
@@ -166,7 +154,7 @@ class RunRecording:
         log = self.stream.log
         if result.estimate is not None:
             if self._meshes_due(result.frame):
-                self._log_meshes("estimate", self.model.surface_meshes(result.estimate), rgba=(255, 255, 0, 120))
+                self._meshes.log("estimate", self.model.surface_meshes(result.estimate), rgba=(255, 255, 0, 120))
             self._log_params("estimate", result.estimate)
         series = dict(result.series)
         for column in getattr(self.evaluation, "series", ()):
@@ -206,31 +194,6 @@ class RunRecording:
 
     def _meshes_due(self, frame: int) -> bool:
         return self.record.meshes_every > 0 and frame % self.record.meshes_every == 0
-
-    def _log_meshes(self, kind: str, meshes, rgba: tuple[int, int, int, int] | None = None) -> None:
-        """``world/<kind>/<part>``: faces and colour once (static); when the part moved, a Transform3D if it moved
-        rigidly from its last logged vertices (a pose change), else its new vertices (a shape change)."""
-        for mesh in meshes:
-            path = f"world/{kind}/{mesh.key}"
-            if path not in self._static:
-                colour = rgba if rgba is not None else (*mesh.color, 255)
-                self.stream.log(
-                    path, rr.Mesh3D.from_fields(triangle_indices=mesh.faces, albedo_factor=colour), static=True
-                )
-                self._static.add(path)
-            logged = self._meshes.get(path)
-            if logged is not None and np.array_equal(mesh.vertices, logged.shown):
-                continue
-            transform, residual = fit_rigid(logged.vertices, mesh.vertices) if logged else (None, np.inf)
-            if residual <= RIGID_MESH_M:
-                self.stream.log(path, rr.Transform3D(translation=transform[:3, 3], mat3x3=transform[:3, :3]))
-                self._meshes[path] = LoggedMesh(logged.vertices, mesh.vertices, moved=True)
-                continue
-            # positions only (the viewer shades without normals), and the transform reset in the same row
-            vertices = rr.Mesh3D.from_fields(vertex_positions=mesh.vertices.astype(np.float32))
-            identity = [rr.Transform3D(translation=np.zeros(3), mat3x3=np.eye(3))] if logged and logged.moved else []
-            self.stream.log(path, vertices, *identity)
-            self._meshes[path] = LoggedMesh(mesh.vertices, mesh.vertices, moved=False)
 
     def _log_params(self, kind: str, params: np.ndarray) -> None:
         """``metrics/params/<name>/<kind>`` for every named parameter of the model (unless ``record.parameters``

@@ -45,7 +45,13 @@ def test_metrics_summarise_the_run(five_frame_run):
     }
     assert (metrics["seed"], metrics["frames"], metrics["frames_done"]) == (0, 5, 5)
     assert metrics["views"] == ["front", "left", "top"]
-    assert set(timing) == {"pose_ms_median", "render_ms_median", "record_ms_median", "render_ms_per_view_median"}
+    assert set(timing) == {
+        "pose_ms_median",
+        "render_ms_median",
+        "evaluate_ms_median",
+        "record_ms_median",
+        "render_ms_per_view_median",
+    }
     assert all(value > 0 for value in timing.values())
     assert metrics["min_visible_fraction"]["forearm"]["left"] == 0.0  # hidden end-on at frame 0
 
