@@ -143,23 +143,25 @@ def build_set(
     for shard in tqdm(
         _run(tasks, settings), total=len(todo), desc="rendering pose samples", disable=not show, unit="shard"
     ):
-        k, rows = shard["shard"], shards[shard["shard"]]
-        for res in resolutions:
-            labels[res][rows] = shard["labels"][res]
-        areas[rows] = shard["areas"]
-        with atomic_path(building / f"shard{k}.runs.npz") as temporary, open(temporary, "wb") as file:
-            np.savez(
-                file,
-                **{
-                    f"{res[0]}x{res[1]}_{part}": shard["runs"][res][part]
-                    for res in resolutions
-                    for part in ("starts", "ends", "counts")
-                },
-            )
-        for array in (*labels.values(), areas):
-            array.flush()
-        (building / f"shard{k}.done").touch()
+        _store_shard(building, shard, shards[shard["shard"]], labels, areas)
     _finish(building, folder, poses, shards, resolutions, windows)
+
+
+def _store_shard(building: Path, shard: dict, rows: slice, labels: dict, areas: np.ndarray) -> None:
+    """A rendered shard into the set's memory-mapped arrays (``labels`` per resolution, ``areas``) at ``rows``,
+    its runs beside them, and marked done: a killed build resumes after it."""
+    for res, images in labels.items():
+        images[rows] = shard["labels"][res]
+    areas[rows] = shard["areas"]
+    runs = shard["runs"]
+    with atomic_path(building / f"shard{shard['shard']}.runs.npz") as temporary, open(temporary, "wb") as file:
+        np.savez(
+            file,
+            **{f"{r[0]}x{r[1]}_{part}": runs[r][part] for r in labels for part in ("starts", "ends", "counts")},
+        )
+    for array in (*labels.values(), areas):
+        array.flush()
+    (building / f"shard{shard['shard']}.done").touch()
 
 
 def render_shard(
