@@ -33,6 +33,24 @@ from tracker.protocol import SampleDictionary
 _R = slice(PARAM_INDEX["r1"], PARAM_INDEX["r3"] + 1)
 
 
+def surface_distance_mm(
+    estimated_points: np.ndarray,
+    true_points: np.ndarray,
+    estimated_vertices: np.ndarray,
+    true_vertices: np.ndarray,
+    faces: np.ndarray,
+) -> float:
+    """The point-to-surface distance both ways (mm): each surface's samples to the other surface's mesh, averaged."""
+    return 1e3 * float(
+        np.concatenate(
+            [
+                point_mesh_distance(estimated_points, true_vertices, faces),
+                point_mesh_distance(true_points, estimated_vertices, faces),
+            ]
+        ).mean()
+    )
+
+
 @dataclass(frozen=True)
 class ArmEvaluation:
     series: tuple[str, ...] = ("rotation_error_deg", "surface_error_mm", "surface_distance_mm")  # plotted
@@ -44,22 +62,12 @@ class ArmEvaluation:
             estimated_points, true_points = arm.sample_points(estimate), arm.sample_points(truth)
             pairs = zip(estimated_points, true_points, strict=True)
             part["surface_error_mm"] = np.array([1e3 * float(np.linalg.norm(e - t, axis=1).mean()) for e, t in pairs])
+            faces = arm.topology.faces
             surfaces = zip(
-                estimated_points, true_points, arm.surface_meshes(estimate), arm.surface_meshes(truth), strict=True
+                estimated_points, true_points, arm.surface_vertices(estimate), arm.surface_vertices(truth), strict=True
             )
             part["surface_distance_mm"] = np.array(
-                [
-                    1e3
-                    * float(
-                        np.concatenate(
-                            [
-                                point_mesh_distance(e, true_mesh.vertices, true_mesh.faces),
-                                point_mesh_distance(t, estimated_mesh.vertices, estimated_mesh.faces),
-                            ]
-                        ).mean()
-                    )
-                    for e, t, estimated_mesh, true_mesh in surfaces
-                ]
+                [surface_distance_mm(e, t, estimated, true, faces) for e, t, estimated, true in surfaces]
             )
             part["rotation_error_deg"] = np.array(
                 [

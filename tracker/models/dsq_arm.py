@@ -162,25 +162,27 @@ class DSQArm:
         grid = self.sample_grid
         return [transform_points(world[k], dsq_points(params[k], grid.eta, grid.omega)) for k in range(len(self.parts))]
 
+    def surface_vertices(self, params: np.ndarray) -> list[np.ndarray]:
+        """Per part, the world positions of its mesh's vertices (faces: ``topology.faces``)."""
+        world = self.world_transforms(params)
+        eta, omega = self.topology.eta, self.topology.omega
+        return [transform_points(world[k], dsq_points(params[k], eta, omega)) for k in range(len(self.parts))]
+
     def surface_meshes(self, params: np.ndarray) -> list[SurfaceMesh]:
         """The parts' textured meshes in the world, labels 1..n."""
-        world = self.world_transforms(params)
-        meshes = []
-        for k, part in enumerate(self.parts):
-            vertices = transform_points(world[k], dsq_points(params[k], self.topology.eta, self.topology.omega))
-            meshes.append(
-                SurfaceMesh(
-                    key=part.name,
-                    label=k + 1,
-                    vertices=vertices,
-                    faces=self.topology.faces,
-                    normals=vertex_normals(vertices, self.topology.faces, self.topology.weld),
-                    color=part.tint,
-                    uv=self.topology.uv,
-                    texture=self.textures[k],
-                )
+        return [
+            SurfaceMesh(
+                key=part.name,
+                label=k + 1,
+                vertices=vertices,
+                faces=self.topology.faces,
+                normals=vertex_normals(vertices, self.topology.faces, self.topology.weld),
+                color=part.tint,
+                uv=self.topology.uv,
+                texture=self.textures[k],
             )
-        return meshes
+            for k, (part, vertices) in enumerate(zip(self.parts, self.surface_vertices(params), strict=True))
+        ]
 
     def zbuffer_meshes(self, params: np.ndarray) -> list[SurfaceMesh]:
         """Coarser, unlit meshes (labels 1..n) for visibility: a z-buffer needs neither texture nor normals."""

@@ -4,7 +4,10 @@ Outputs per view (arrays indexed ``[v, u]``, OpenCV pixel convention of `tracker
     rgb    ``(h, w, 3)`` uint8, lit and textured, background ``background_rgb``;
     depth  ``(h, w)`` float32, camera-frame z of the nearest surface in metres, ``inf`` where there is none;
     labels ``(h, w)`` uint8, 0 for background and each mesh's ``label`` where it is the nearest surface.
-One GL context serves every frame and camera of a run; textures are uploaded once per mesh ``key``.
+One GL context serves every frame and camera of a run; textures are uploaded once per mesh ``key``. Consecutive
+meshes that look alike (untextured, one colour: the body's parts) are drawn as one mesh in the lit pass, which
+pays pyrender's per-mesh cost once (the same triangles in the same order: the same pixels); the label pass draws
+each part on its own.
 """
 
 from __future__ import annotations
@@ -70,7 +73,8 @@ class SceneRenderer:
             self._scene.add(pr.DirectionalLight(color=np.ones(3), intensity=intensity), pose=_light_pose(direction))
         self._camera_node = self._scene.add(pr.IntrinsicsCamera(fx=1, fy=1, cx=0, cy=0))
         self._materials: dict[str, object] = {}
-        self._mesh_nodes: list = []
+        self._mesh_nodes: list = []  # one per mesh: the label pass's, and the lit pass's where not merged
+        self._merged_nodes: list = []  # the lit pass's, one per run of alike meshes
         self.last_pass_ms: dict[str, float] = {}  # time spent in each pass, summed over the last call's cameras
         try:
             self._renderer = pr.OffscreenRenderer(self.width, self.height)
@@ -92,7 +96,7 @@ class SceneRenderer:
         """Render ``meshes`` from every camera; returns views keyed by camera name."""
         if self._renderer is None:
             raise RuntimeError("the renderer is closed")
-        self._set_meshes(meshes)
+        self._set_meshes(meshes, merge=True)
         pr = self._pyrender
         seg_map = {node: (mesh.label,) * 3 for node, mesh in zip(self._mesh_nodes, meshes, strict=True)}
         views = {}
@@ -100,7 +104,7 @@ class SceneRenderer:
         for camera in cameras:
             self._set_camera(camera)
             start = time.perf_counter()
-            rgb, depth = self._renderer.render(self._scene)
+            rgb, depth = self._lit_pass()
             lit = time.perf_counter()
             labels, _ = self._renderer.render(self._scene, flags=pr.RenderFlags.SEG, seg_node_map=seg_map)
             pass_ms["rgb_depth"] += 1e3 * (lit - start)
@@ -137,24 +141,45 @@ class SceneRenderer:
         )
         self._scene.set_pose(self._camera_node, gl.pose)
 
-    def _set_meshes(self, meshes: Sequence[SurfaceMesh]) -> None:
-        """Replace last frame's mesh nodes (vertices change every frame; materials and textures are reused)."""
+    def _lit_pass(self) -> tuple[np.ndarray, np.ndarray]:
+        """The lit RGB and depth pass, with each run of alike meshes drawn as its one merged mesh."""
+        merged = [node for node in self._mesh_nodes if node.merged]
+        for node in merged:
+            node.mesh.is_visible = False
+        try:
+            return self._renderer.render(self._scene)
+        finally:
+            for node in merged:
+                node.mesh.is_visible = True
+
+    def _set_meshes(self, meshes: Sequence[SurfaceMesh], merge: bool = False) -> None:
+        """Replace last frame's mesh nodes (vertices change every frame; materials and textures are reused); with
+        ``merge``, also one node per run of two or more consecutive alike meshes, for the lit pass."""
         pr = self._pyrender
-        for node in self._mesh_nodes:
+        for node in self._mesh_nodes + self._merged_nodes:
             self._scene.remove_node(node)
-        self._mesh_nodes = []
+        self._mesh_nodes, self._merged_nodes = [], []
         node_in_order = _node_in_order(pr.Node)
         for order, mesh in enumerate(meshes):
-            primitive = pr.Primitive(
-                positions=mesh.vertices.astype(np.float32),
-                normals=None if mesh.normals is None else mesh.normals.astype(np.float32),
-                texcoord_0=None if mesh.uv is None else mesh.uv.astype(np.float32),
-                indices=mesh.faces.astype(np.uint32),
-                material=self._material(mesh),
-            )
-            node = node_in_order(order, mesh=pr.Mesh([primitive]))
+            node = node_in_order(order, mesh=pr.Mesh([self._primitive(mesh)]))
+            node.merged = False
             self._scene.add_node(node)
             self._mesh_nodes.append(node)
+        for first, last in _alike_runs(meshes) if merge else ():
+            for node in self._mesh_nodes[first:last]:
+                node.merged = True
+            merged = node_in_order(len(meshes) + first, mesh=pr.Mesh([self._primitive(_merged(meshes[first:last]))]))
+            self._scene.add_node(merged)
+            self._merged_nodes.append(merged)
+
+    def _primitive(self, mesh: SurfaceMesh):
+        return self._pyrender.Primitive(
+            positions=mesh.vertices.astype(np.float32),
+            normals=None if mesh.normals is None else mesh.normals.astype(np.float32),
+            texcoord_0=None if mesh.uv is None else mesh.uv.astype(np.float32),
+            indices=mesh.faces.astype(np.uint32),
+            material=self._material(mesh),
+        )
 
     def _material(self, mesh: SurfaceMesh):
         material = self._materials.get(mesh.key)
@@ -194,6 +219,37 @@ def _node_in_order(node_class: type) -> type:
 def _metric_depth(depth: np.ndarray) -> np.ndarray:
     """pyrender's depth (camera z in metres, 0 where nothing was drawn) with ``inf`` where nothing was drawn."""
     return np.where(depth > 0, depth, np.inf).astype(np.float32)
+
+
+def _look(mesh: SurfaceMesh) -> tuple | None:
+    """What a mesh looks like in the lit pass, when two meshes alike in it can be drawn as one (None: its own)."""
+    if mesh.texture is not None or mesh.uv is not None or mesh.normals is None:
+        return None
+    return tuple(mesh.color)
+
+
+def _alike_runs(meshes: Sequence[SurfaceMesh]) -> list[tuple[int, int]]:
+    """``[first, last)`` of each run of two or more consecutive meshes alike in the lit pass."""
+    runs, first = [], 0
+    for index in range(1, len(meshes) + 1):
+        if index == len(meshes) or _look(meshes[index]) is None or _look(meshes[index]) != _look(meshes[first]):
+            if index - first > 1 and _look(meshes[first]) is not None:
+                runs.append((first, index))
+            first = index
+    return runs
+
+
+def _merged(meshes: Sequence[SurfaceMesh]) -> SurfaceMesh:
+    """Alike meshes as one, their vertices and faces one after another, in order."""
+    offsets = np.cumsum([0] + [len(mesh.vertices) for mesh in meshes])[:-1]
+    return SurfaceMesh(
+        key=f"merged {meshes[0].color}",
+        label=meshes[0].label,
+        vertices=np.concatenate([mesh.vertices for mesh in meshes]),
+        faces=np.concatenate([mesh.faces + offset for mesh, offset in zip(meshes, offsets, strict=True)]),
+        normals=np.concatenate([mesh.normals for mesh in meshes]),
+        color=meshes[0].color,
+    )
 
 
 def _light_pose(direction: Sequence[float]) -> np.ndarray:
