@@ -53,36 +53,46 @@ def sweep_table(runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def write_reports(runs: pd.DataFrame, out: Path) -> list[Path]:
+    """Fig 4(c)'s and Fig 6(d)'s tables of ``runs`` into ``out``, where the runs make them."""
     out.mkdir(parents=True, exist_ok=True)
-    written = []
+    return write_table_4c(runs, out) + write_table_6d(runs, out)
+
+
+def write_table_4c(runs: pd.DataFrame, out: Path) -> list[Path]:
+    """``table4c.md`` and ``.csv`` (none when no run scored swings)."""
     four_c = table_4c(runs)
-    if not four_c.empty:
-        with atomic_path(out / "table4c.csv") as temporary:
-            four_c.to_csv(temporary, index=False)
-        text = (
-            "# Fig 4(c): right-arm swings tracked (of the swings in each run)\n\n"
-            f"Machine: {machine()}. Swings are scored by the rule of `tracker/evaluation/body.py` "
-            "(the paper counted by eye); counts are mean ± std over a cell's runs.\n\n"
-            + markdown(four_c)
-            + "\n\n## Success at other bounds of a swing's largest error (the rule's: 20 degrees)\n\n"
-            + markdown(table_4c_bounds(runs))
-            + "\n"
-        )
-        with atomic_path(out / "table4c.md") as temporary:
-            temporary.write_text(text)
-        written += [out / "table4c.md", out / "table4c.csv"]
+    if four_c.empty:
+        return []
+    with atomic_path(out / "table4c.csv") as temporary:
+        four_c.to_csv(temporary, index=False)
+    text = (
+        "# Fig 4(c): right-arm swings tracked (of the swings in each run)\n\n"
+        f"Machine: {machine()}. Swings are scored by the rule of `tracker/evaluation/body.py` "
+        "(the paper counted by eye); counts are mean ± std over a cell's runs.\n\n"
+        + markdown(four_c)
+        + "\n\n## Success at other bounds of a swing's largest error (the rule's: 20 degrees)\n\n"
+        + markdown(table_4c_bounds(runs))
+        + "\n"
+    )
+    with atomic_path(out / "table4c.md") as temporary:
+        temporary.write_text(text)
+    return [out / "table4c.md", out / "table4c.csv"]
+
+
+def write_table_6d(runs: pd.DataFrame, out: Path) -> list[Path]:
+    """``table6d.md`` (none when no run timed a capture and an estimation)."""
     six_d = table_6d(runs)
-    if not six_d.empty:
-        text = (
-            "# Fig 6(d): processing time (ms per frame)\n\n"
-            f"Ours: {machine()}, over every frame of the runs, grouped by the number of pose samples "
-            "(capture = silhouette extraction at 320x240; estimation = the tracker's step). The paper's "
-            "columns are its own machines, for its 57,136 samples.\n\n" + markdown(six_d.round(2)) + "\n"
-        )
-        with atomic_path(out / "table6d.md") as temporary:
-            temporary.write_text(text)
-        written.append(out / "table6d.md")
-    return written
+    if six_d.empty:
+        return []
+    text = (
+        "# Fig 6(d): processing time (ms per frame)\n\n"
+        f"Ours: {machine()}, over every frame of the runs, grouped by the number of pose samples "
+        "(capture = silhouette extraction at 320x240; estimation = the tracker's step). The paper's "
+        "columns are its own machines, for its 57,136 samples.\n\n" + markdown(six_d.round(2)) + "\n"
+    )
+    with atomic_path(out / "table6d.md") as temporary:
+        temporary.write_text(text)
+    return [out / "table6d.md"]
 
 
 def main() -> None:

@@ -8,6 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from tracker.atomic import atomic_path
+
 # Runs kept for their tables: the tracker's and the errors' series only (~0.7 MB), no images, meshes or parameters.
 LIGHT_RECORDING = ("record.images=false", "record.meshes_every=0", "record.parameters=false")
 
@@ -22,19 +24,19 @@ def run_experiment(name: str, run_dir: Path, *overrides: str) -> Path:
     return run_dir
 
 
-def run_sweep(name: str, sweep_dir: Path, *overrides: str) -> None:
-    """A Hydra multirun of ``experiment=<name>`` into ``sweep_dir`` (one folder per job); fail if a job failed."""
-    command = [
-        sys.executable,
-        "-m",
-        "experiments.run",
-        "-m",
-        f"experiment={name}",
-        f"hydra.sweep.dir={sweep_dir}",
-        *overrides,
-    ]
+def run_sweep(sweep_dir: Path, *overrides: str) -> None:
+    """A Hydra multirun of ``overrides`` (``experiment=...`` among them) into ``sweep_dir`` (one folder per job);
+    fail if a job failed."""
+    command = [sys.executable, "-m", "experiments.run", "-m", f"hydra.sweep.dir={sweep_dir}", *overrides]
     subprocess.run(command, check=True)
     for metrics_path in sorted(sweep_dir.glob("*/metrics.json")):
         status = json.loads(metrics_path.read_text())["status"]
         if status != "ok":
             raise SystemExit(f"{metrics_path.parent}: {status}")
+
+
+def write_text(path: Path, text: str) -> Path:
+    """``text`` into ``path``, atomically."""
+    with atomic_path(path) as temporary:
+        temporary.write_text(text)
+    return path

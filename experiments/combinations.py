@@ -15,7 +15,6 @@ a tracker on more views), into ``reports/combinations/`` and ``reports/combinati
 from __future__ import annotations
 
 import shutil
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,10 +22,10 @@ from omegaconf import OmegaConf
 
 from eval.combinations import arm_table, body_table
 from eval.runs import markdown
-from experiments.cli_runs import LIGHT_RECORDING, run_experiment
+from experiments.cli_runs import LIGHT_RECORDING, run_experiment, write_text
 from experiments.real_motion import FPS, HELD_OUT
 from experiments.schemas import CONFIG_DIR
-from tracker.atomic import atomic_path
+from experiments.steps import Section, Step
 from tracker.motion.mocap import available_frames, read_clip
 
 CAMERA_COUNTS = (1, 2, 3)  # the first views of rig=body_multi
@@ -72,9 +71,8 @@ def body_runs() -> dict[str, BodyRow]:
     return rows
 
 
-def combinations(reports: Path) -> tuple[str, str]:
-    """Run every row; return the console summary and report.md's section."""
-    start = time.perf_counter()
+def combinations_step(reports: Path) -> Section:
+    """Run every row, one after another (paper-scale runs from three views take much of the machine's memory)."""
     root = reports / "combinations"
     shutil.rmtree(root, ignore_errors=True)
     body_rows = body_runs()
@@ -97,13 +95,10 @@ def combinations(reports: Path) -> tuple[str, str]:
         folder = root / "arm" / ("tbf" if overrides else "abis")
         arm_runs[label] = run_experiment("abis_fig8_fig9", folder, *overrides, *LIGHT_RECORDING)
     body, arm = body_table(root, {folder: row.label for folder, row in body_rows.items()}), arm_table(arm_runs)
-    with atomic_path(reports / "combinations.csv") as temporary:
-        body.to_csv(temporary, index=False)
+    write_text(reports / "combinations.csv", body.to_csv(index=False))
     text = markdown(body) + "\n\n" + markdown(arm)
-    with atomic_path(reports / "combinations.md") as temporary:
-        temporary.write_text(text + "\n")
-    seconds = time.perf_counter() - start
-    console = f"\nAny model with any tracker ({seconds:.0f} s):\n{text}\n"
+    write_text(reports / "combinations.md", text + "\n")
+    console = f"\nAny model with any tracker:\n{text}\n"
     section = (
         "### Any model with any tracker: several views for tree filtering, the body by AbIS, the arm by tree "
         "filtering\n\n"
@@ -115,4 +110,14 @@ def combinations(reports: Path) -> tuple[str, str]:
         "elbow swing by AbIS and by tree filtering over a grid of its parameters (the floor: the grid's sample "
         "nearest the truth).\n\n" + text + "\n\n"
     )
-    return console, section
+    return Section(console, section)
+
+
+STEP = Step(
+    "Any model with any tracker (SCALE=paper): the held-out clips by tree filtering from 1-3 cameras and by AbIS, "
+    "the arm by both",
+    ("tbf_paper_scale", "tbf_multi_view", "abis_body", "abis_fig8_fig9"),
+    ("combinations.md",),
+    combinations_step,
+    scale="paper",
+)
