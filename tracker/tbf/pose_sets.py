@@ -6,7 +6,7 @@
 each clip turned to face ``yaw_deg`` at its first frame and centred over the origin; `varied` turns them about the
 vertical and jitters copies, `mirrored` swaps left and right. Either gives pose vectors; `remove_near_duplicates`
 then keeps no two within ``min_joint_deg`` in every joint (the paper's rule), for
-`tracker.tbf.samples.load_or_build`.
+`tracker.tbf.sample_build.load_or_build`.
 
 Clip poses come in sequences (one per clip and per variation of it): `successors` links each pose to the next
 frame of its sequence, and `near_duplicate_representatives` says which kept pose stands for each dropped one, so

@@ -7,7 +7,7 @@ bytes, a SHA-256 of all of it and a sampled digest (`sampled_digest`: its first 
 spread evenly between). Loading checks the key, the format, every size and shape and every sampled digest
 (``check="sampled"``: a truncated, swapped or damaged-at-the-ends file is caught in milliseconds), or every byte
 (``check="full"``: the SHA-256 of each array). Anything that fails is reported with a `ValueError` and rebuilt by
-`tracker.tbf.samples.load_or_build`, never used.
+`tracker.tbf.sample_build.load_or_build`, never used.
 """
 
 from __future__ import annotations
