@@ -26,7 +26,7 @@ OPTIMIZERS = ("lm", "sd")
 SEEDS = 10
 FIGURES = "abis"  # reports/abis/<experiment>_<optimizer>/: the figures' runs, recorded whole
 SEEDS_DIR = "abis_seeds"
-BOTH_SCENES = "experiment=" + ",".join(SCENES)
+BOTH_SCENES = ("experiment=" + ",".join(SCENES), "tracker=abis")  # the tracker named: a sweep composes without them
 NAMED_BY_SCENE = "hydra.sweep.subdir=${hydra:runtime.choices.experiment}_${tracker.fit.optimizer}"
 
 
@@ -35,7 +35,7 @@ def figures_step(reports: Path) -> Section:
     root = reports / FIGURES
     shutil.rmtree(root, ignore_errors=True)
     print("paper 1: AbIS in both scenes with both optimisers, one job per core ...", flush=True)
-    run_sweep(root, BOTH_SCENES, f"tracker.fit.optimizer={','.join(OPTIMIZERS)}", NAMED_BY_SCENE)
+    run_sweep(root, *BOTH_SCENES, f"tracker.fit.optimizer={','.join(OPTIMIZERS)}", NAMED_BY_SCENE)
     rows, figures = [], {}
     for experiment, scene in SCENES.items():
         for optimizer in OPTIMIZERS:
@@ -95,9 +95,9 @@ def seeds_step(reports: Path) -> Section:
     shutil.rmtree(root, ignore_errors=True)
     optimizers = f"tracker.fit.optimizer={','.join(OPTIMIZERS)}"
     print(f"paper 1: {SEEDS} seeds x optimiser x selection in both scenes, one job per core ...", flush=True)
-    run_sweep(root / "zbuffer", BOTH_SCENES, f"seed=range(1,{SEEDS})", optimizers, *LIGHT_RECORDING)
+    run_sweep(root / "zbuffer", *BOTH_SCENES, f"seed=range(1,{SEEDS})", optimizers, *LIGHT_RECORDING)
     run_sweep(
-        root / "none", BOTH_SCENES, f"seed=range({SEEDS})", optimizers, "tracker.selection=none", *LIGHT_RECORDING
+        root / "none", *BOTH_SCENES, f"seed=range({SEEDS})", optimizers, "tracker.selection=none", *LIGHT_RECORDING
     )
     seeds = seeds_table(abis_runs([reports / FIGURES, root]))
     text = _seeds_caption() + markdown(seeds)

@@ -46,6 +46,8 @@ def validate_command_line(argv: list[str], config_dir: Path, config_name: str) -
     if (jobs := _jobs(argv)) is None:
         return
     overrides, multirun = jobs
+    if multirun:
+        check_sweep_settings(overrides, config_dir, config_name)
     for combination in sweep_combinations(overrides):
         cfg = _compose(config_dir, config_name, combination)
         check_output_dir(
@@ -61,6 +63,25 @@ def validate_command_line(argv: list[str], config_dir: Path, config_name: str) -
             check_config(cfg, choices)
         except OmegaConfBaseException as error:
             raise ConfigError(_describe(error)) from None
+
+
+def check_sweep_settings(overrides: list[str], config_dir: Path, config_name: str) -> None:
+    """A sweep's settings compose before its swept options: Hydra first composes the command line without them (for
+    its own settings), so a setting of an option that only a swept preset or group picks fails there."""
+    try:
+        parsed = OverridesParser.create().parse_overrides(overrides)
+    except OverrideParseException:
+        return  # `sweep_combinations` says why, in one line
+    swept = [text for override, text in zip(parsed, overrides, strict=True) if override.is_sweep_override()]
+    if not swept:
+        return
+    try:
+        _compose(config_dir, config_name, [text for text in overrides if text not in swept])
+    except ConfigError as error:
+        keys = ", ".join(_key(text) for text in swept)
+        raise ConfigError(
+            f"{error} (a sweep composes this before its swept {keys}: name the option it belongs to)"
+        ) from None
 
 
 def _key(override: str) -> str:

@@ -149,6 +149,11 @@ AT_START = [
     (["scene.arm.bend_amplitude=nan"], r"^scene\.arm\.bend_amplitude=nan is out of range: allowed a finite number$"),
     (["-m", "frames=2,0"], r"^frames=0 is out of range: allowed >= 1$"),
     (
+        ["-m", "experiment=abis_fig8_fig9,abis_occlusion", "tracker.selection=none"],
+        r"^tracker\.selection: unknown key, allowed keys here: none \(a sweep composes this before its swept "
+        r"experiment: name the option it belongs to\)$",
+    ),
+    (
         ["experiment=tbf_table4c_clean", "tracker.samples.grid.swing_deg=[60,-60,6]"],
         r"^tracker\.samples\.grid\.swing_deg=\[60\.0, -60\.0, 6\.0\] is not allowed: allowed \[start, stop, step\] "
         r"with start <= stop$",
