@@ -4,10 +4,11 @@ Outputs per view (arrays indexed ``[v, u]``, OpenCV pixel convention of `tracker
     rgb    ``(h, w, 3)`` uint8, lit and textured, background ``background_rgb``;
     depth  ``(h, w)`` float32, camera-frame z of the nearest surface in metres, ``inf`` where there is none;
     labels ``(h, w)`` uint8, 0 for background and each mesh's ``label`` where it is the nearest surface.
-One GL context serves every frame and camera of a run; textures are uploaded once per mesh ``key``. Consecutive
-meshes that look alike (untextured, one colour: the body's parts) are drawn as one mesh in the lit pass, which
-pays pyrender's per-mesh cost once (the same triangles in the same order: the same pixels); the label pass draws
-each part on its own.
+One GL context serves every frame and camera of a run; textures are uploaded once per mesh ``key``. pyrender's
+cost is mostly per mesh drawn, so each pass draws as few as it can, the same triangles in the same order (the same
+pixels as one mesh per part): the lit pass draws consecutive meshes that look alike (untextured, one colour: the
+body's parts) as one mesh, and the label pass draws every mesh as one, unlit, each vertex coloured by its part's
+label.
 """
 
 from __future__ import annotations
@@ -73,8 +74,9 @@ class SceneRenderer:
             self._scene.add(pr.DirectionalLight(color=np.ones(3), intensity=intensity), pose=_light_pose(direction))
         self._camera_node = self._scene.add(pr.IntrinsicsCamera(fx=1, fy=1, cx=0, cy=0))
         self._materials: dict[str, object] = {}
-        self._mesh_nodes: list = []  # one per mesh: the label pass's, and the lit pass's where not merged
-        self._merged_nodes: list = []  # the lit pass's, one per run of alike meshes
+        self._lit_nodes: list = []  # the lit pass's: one per run of alike meshes, or per mesh
+        self._label_node = None  # the label pass's: every mesh as one, each vertex coloured by its label
+        self._label_material = pr.MetallicRoughnessMaterial(baseColorFactor=[1.0, 1.0, 1.0, 1.0])
         self.last_pass_ms: dict[str, float] = {}  # time spent in each pass, summed over the last call's cameras
         try:
             self._renderer = pr.OffscreenRenderer(self.width, self.height)
@@ -96,9 +98,7 @@ class SceneRenderer:
         """Render ``meshes`` from every camera; returns views keyed by camera name."""
         if self._renderer is None:
             raise RuntimeError("the renderer is closed")
-        self._set_meshes(meshes, merge=True)
-        pr = self._pyrender
-        seg_map = {node: (mesh.label,) * 3 for node, mesh in zip(self._mesh_nodes, meshes, strict=True)}
+        self._set_meshes(meshes, lit=True)
         views = {}
         pass_ms = {"rgb_depth": 0.0, "labels": 0.0}
         for camera in cameras:
@@ -106,7 +106,7 @@ class SceneRenderer:
             start = time.perf_counter()
             rgb, depth = self._lit_pass()
             lit = time.perf_counter()
-            labels, _ = self._renderer.render(self._scene, flags=pr.RenderFlags.SEG, seg_node_map=seg_map)
+            labels, _ = self._label_pass()
             pass_ms["rgb_depth"] += 1e3 * (lit - start)
             pass_ms["labels"] += 1e3 * (time.perf_counter() - lit)
             views[camera.name] = RenderedView(
@@ -119,14 +119,11 @@ class SceneRenderer:
         """Depth and labels only (one unlit pass per camera): the z-buffer an estimator uses for visibility."""
         if self._renderer is None:
             raise RuntimeError("the renderer is closed")
-        self._set_meshes(meshes)
-        seg_map = {node: (mesh.label,) * 3 for node, mesh in zip(self._mesh_nodes, meshes, strict=True)}
+        self._set_meshes(meshes, lit=False)
         views = {}
         for camera in cameras:
             self._set_camera(camera)
-            labels, depth = self._renderer.render(
-                self._scene, flags=self._pyrender.RenderFlags.SEG, seg_node_map=seg_map
-            )
+            labels, depth = self._label_pass()
             views[camera.name] = DepthLabels(depth=_metric_depth(depth), labels=np.ascontiguousarray(labels[:, :, 0]))
         return views
 
@@ -142,35 +139,45 @@ class SceneRenderer:
         self._scene.set_pose(self._camera_node, gl.pose)
 
     def _lit_pass(self) -> tuple[np.ndarray, np.ndarray]:
-        """The lit RGB and depth pass, with each run of alike meshes drawn as its one merged mesh."""
-        merged = [node for node in self._mesh_nodes if node.merged]
-        for node in merged:
-            node.mesh.is_visible = False
+        """RGB and depth, lit and textured: the lit nodes drawn, the label node hidden."""
+        if self._label_node is not None:
+            self._label_node.mesh.is_visible = False
         try:
             return self._renderer.render(self._scene)
         finally:
-            for node in merged:
+            if self._label_node is not None:
+                self._label_node.mesh.is_visible = True
+
+    def _label_pass(self) -> tuple[np.ndarray, np.ndarray]:
+        """Labels (every channel the label, 0 on the background) and depth: the label node drawn unlit on black,
+        the lit nodes hidden."""
+        background, self._scene.bg_color = self._scene.bg_color, np.array([0.0, 0.0, 0.0, 1.0])
+        for node in self._lit_nodes:
+            node.mesh.is_visible = False
+        try:
+            return self._renderer.render(self._scene, flags=self._pyrender.RenderFlags.FLAT)
+        finally:
+            self._scene.bg_color = background
+            for node in self._lit_nodes:
                 node.mesh.is_visible = True
 
-    def _set_meshes(self, meshes: Sequence[SurfaceMesh], merge: bool = False) -> None:
-        """Replace last frame's mesh nodes (vertices change every frame; materials and textures are reused); with
-        ``merge``, also one node per run of two or more consecutive alike meshes, for the lit pass."""
+    def _set_meshes(self, meshes: Sequence[SurfaceMesh], lit: bool) -> None:
+        """Replace last frame's nodes (vertices change every frame; materials and textures are reused): the label
+        node, and with ``lit`` the lit pass's nodes."""
         pr = self._pyrender
-        for node in self._mesh_nodes + self._merged_nodes:
-            self._scene.remove_node(node)
-        self._mesh_nodes, self._merged_nodes = [], []
+        for node in [*self._lit_nodes, self._label_node]:
+            if node is not None:
+                self._scene.remove_node(node)
         node_in_order = _node_in_order(pr.Node)
-        for order, mesh in enumerate(meshes):
-            node = node_in_order(order, mesh=pr.Mesh([self._primitive(mesh)]))
-            node.merged = False
-            self._scene.add_node(node)
-            self._mesh_nodes.append(node)
-        for first, last in _alike_runs(meshes) if merge else ():
-            for node in self._mesh_nodes[first:last]:
-                node.merged = True
-            merged = node_in_order(len(meshes) + first, mesh=pr.Mesh([self._primitive(_merged(meshes[first:last]))]))
-            self._scene.add_node(merged)
-            self._merged_nodes.append(merged)
+        runs = _alike_runs(meshes) if lit else []
+        self._lit_nodes = [
+            node_in_order(order, mesh=pr.Mesh([self._primitive(_merged(meshes[first:last]))]))
+            for order, (first, last) in enumerate(runs)
+        ]
+        self._label_node = node_in_order(len(runs), mesh=pr.Mesh([self._label_primitive(meshes)])) if meshes else None
+        for node in [*self._lit_nodes, self._label_node]:
+            if node is not None:
+                self._scene.add_node(node)
 
     def _primitive(self, mesh: SurfaceMesh):
         return self._pyrender.Primitive(
@@ -179,6 +186,21 @@ class SceneRenderer:
             texcoord_0=None if mesh.uv is None else mesh.uv.astype(np.float32),
             indices=mesh.faces.astype(np.uint32),
             material=self._material(mesh),
+        )
+
+    def _label_primitive(self, meshes: Sequence[SurfaceMesh]):
+        """Every mesh as one primitive, in order, each vertex coloured by its mesh's label (an 8-bit grey)."""
+        offsets = np.cumsum([0] + [len(mesh.vertices) for mesh in meshes])[:-1]
+        colors = np.concatenate(
+            [np.full((len(mesh.vertices), 4), (mesh.label, mesh.label, mesh.label, 255), np.uint8) for mesh in meshes]
+        )
+        return self._pyrender.Primitive(
+            positions=np.concatenate([mesh.vertices for mesh in meshes]).astype(np.float32),
+            indices=np.concatenate([mesh.faces + offset for mesh, offset in zip(meshes, offsets, strict=True)]).astype(
+                np.uint32
+            ),
+            color_0=colors,
+            material=self._label_material,
         )
 
     def _material(self, mesh: SurfaceMesh):
@@ -229,18 +251,20 @@ def _look(mesh: SurfaceMesh) -> tuple | None:
 
 
 def _alike_runs(meshes: Sequence[SurfaceMesh]) -> list[tuple[int, int]]:
-    """``[first, last)`` of each run of two or more consecutive meshes alike in the lit pass."""
+    """``[first, last)`` of each run of consecutive meshes alike in the lit pass (a mesh with a look of its own, a
+    textured one, is a run of one)."""
     runs, first = [], 0
     for index in range(1, len(meshes) + 1):
         if index == len(meshes) or _look(meshes[index]) is None or _look(meshes[index]) != _look(meshes[first]):
-            if index - first > 1 and _look(meshes[first]) is not None:
-                runs.append((first, index))
+            runs.append((first, index))
             first = index
     return runs
 
 
 def _merged(meshes: Sequence[SurfaceMesh]) -> SurfaceMesh:
-    """Alike meshes as one, their vertices and faces one after another, in order."""
+    """Alike meshes as one, their vertices and faces one after another, in order (one mesh: itself)."""
+    if len(meshes) == 1:
+        return meshes[0]
     offsets = np.cumsum([0] + [len(mesh.vertices) for mesh in meshes])[:-1]
     return SurfaceMesh(
         key=f"merged {meshes[0].color}",
