@@ -113,10 +113,10 @@ def test_rendering_is_deterministic_and_reuses_the_context(arm, motion, rig, ren
     assert len(renderer._materials) == materials  # one material (texture upload) per part, not one per frame
 
 
-def test_where_two_surfaces_lie_at_the_same_depth_the_last_mesh_listed_is_seen(renderer):
-    """Two coplanar squares, red and blue: the overlap shows the one listed last, in colour and label, whatever
-    the nodes' addresses (pyrender draws mesh nodes in a set's order; it used to follow the addresses, so a hand on
-    the face showed one part's texture or the other's from run to run)."""
+def test_where_two_surfaces_lie_at_the_same_depth_the_first_mesh_listed_is_seen(renderer):
+    """Two coplanar squares, red and blue: the overlap shows the one listed first, in colour and label, whatever
+    the nodes' addresses and whatever was rendered before (pyrender draws mesh nodes in a set's order; it used to
+    follow the addresses, so a hand on the face showed one part's texture or the other's from run to run)."""
     camera = look_at(
         "c", np.array([0.0, -2.0, 0.0]), np.zeros(3), np.array([0, 0, 1.0]), width=320, height=240, focal_px=400.0
     )
@@ -128,7 +128,7 @@ def test_where_two_surfaces_lie_at_the_same_depth_the_last_mesh_listed_is_seen(r
     )
     centre = (120, 160)  # the camera looks at the overlap's middle
     for _ in range(3):  # nodes made anew each time, at other addresses
-        for meshes, seen in (([red, blue], 2), ([blue, red], 1)):
+        for meshes, seen in (([red, blue], 1), ([blue, red], 2)):
             view = renderer.render([camera], meshes)["c"]
             assert view.labels[centre] == seen
             assert (view.rgb[centre][0] > view.rgb[centre][2]) == (seen == 1)

@@ -168,6 +168,9 @@ class SceneRenderer:
         for node in [*self._lit_nodes, self._label_node]:
             if node is not None:
                 self._scene.remove_node(node)
+        # A set's order follows its history of removals as well as the hashes: a fresh one, filled in order,
+        # iterates in that order (pyrender draws its mesh nodes in it).
+        self._scene._mesh_nodes = set()
         node_in_order = _node_in_order(pr.Node)
         runs = _alike_runs(meshes) if lit else []
         self._lit_nodes = [
@@ -225,7 +228,7 @@ def _node_in_order(node_class: type) -> type:
     pyrender keeps a scene's mesh nodes in a set and draws them in its order (sorted by their poses, here all the
     same); a node's default hash is its address, so that order, and with it which of two surfaces at the same
     depth is seen (where a hand touches the face, two parts' textures), changed from run to run. Hashes 0, 1, 2, ...
-    give the same order in every run: the meshes' own (at the same depth the one listed last is seen)."""
+    inserted into a fresh set give the meshes' own order (at the same depth the one listed first is seen)."""
 
     class NodeInOrder(node_class):
         def __init__(self, order: int, **kwargs) -> None:
