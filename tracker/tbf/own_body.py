@@ -4,6 +4,7 @@ would (`TbfSettings.body`)."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any, Literal
 
 from tracker.models.body_mesh import BodyMesh
@@ -12,12 +13,13 @@ from tracker.models.makehuman import body_measurements, build_body, nearest_stan
 
 
 def own_body(
-    subject: BodyMesh, choice: Literal["base", "nearest_standard"], triangles: int
+    subject: BodyMesh, choice: Literal["base", "nearest_standard"], triangles: int, cache_dir: str | Path | None = None
 ) -> tuple[BodyMesh, dict[str, Any]]:
     """The body the tracker models ``subject`` by, at ``triangles``, and which it is with both measured (for the
-    run's metrics: its name, stature and chest girth, and the subject's)."""
+    run's metrics: its name, stature and chest girth, and the subject's); the standard bodies' measurements kept in
+    ``cache_dir``."""
     measured = body_measurements(subject)
-    name = nearest_standard_body(subject, triangles) if choice == "nearest_standard" else "base"
+    name = nearest_standard_body(subject, triangles, cache_dir) if choice == "nearest_standard" else "base"
     body = build_body(triangles=triangles, shape=standard_shape(name))
     chosen = body_measurements(body)
     return body, {

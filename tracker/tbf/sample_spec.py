@@ -9,14 +9,17 @@ from __future__ import annotations
 import glob
 from dataclasses import dataclass, field
 from fnmatch import fnmatch
+from pathlib import Path
 from typing import Annotated
 
 import numpy as np
 
 from tracker.data import data_dir, data_files, data_path
+from tracker.memo import file_digest, memoized
 from tracker.models.body_mesh import BodyMesh
 from tracker.motion.arm_capture import ArmRanges, capture_poses
 from tracker.ranges import Finite, Fraction, NonNegative, Positive, Range, Seed, Span
+from tracker.settings import to_plain
 from tracker.tbf.pose_sets import (
     arm_grid,
     clip_sequences,
@@ -135,6 +138,17 @@ def clip_files(spec: SampleSpec, key: str = "tracker") -> list[tuple[int, str, f
             ]
             files.append((index, path, rates[0] if rates else None))
     return files
+
+
+def cached_sample_poses(spec: SampleSpec, body: BodyMesh, cache_dir: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """`sample_poses`, kept in ``cache_dir`` between processes (a capture session's poses take seconds to make),
+    under a key of the spec, the body's shape, the clips' contents and the core's code (`tracker.memo`)."""
+    clips = [file_digest(data_path(path)) for _, path, _ in clip_files(spec)] if spec.clips else []
+    inputs = {"sample poses": to_plain(spec), "body": body.source_key, "clips": clips}
+    stored = memoized(
+        cache_dir, inputs, lambda: dict(zip(("poses", "transitions"), sample_poses(spec, body), strict=True))
+    )
+    return stored["poses"], stored["transitions"]
 
 
 def sample_poses(spec: SampleSpec, body: BodyMesh) -> tuple[np.ndarray, np.ndarray]:

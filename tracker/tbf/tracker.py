@@ -41,7 +41,7 @@ from tracker.tbf.motion import BODY_SPACE, PoseSpace, RandomWalk
 from tracker.tbf.own_body import own_body
 from tracker.tbf.placing import AsSeen, FeetAligned, GroundPlaced, Placing, ViewsPlaced
 from tracker.tbf.sample_build import load_or_build
-from tracker.tbf.sample_spec import sample_poses
+from tracker.tbf.sample_spec import cached_sample_poses
 from tracker.tbf.samples import SampleViews
 from tracker.tbf.settings import TbfSettings, check_settings
 from tracker.tbf.tree import PoseTree, load_or_build_tree, thresholds_for_shares
@@ -161,8 +161,9 @@ class TbfTracker(Tracker):
         if isinstance(model, DSQArm):
             self.arm_grid, self.transitions = ArmDictionary(model, settings.arm_samples), None
             return self.arm_grid, self.arm_grid.space, self.arm_grid.poses(), self.arm_grid.pose_of(initial)
-        self.body, self.body_choice = own_body(model, settings.body, settings.body_triangles)
-        poses, self.transitions = sample_poses(settings.samples, self.body)
+        cache_dir = Path(settings.cache_dir)
+        self.body, self.body_choice = own_body(model, settings.body, settings.body_triangles, cache_dir / "bodies")
+        poses, self.transitions = cached_sample_poses(settings.samples, self.body, cache_dir / "poses")
         initial_pose = arms_pose(self.body, (0.0, 8.0, 0.0), (0.0, 8.0, 0.0), yaw_deg=settings.initial_yaw_deg)
         return self.body, BODY_SPACE, poses, initial_pose
 
