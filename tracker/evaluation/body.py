@@ -16,11 +16,18 @@ Each swing's frames, whether it was followed and its largest error go to ``metri
 (``swing_details``), so a reader can score the run at any other bound (`count_outcomes`).
 
 Columns per frame (`BodyEvaluation.columns`): ``truth_pose`` and ``est_pose`` (pose vectors, lists),
-``swing_truth_deg``, ``swing_est_deg``, ``joint_error_mm``, ``joint_error_aligned_mm`` and ``joint_angle_error_deg``.
+``swing_truth_deg``, ``swing_est_deg``, ``joint_error_mm``, ``joint_error_aligned_mm``, ``joint_error_pa_mm``,
+``joint_angle_error_deg`` and ``root_orientation_error_deg``.
 
 MPJPE: the mean over frames of the mean distance (mm) between estimated and true positions of the 15
 HumanEva-style joints (`MPJPE_JOINTS`); the root-aligned MPJPE first moves the estimate's pelvis onto the
-truth's, so it measures the posture alone (the sample sets are postures in place).
+truth's, so it measures the posture alone (the sample sets are postures in place); the PA-MPJPE (the field's
+usual second protocol, e.g. Human3.6M's "protocol 2") first maps the estimate's joints onto the truth's by the
+similarity (rotation, uniform scale, translation) that fits them best in least squares (`procrustes_aligned`,
+Umeyama 1991), so it measures the posture without its place, facing or size.
+
+Root orientation error: the angle (degrees) between the estimated and the true rotation of the root (``Hips``)
+in the world: the facing the root-aligned MPJPE keeps and the joint-angle error leaves out.
 
 Joint-angle error (as silhouette-based pose regression reports it, e.g. Agarwal and Triggs, PAMI 2006): the mean
 over frames and over the posture joints that place the MPJPE joints (`ANGLE_JOINTS`: spine, neck, collars,
@@ -125,12 +132,44 @@ def count_outcomes(details: Mapping[str, list], bound_deg: float) -> dict[str, i
 def joint_error_mm(body: BodyMesh, truth: np.ndarray, estimate: np.ndarray, root_aligned: bool = False) -> float:
     """Mean distance (mm) between the estimated and true positions of `MPJPE_JOINTS` in one frame; with
     ``root_aligned``, after moving the estimate so that its pelvis ("Hips") is on the truth's (posture only)."""
+    return joint_errors_mm(body, truth, estimate)["aligned" if root_aligned else "absolute"]
+
+
+def joint_errors_mm(body: BodyMesh, truth: np.ndarray, estimate: np.ndarray) -> dict[str, float]:
+    """One frame's mean distance (mm) over `MPJPE_JOINTS`: ``absolute``, root-``aligned`` and Procrustes-aligned
+    (``pa``), each as the module docstring defines it."""
     joints = [JOINT_INDEX[name] for name in MPJPE_JOINTS]
     estimated, true = body.joint_positions(estimate)[joints], body.joint_positions(truth)[joints]
-    if root_aligned:
-        pelvis = MPJPE_JOINTS.index("Hips")
-        estimated = estimated - estimated[pelvis] + true[pelvis]
-    return float(1e3 * np.linalg.norm(estimated - true, axis=1).mean())
+    pelvis = MPJPE_JOINTS.index("Hips")
+    return {
+        "absolute": mean_distance_mm(estimated, true),
+        "aligned": mean_distance_mm(estimated - estimated[pelvis] + true[pelvis], true),
+        "pa": mean_distance_mm(procrustes_aligned(estimated, true), true),
+    }
+
+
+def mean_distance_mm(points: np.ndarray, reference: np.ndarray) -> float:
+    """The mean distance (mm) between corresponding ``(n, 3)`` points given in metres."""
+    return float(1e3 * np.linalg.norm(points - reference, axis=1).mean())
+
+
+def procrustes_aligned(points: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """``points`` ``(n, 3)`` moved by the similarity ``s R p + t`` (R a proper rotation) that brings them nearest
+    ``reference`` in least squares: Umeyama's closed form (the SVD of the cross-covariance, a reflection refused)."""
+    mean_p, mean_r = points.mean(axis=0), reference.mean(axis=0)
+    centred_p, centred_r = points - mean_p, reference - mean_r
+    u, singular, vt = np.linalg.svd(centred_r.T @ centred_p)
+    sign = np.ones(3)
+    sign[2] = np.sign(np.linalg.det(u @ vt)) or 1.0
+    rotation = (u * sign) @ vt
+    spread = (centred_p**2).sum()
+    scale = (singular * sign).sum() / spread if spread > 0 else 1.0
+    return scale * centred_p @ rotation.T + mean_r
+
+
+def root_orientation_error_deg(truth: np.ndarray, estimate: np.ndarray) -> np.ndarray:
+    """The angle (degrees) between the estimated and true rotations of the root (``Hips``) per pose (broadcast)."""
+    return joint_angle_differences(np.asarray(truth, float), np.asarray(estimate, float))[..., JOINT_INDEX["Hips"]]
 
 
 def joint_angle_error_deg(truth: np.ndarray, estimate: np.ndarray) -> np.ndarray:
@@ -163,17 +202,26 @@ def nearest_in_3d(
 class BodyEvaluation:
     rule: SwingRule = field(default_factory=SwingRule)
     # Columns the recording plots.
-    series: tuple[str, ...] = ("joint_error_mm", "joint_error_aligned_mm", "joint_angle_error_deg")
+    series: tuple[str, ...] = (
+        "joint_error_mm",
+        "joint_error_aligned_mm",
+        "joint_error_pa_mm",
+        "joint_angle_error_deg",
+        "root_orientation_error_deg",
+    )
 
     def columns(self, body: BodyMesh, truth: np.ndarray, estimate: np.ndarray | None) -> tuple[dict, dict]:
         frame: dict[str, Any] = {"truth_pose": truth.tolist(), "swing_truth_deg": body.right_arm_swing_deg(truth)}
         if estimate is not None:
+            errors = joint_errors_mm(body, truth, estimate)
             frame.update(
                 est_pose=estimate.tolist(),
                 swing_est_deg=body.right_arm_swing_deg(estimate),
-                joint_error_mm=joint_error_mm(body, truth, estimate),
-                joint_error_aligned_mm=joint_error_mm(body, truth, estimate, root_aligned=True),
+                joint_error_mm=errors["absolute"],
+                joint_error_aligned_mm=errors["aligned"],
+                joint_error_pa_mm=errors["pa"],
                 joint_angle_error_deg=float(joint_angle_error_deg(truth, estimate)),
+                root_orientation_error_deg=float(root_orientation_error_deg(truth, estimate)),
             )
         return {}, frame
 
@@ -187,7 +235,9 @@ class BodyEvaluation:
         return {
             "mpjpe_mm": float(np.mean(table["joint_error_mm"][frame])),
             "mpjpe_root_aligned_mm": float(np.mean(table["joint_error_aligned_mm"][frame])),
+            "pa_mpjpe_mm": float(np.mean(table["joint_error_pa_mm"][frame])),
             "joint_angle_error_deg": float(np.mean(table["joint_angle_error_deg"][frame])),
+            "root_orientation_error_deg": float(np.mean(table["root_orientation_error_deg"][frame])),
             "swings": count_outcomes(details, self.rule.max_error_deg),
             "swing_details": details,
             "swing_error_deg_mean": float(np.mean(np.abs(estimate - truth))),

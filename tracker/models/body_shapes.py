@@ -182,3 +182,16 @@ def nearest_standard(subject: Measurements, standards: dict[str, Measurements]) 
         )
 
     return min(standards, key=distance)
+
+
+def draw_subject(rng: np.random.Generator) -> MacroShape:
+    """A subject drawn from the standard bodies' range: a sex, a height within that sex's standard heights and a
+    weight between the slim and the stout build, uniformly; muscle as the standard bodies'. Rarely a standard
+    body itself, so the tracker's nearest standard body differs from him as a real subject's would."""
+    gender, heights = _HEIGHTS[("female", "male")[int(rng.integers(2))]]
+    return MacroShape(
+        gender=gender,
+        muscle=0.5,
+        weight=round(float(rng.uniform(min(_BUILDS.values()), max(_BUILDS.values()))), 3),
+        height=round(float(rng.uniform(heights.min(), heights.max())), 3),
+    )

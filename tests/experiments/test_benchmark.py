@@ -1,0 +1,95 @@
+"""The real-motion benchmark: its split checked before anything runs (one line per mistake), the project's split
+keeping every test clip out of every dictionary, and the whole benchmark on a tiny split through the real CLI."""
+
+import json
+
+import pandas as pd
+import pytest
+import yaml
+
+from eval.benchmark import MEASURES
+from experiments.benchmark import clip_overrides, main
+from experiments.benchmark_split import LISTS, SplitError, load_split
+from tracker.data import data_path
+from tracker.models.body_shapes import STANDARD_BODIES
+from tracker.tbf.sample_spec import SampleSpec, TrueRate, clip_files
+
+
+def write_split(tmp_path, **entries):
+    path = tmp_path / "split.yaml"
+    path.write_text(yaml.safe_dump({"dictionary": ["mocap_daz/martial_04.bvh"], **entries}, sort_keys=False))
+    return path
+
+
+def test_the_project_split_keeps_every_test_clip_out_of_every_dictionary():
+    split = load_split("cmu")
+    files = {name: {data_path(clip).resolve() for clip in split.clips(name)} for name in LISTS}
+    assert len(files["test"]) == 5 and len(files["validation"]) >= 1
+    assert not files["test"] & files["dictionary"] and not files["validation"] & files["dictionary"]
+    # What a row's tracker reads from the overrides is the dictionary's clips, nothing else.
+    overrides = clip_overrides(split, "mocap_daz/salsa_06.bvh", dictionary=True)
+    clips = next(o for o in overrides if o.startswith("tracker.samples.clips=")).split("=", 1)[1].strip("[]")
+    spec = SampleSpec(clips=tuple(clips.split(",")), clip_true_fps=(TrueRate("mocap_daz/salsa_*.bvh", 60.0),))
+    read = {data_path(path).resolve() for _, path, _ in clip_files(spec)}
+    assert read == files["dictionary"]
+    assert "scene.true_fps=60.0" in overrides  # the salsa clips' true rate, not their header's
+
+
+def test_each_clip_has_a_subject_of_its_own_drawn_from_the_standard_range():
+    split = load_split("cmu")
+    subjects = [split.subject(clip) for clip in split.clips("test")]
+    assert len(set(subjects)) == len(subjects) and split.subject("mocap/69_20.bvh") == subjects[1]
+    heights = [body.height for body in STANDARD_BODIES.values()]
+    assert all(min(heights) <= s.height <= max(heights) and s.gender in (0.0, 1.0) for s in subjects)
+
+
+@pytest.mark.parametrize(
+    "entries, message",
+    [
+        ({"test": ["mocap_daz/martial_0*.bvh"]}, r"martial_04.bvh is in both dictionary\[0\].* and test"),
+        ({"test": ["mocap/nope.bvh"]}, r"test\[0\]=mocap/nope.bvh names no clip"),
+        ({"tests": ["mocap/69_20.bvh"]}, r"unknown key tests: allowed dictionary"),
+        ({"fps": -1}, r"fps=-1 is out of range"),
+        ({"dictionary": []}, r"dictionary=\[\] is not allowed"),
+        ({"rows": {"x": {"label": "x"}}}, r"experiment"),
+    ],
+)
+def test_a_bad_split_stops_at_start_with_one_line(tmp_path, capsys, entries, message):
+    path = write_split(tmp_path, **entries)
+    with pytest.raises(SplitError, match=message):
+        load_split(path)
+    with pytest.raises(SystemExit) as stopped:
+        main(["--split", str(path), "--reports", str(tmp_path / "reports")])
+    assert stopped.value.code == 2 and len(capsys.readouterr().err.strip().splitlines()) == 1
+    assert not (tmp_path / "reports").exists()
+
+
+def test_the_benchmark_on_a_tiny_split_tabulates_every_row_against_the_clips_floor(tmp_path):
+    cache = tmp_path / "cache"
+    small = [
+        f"tracker.cache_dir={cache}",
+        "tracker.samples.clip_turns_deg=[0.0]",
+        "tracker.thresholds=[0.05,0.03,0.02]",
+    ]
+    rows = {
+        "tbf": {"label": "tree filtering", "experiment": "tbf_paper_scale", "overrides": small},
+        "abis": {"label": "AbIS", "experiment": "abis_body", "overrides": ["rig=body_multi"]},
+    }
+    path = write_split(tmp_path, test=["mocap/69_20.bvh"], max_frames=2, rows=rows)
+    reports = tmp_path / "reports"
+    main(["--split", str(path), "--reports", str(reports)])
+    runs = {folder: reports / "benchmark" / "69_20" / folder for folder in rows}
+    metrics = {folder: json.loads((run / "metrics.json").read_text()) for folder, run in runs.items()}
+    assert all(m["status"] == "ok" and m["frames_done"] == 2 for m in metrics.values())
+    assert metrics["tbf"]["config"]["tracker"]["samples"]["clips"] == ["mocap_daz/martial_04.bvh"]
+    assert metrics["tbf"]["config"]["model"]["shape"] == metrics["abis"]["config"]["model"]["shape"]
+    table = pd.read_csv(reports / "benchmark.csv")
+    assert list(table["tracker"]) == ["tree filtering", "AbIS"] and set(MEASURES) <= set(table.columns)
+    floor = round(metrics["tbf"]["mpjpe_floor_mm"], 1)
+    assert (table["floor mm"] == floor).all()  # AbIS searches no dictionary: held against the clip's
+    assert table.loc[1, "aligned / floor"] == round(metrics["abis"]["mpjpe_root_aligned_mm"] / floor, 2)
+    assert "± " in (reports / "benchmark.md").read_text()
+    assert all((run / "fig5.png").exists() and (run / "error_against_floor.png").exists() for run in runs.values())
+    stamp = (runs["tbf"] / "metrics.json").stat().st_mtime_ns
+    main(["--split", str(path), "--reports", str(reports), "--rows", "tbf"])  # finished with the same overrides
+    assert (runs["tbf"] / "metrics.json").stat().st_mtime_ns == stamp
