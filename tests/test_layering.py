@@ -15,7 +15,7 @@ FORBIDDEN = {
     "eval": ("experiments", "hydra", "omegaconf"),
 }
 # The packages that hold trackers: the truth reaches them by no import (the evaluation judges their outputs).
-TRACKER_PACKAGES = ("tracker.abis", "tracker.tbf")
+TRACKER_PACKAGES = ("tracker.abis", "tracker.hybrid", "tracker.tbf")
 
 
 def modules(package: str) -> Iterator[tuple[str, Path]]:

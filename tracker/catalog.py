@@ -7,6 +7,7 @@ from tracker import protocol  # noqa: F401  (render_only)
 from tracker.abis import tracker as abis_tracker  # noqa: F401
 from tracker.evaluation import arm, body  # noqa: F401  (each model's evaluation)
 from tracker.geometry import rigs  # noqa: F401
+from tracker.hybrid import tracker as hybrid_tracker  # noqa: F401
 from tracker.models import dsq_arm, makehuman  # noqa: F401
 from tracker.motion import arm_sweep, mocap, scenes  # noqa: F401
 from tracker.tbf import costs, motion  # noqa: F401

@@ -81,7 +81,10 @@ AT_START = [
         r"allowed at most 90$",
     ),  # 360 steps of .0083333 s = 2.99999 s: 89 steps of 1/30 s
     (["model=body_mesh", "model.triangles=10"], r"^model\.triangles=10 is out of range"),
-    (["cost=nwxor"], r"^cost=nwxor serves tracker=tbf only, not tracker=render_only: add tracker=tbf"),
+    (
+        ["cost=nwxor"],
+        r"^cost=nwxor serves tracker=tbf and tracker=hybrid only, not tracker=render_only: add tracker=tbf",
+    ),
     (
         ["tracker=tbf"],
         r"^tracker=tbf needs cost and motion: add cost=nwxor motion=dm2 \(allowed cost=xor\|wxor\|nwxor, "
@@ -141,10 +144,11 @@ AT_START = [
     (
         ["experiment=nope"],
         r"^experiment=nope: no such option, allowed abis_body, abis_fig8_fig9, abis_occlusion, arm_scene, "
+        r"hybrid_multi_view, hybrid_paper_scale, "
         r"tbf_multi_view, tbf_paper_scale, "
         r"tbf_table4c, tbf_table4c_clean$",
     ),
-    (["tracker=kalman"], r"^tracker=kalman: no such option, allowed abis, render_only, tbf$"),
+    (["tracker=kalman"], r"^tracker=kalman: no such option, allowed abis, hybrid, render_only, tbf$"),
     ([*BODY_TBF, "tracker.thresholds=[0.01,0.002]"], r"^tracker\.thresholds=.* has 2 values: allowed exactly 3$"),
     (["scene.arm.bend_amplitude=nan"], r"^scene\.arm\.bend_amplitude=nan is out of range: allowed a finite number$"),
     (["-m", "frames=2,0"], r"^frames=0 is out of range: allowed >= 1$"),

@@ -22,6 +22,7 @@ TBF = ["model=body_mesh", "tracker=tbf", "cost=xor", "motion=dm1"]
 COMPANIONS = {
     ("scene", "bvh"): ["model=body_mesh", f"scene.path={CLIP}"],
     ("tracker", "tbf"): TBF,
+    ("tracker", "hybrid"): TBF,  # the body only
     ("cost", None): TBF,
     ("motion", None): TBF,
     ("rig", "orthogonal3"): [],

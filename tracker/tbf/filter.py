@@ -191,6 +191,13 @@ class TreeFilter:
             timings_ms=timings,
         )
 
+    def feed(self, sample: int, share: float) -> None:
+        """Move ``share`` of the posterior onto ``sample`` (an estimate made outside the filter, e.g. refined, that
+        the next frame's prior should start from)."""
+        self._posterior = (1 - share) * self._posterior
+        self._posterior[sample] += share
+        self._previous_flags = self._occluded[sample]
+
     def _descend(
         self, prior: np.ndarray, observed: tuple[np.ndarray, ...], timings: dict[str, float]
     ) -> tuple[np.ndarray, np.ndarray, list[int], list[int]]:

@@ -1,0 +1,36 @@
+"""The hybrid tracker through the real CLI: each preset's 2-frame run on a small dictionary, the refinement's
+columns and series, and a refined estimate that explains the views at least as well as the dictionary's proposal."""
+
+import json
+
+import pandas as pd
+import pytest
+
+from tests.conftest import _cli_run
+from tests.experiments.test_run import frames_by_entity
+
+SMALL_DICTIONARY = (
+    "tracker.samples.clips=[mocap_daz/martial_04.bvh]",
+    "tracker.samples.clip_turns_deg=[0.0]",
+    "tracker.thresholds=[0.05,0.03,0.02]",
+)
+
+
+@pytest.fixture(scope="module", params=["hybrid_paper_scale", "hybrid_multi_view"])
+def hybrid_run(request, tmp_path_factory):
+    cache = tmp_path_factory.mktemp("hybrid_cache")
+    overrides = ("frames=2", "scene.path=mocap/69_20.bvh", f"tracker.cache_dir={cache}", *SMALL_DICTIONARY)
+    return _cli_run(tmp_path_factory, request.param, f"experiment={request.param}", *overrides)
+
+
+def test_a_hybrid_run_refines_the_dictionarys_proposal(hybrid_run):
+    metrics = json.loads((hybrid_run / "metrics.json").read_text())
+    assert metrics["status"] == "ok" and metrics["tracker"] == "hybrid" and metrics["frames_done"] == 2
+    assert "mpjpe_floor_mm" in metrics and "pa_mpjpe_mm" in metrics  # judged as tree filtering is, and by PA
+    timings = json.loads((hybrid_run / "timings.json").read_text())
+    assert timings["estimate_refine_ms_median"] > 0 and timings["estimate_level1_ms_median"] > 0
+    table = pd.read_parquet(hybrid_run / "frames.parquet").drop_duplicates("frame")
+    assert table["hybrid_choice"].isin([0, 1]).all() and table["hybrid_choice"].iloc[0] == 0  # no previous at 0
+    assert (table["fit_cost"] <= table["fit_cost_proposal"]).all()  # the fit never ends worse than it started
+    frames = frames_by_entity(hybrid_run / "run.rrd")
+    assert frames["/metrics/hybrid/fit_cost"] == [0, 1] and frames["/metrics/tree/entropy"] == [0, 1]

@@ -1,0 +1,1 @@
+"""The hybrid tracker: tree filtering's dictionary proposes, a continuous silhouette fit refines."""

@@ -1,0 +1,213 @@
+"""Fitting the skinned body to the views' observed silhouettes: the continuous refinement of the hybrid tracker.
+
+Per view, the observed silhouette S (bool, the camera's pixels) gives two distance fields (`ViewField`): ``outside``,
+each pixel's distance to S (0 inside it), and its edge points (S's boundary pixels, evenly thinned). With the
+body's vertices v_i (`BodyMesh.posed_vertices`) projected to pixels u_i (`Camera.project`), the cost sums, over
+the views, robust squares (``rho(r) = r^2`` up to ``robust_px``, linear beyond: Huber) of
+    region    ``outside(u_i)`` for every vertex: the body stays within the silhouette;
+    cover     for every edge point e, ``n_e . (u_k - e)`` for the body's outline vertex k nearest it in the image
+              (n_e: the silhouette's outward normal at e; a vertex is on the outline where its normal is near
+              square to the camera's ray, ``|n . ray| < outline_cos``): the body's outline reaches every part of
+              the silhouette's (an ICP step, point to line);
+and a prior ``prior_weight^2 |r_j - r_j^0|^2`` on each fitted joint's rotation vector, towards the starting pose
+(a joint the silhouettes do not constrain, a limb's twist, stays where it was). The parameters are the root's
+position and the rotation vectors of `FIT_JOINTS`; Levenberg-Marquardt steps them by the Gauss-Newton system
+of the residuals' Jacobian, analytic: the image gradient of ``outside`` (for cover, the identity) times the
+projection's Jacobian (`projection_jacobian`) times the skinned vertices' (`BodyMesh.vertex_jacobian`).
+
+`fit_cost` is the cost without the prior, per view the mean over its vertices and edge points: what the hybrid
+compares candidates by (the same residuals for every candidate, so the numbers compare).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Annotated
+
+import numpy as np
+from scipy.ndimage import binary_erosion, distance_transform_edt, map_coordinates
+from scipy.spatial import cKDTree
+
+from tracker.geometry.cameras import Camera, projection_jacobian
+from tracker.models.body_mesh import BodyMesh
+from tracker.models.body_skeleton import JOINT_INDEX
+from tracker.ranges import NonNegative, Positive, Range
+from tracker.render.mesh import vertex_normals
+from tracker.settings import validate
+
+# The joints fitted: every joint that moves the silhouette but the fingers', thumbs' and toes' (too small to see).
+FIT_JOINTS = tuple(
+    JOINT_INDEX[name]
+    for name in (
+        "Hips LowerBack Spine Spine1 Neck Neck1 Head LeftShoulder LeftArm LeftForeArm LeftHand RightShoulder "
+        "RightArm RightForeArm RightHand LHipJoint LeftUpLeg LeftLeg LeftFoot RHipJoint RightUpLeg RightLeg RightFoot"
+    ).split()
+)
+FIT_COLUMNS = np.r_[np.arange(3), (3 + 3 * np.array(FIT_JOINTS)[:, None] + np.arange(3)).ravel()]
+
+
+@dataclass(frozen=True)
+class FitSettings:
+    """The silhouette fit's iterations, terms and weights (see the module docstring)."""
+
+    iterations: Annotated[int, Range(0, 100)] = 10
+    vertex_stride: Annotated[int, Range(1, 100)] = 6  # the body's vertices fitted: every this many
+    edge_points: Annotated[int, Range(8, 10_000)] = 400  # per view, the silhouette's edge points at most
+    outline_cos: Annotated[float, Range(0.0, 1.0)] = 0.35
+    robust_px: Positive = 8.0
+    prior_weight: NonNegative = 2.0  # pixels per radian of a joint's rotation away from the starting pose
+    damping: Positive = 1e-3  # Levenberg-Marquardt's first lambda, relative to the system's diagonal
+    tolerance: NonNegative = 0.02  # stop once an iteration lowers the cost by less than this fraction of it
+
+    def __post_init__(self) -> None:
+        validate(self)
+
+
+class ViewField:
+    """One view's observed silhouette as the fit reads it: its outside distance field (pixels) with its gradient,
+    sampled bilinearly, and its edge points (at most ``edge_points``, evenly along the pixel list)."""
+
+    def __init__(self, silhouette: np.ndarray, camera: Camera, edge_points: int) -> None:
+        silhouette = np.asarray(silhouette, dtype=bool)
+        self.camera = camera
+        self.outside = distance_transform_edt(~silhouette)
+        self.gradient = np.stack(np.gradient(self.outside)[::-1])  # (d/du, d/dv), each (h, w)
+        rows, cols = np.nonzero(silhouette & ~binary_erosion(silhouette))
+        step = max(1, int(np.ceil(len(rows) / edge_points)))
+        rows, cols = rows[::step], cols[::step]
+        self.edge = np.stack([cols, rows], axis=1).astype(np.float64)  # (n, 2) pixels (u, v)
+        # The outward normal at each edge point: the gradient of the signed distance (outside minus inside).
+        signed = self.outside - distance_transform_edt(silhouette)
+        normals = np.stack([g[rows, cols] for g in np.gradient(signed)[::-1]], axis=1)
+        self.edge_normals = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+
+    def sample(self, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``outside`` and its ``(n, 2)`` gradient at pixels ``uv`` (bilinear; beyond the image, the border's)."""
+        coordinates = np.stack([uv[:, 1], uv[:, 0]])
+        value = map_coordinates(self.outside, coordinates, order=1, mode="nearest")
+        gradient = np.stack([map_coordinates(g, coordinates, order=1, mode="nearest") for g in self.gradient], 1)
+        return value, gradient
+
+
+def huber_weights(residuals: np.ndarray, scale: float) -> np.ndarray:
+    """IRLS weights of the Huber rho: 1 within ``scale``, ``scale / |r|`` beyond."""
+    size = np.abs(residuals)
+    return np.where(size <= scale, 1.0, scale / np.maximum(size, 1e-12))
+
+
+def huber(residuals: np.ndarray, scale: float) -> np.ndarray:
+    size = np.abs(residuals)
+    return np.where(size <= scale, size**2, 2 * scale * size - scale**2)
+
+
+def pixel_rows(camera: Camera, points: np.ndarray, vertex_rows: np.ndarray) -> np.ndarray:
+    """``(V, 2, C)``: the pixels' derivatives of ``points`` seen by ``camera``, by the parameters of
+    ``vertex_rows`` (``(V, 3, C)``, the points' own): the chain rule through the projection."""
+    return np.einsum("vab,vbc->vac", projection_jacobian(camera, points), vertex_rows)
+
+
+class SilhouetteFit:
+    """The fit of ``body`` to the silhouettes of ``cameras`` (one frame's `ViewField` each: `observe`)."""
+
+    def __init__(self, body: BodyMesh, cameras: Sequence[Camera], settings: FitSettings = FitSettings()) -> None:
+        self.body, self.cameras, self.settings = body, tuple(cameras), settings
+        self.region = np.arange(0, len(body.rest_vertices), settings.vertex_stride)
+        self.rest_normals = vertex_normals(body.rest_vertices, body.faces)
+        self.fields: list[ViewField] = []
+
+    def observe(self, silhouettes: Sequence[np.ndarray]) -> None:
+        """This frame's silhouettes, one per camera in the cameras' order."""
+        self.fields = [
+            ViewField(s, camera, self.settings.edge_points) for s, camera in zip(silhouettes, self.cameras, strict=True)
+        ]
+
+    def normals(self, rotations: np.ndarray) -> np.ndarray:
+        """``(V, 3)`` the posed vertices' unit normals, skinned as the vertices are (the bones' ``rotations``)."""
+        blended = (self.body.weights @ rotations.reshape(len(rotations), 9)).reshape(-1, 3, 3)
+        normals = np.einsum("vab,vb->va", blended, self.rest_normals)
+        return normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+
+    def outline(self, points: np.ndarray, normals: np.ndarray, camera: Camera) -> np.ndarray:
+        """The vertices on the body's outline seen from ``camera`` (indices into ``points``)."""
+        rays = points - camera.position
+        rays /= np.linalg.norm(rays, axis=1, keepdims=True)
+        return np.flatnonzero(np.abs(np.einsum("va,va->v", normals, rays)) < self.settings.outline_cos)
+
+    def residuals(self, pose: np.ndarray, jacobian: bool = True) -> tuple[list[np.ndarray], list[np.ndarray]]:
+        """Per view, two blocks: the region residuals, then the cover residuals; with ``jacobian``, each block's
+        rows by `FIT_COLUMNS` (else no rows)."""
+        transforms = self.body.bone_transforms(pose)
+        points = self.body.posed_vertices(pose, transforms=transforms)
+        normals = self.normals(transforms[0])
+        values, blocks = [], []  # blocks: per residual block, its weights on the pixels and the vertices they move
+        for field in self.fields:
+            uv, _ = field.camera.project(points)
+            uv = np.nan_to_num(uv, nan=-1e3)
+            outside, gradient = field.sample(uv[self.region])
+            outline = self.outline(points, normals, field.camera)
+            if len(outline) and len(field.edge):
+                _, nearest = cKDTree(uv[outline]).query(field.edge)
+                cover_vertices, edge, edge_normals = outline[nearest], field.edge, field.edge_normals
+            else:
+                cover_vertices, edge, edge_normals = np.zeros(0, dtype=np.int64), field.edge[:0], field.edge_normals[:0]
+            values += [outside, np.einsum("na,na->n", uv[cover_vertices] - edge, edge_normals)]
+            blocks += [(field.camera, gradient, self.region), (field.camera, edge_normals, cover_vertices)]
+        if not jacobian:
+            return values, []
+        needed, where = np.unique(np.concatenate([vertices for _, _, vertices in blocks]), return_inverse=True)
+        moved = self.vertex_rows(pose, needed, transforms)
+        rows, first = [], 0
+        for camera, directions, vertices in blocks:
+            at = where[first : first + len(vertices)]
+            first += len(vertices)
+            rows.append(np.einsum("na,nac->nc", directions, pixel_rows(camera, points[vertices], moved[at])))
+        return values, rows
+
+    def vertex_rows(
+        self, pose: np.ndarray, vertices: np.ndarray, transforms: tuple[np.ndarray, np.ndarray] | None = None
+    ) -> np.ndarray:
+        """``(n, 3, len(FIT_COLUMNS))``: the posed ``vertices``' derivatives by the fitted parameters (analytic)."""
+        return self.body.vertex_jacobian(pose, vertices, FIT_JOINTS, transforms)[:, :, FIT_COLUMNS]
+
+    def fit_cost(self, pose: np.ndarray) -> float:
+        """The robust cost without the prior, each view's the mean over its residuals; summed over the views."""
+        values, _ = self.residuals(pose, jacobian=False)
+        return float(sum(huber(v, self.settings.robust_px).mean() for v in values if len(v)))
+
+    def refine(self, start: np.ndarray) -> np.ndarray:
+        """``start`` refined by Levenberg-Marquardt (see the module docstring); the pose vector it ends at."""
+        settings, pose = self.settings, np.asarray(start, dtype=np.float64).copy()
+        anchor = pose[FIT_COLUMNS].copy()
+        prior_rows = np.r_[np.zeros(3), np.full(len(FIT_COLUMNS) - 3, settings.prior_weight)]
+
+        def total(candidate: np.ndarray) -> float:
+            values, _ = self.residuals(candidate, jacobian=False)
+            data = sum(huber(v, settings.robust_px).sum() / len(v) for v in values if len(v))
+            return float(data + ((prior_rows * (candidate[FIT_COLUMNS] - anchor)) ** 2).sum())
+
+        current, damping = total(pose), settings.damping
+        for _ in range(settings.iterations):
+            values, rows = self.residuals(pose)
+            hessian = np.diag(prior_rows**2)
+            gradient = prior_rows**2 * (pose[FIT_COLUMNS] - anchor)
+            for value, row in zip(values, rows, strict=True):
+                if not len(value):
+                    continue
+                weight = huber_weights(value, settings.robust_px) / len(value)
+                hessian += row.T @ (row * weight[:, None])
+                gradient += row.T @ (weight * value)
+            while damping < 1e8:
+                system = hessian + damping * np.diag(np.diag(hessian) + 1e-9)
+                trial = pose.copy()
+                trial[FIT_COLUMNS] -= np.linalg.solve(system, gradient)
+                cost = total(trial)
+                if cost < current:
+                    pose, current, damping, gain = trial, cost, max(damping / 10, 1e-9), current - cost
+                    break
+                damping *= 10
+            else:
+                break
+            if gain < settings.tolerance * current:
+                break
+        return pose
