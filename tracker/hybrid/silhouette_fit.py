@@ -175,8 +175,9 @@ class SilhouetteFit:
         values, _ = self.residuals(pose, jacobian=False)
         return float(sum(huber(v, self.settings.robust_px).mean() for v in values if len(v)))
 
-    def refine(self, start: np.ndarray) -> np.ndarray:
-        """``start`` refined by Levenberg-Marquardt (see the module docstring); the pose vector it ends at."""
+    def refine(self, start: np.ndarray, iterations: int | None = None) -> np.ndarray:
+        """``start`` refined by Levenberg-Marquardt (see the module docstring) for ``iterations`` at most (None: the
+        settings'); the pose vector it ends at."""
         settings, pose = self.settings, np.asarray(start, dtype=np.float64).copy()
         anchor = pose[FIT_COLUMNS].copy()
         prior_rows = np.r_[np.zeros(3), np.full(len(FIT_COLUMNS) - 3, settings.prior_weight)]
@@ -187,7 +188,7 @@ class SilhouetteFit:
             return float(data + ((prior_rows * (candidate[FIT_COLUMNS] - anchor)) ** 2).sum())
 
         current, damping = total(pose), settings.damping
-        for _ in range(settings.iterations):
+        for _ in range(settings.iterations if iterations is None else iterations):
             values, rows = self.residuals(pose)
             hessian = np.diag(prior_rows**2)
             gradient = prior_rows**2 * (pose[FIT_COLUMNS] - anchor)

@@ -1,15 +1,17 @@
 """The hybrid tracker, ``tracker=hybrid``: paper 2 proposes, paper 1's way refines.
 
 Each frame, tree filtering (`tracker.tbf.tracker.TbfTracker`, all its settings) searches its dictionary of pose
-samples for the frame's silhouettes: a global search that recovers what a local fit loses. Its best sample, placed
-where the person stands, and the last frame's refined pose are the candidates; each is refined by the continuous
-fit of the tracker's own body to every view's silhouette (`tracker.hybrid.silhouette_fit`: the joints and the
-root by Levenberg-Marquardt with the skinning's analytic Jacobian). The candidate whose refined pose explains the
-views best (the lowest `SilhouetteFit.fit_cost`) is the estimate, and ``feed`` of the filter's posterior is moved
-onto the sample nearest it, so the next frame's prior starts from it. The tracker never sees the truth; the
+samples for the frame's silhouettes: a global search that recovers what a local fit loses. Its ``proposals`` most
+probable samples, placed where the person stands, and the last frame's refined pose are the candidates; each is
+refined for ``screen_iterations`` by the continuous fit of the tracker's own body to every view's silhouette
+(`tracker.hybrid.silhouette_fit`: the joints and the root by Levenberg-Marquardt with the skinning's analytic
+Jacobian), and the one that then explains the views best (the lowest `SilhouetteFit.fit_cost`) is refined on to
+the estimate. ``feed`` of the filter's posterior is moved onto the sample nearest it, so the next frame's prior
+starts from it. The tracker never sees the truth; the
 evaluation judges its estimates, and its dictionary's floor, as tree filtering's.
 
-Frame columns: ``hybrid_choice`` (0: the dictionary's proposal, 1: the previous refined pose), ``fit_cost`` (of the
+Frame columns: ``hybrid_choice`` (the candidate kept: 0 the filter's best sample, then its next proposals, last
+the previous refined pose), ``fit_cost`` (of the
 chosen pose) and ``fit_cost_proposal`` (of the proposal before refining); the stage ``refine`` in the timings.
 """
 
@@ -34,8 +36,6 @@ from tracker.tbf.settings import TbfSettings, check_settings
 from tracker.tbf.tracker import TBF_LOOK, TbfResult, TbfTracker
 from tracker.timing import elapsed_ms
 
-CHOICES = ("proposal", "previous")  # hybrid_choice's values, in order
-
 
 @dataclass(frozen=True)
 class HybridSettings(TbfSettings):
@@ -43,6 +43,8 @@ class HybridSettings(TbfSettings):
     takes for the next frame's prior."""
 
     fit: FitSettings = field(default_factory=FitSettings)
+    proposals: Annotated[int, Range(1, 100)] = 3  # the filter's best samples refined each frame
+    screen_iterations: Annotated[int, Range(0, 100)] = 3  # each candidate's, before the best is refined on
     feed: Annotated[float, Range(0.0, 1.0)] = 0.5
 
 
@@ -81,6 +83,19 @@ class HybridTracker(TbfTracker):
         self.nearest = NearestSample(self.samples.poses)
         self.refined = None
 
+    def proposals(self, found: TbfResult) -> list[np.ndarray]:
+        """The filter's best ``proposals`` samples by their posterior, each where the best was placed (its root's
+        position; the best itself placed as tree filtering places it)."""
+        posterior = self.filter.posterior
+        ranked = np.argsort(-posterior, kind="stable")[: self.settings.proposals]
+        poses = [found.estimate]
+        for sample in ranked[ranked != found.filter.sample][: self.settings.proposals - 1]:
+            if posterior[sample] > 0:
+                pose = np.asarray(self.samples.poses[sample], dtype=np.float64).copy()
+                pose[:3] = found.estimate[:3]
+                poses.append(pose)
+        return poses
+
     def step(self, observation: Observation) -> TbfResult:
         """Tree filtering's step, then its proposal and the previous refined pose refined and the better kept."""
         found = super().step(observation)
@@ -88,15 +103,16 @@ class HybridTracker(TbfTracker):
             return found
         start = time.perf_counter()
         self.fit.observe([observation.silhouettes[camera.name] for camera in self.cameras])
-        candidates = [found.estimate] + ([self.refined] if self.refined is not None else [])
-        refined = [self.fit.refine(candidate) for candidate in candidates]
-        costs = [self.fit.fit_cost(pose) for pose in refined]
+        candidates = self.proposals(found) + ([self.refined] if self.refined is not None else [])
+        screened = [self.fit.refine(pose, self.settings.screen_iterations) for pose in candidates]
+        costs = [self.fit.fit_cost(pose) for pose in screened]
         choice = int(np.argmin(costs))
-        self.refined = self._estimate = refined[choice]
+        self.refined = self._estimate = self.fit.refine(screened[choice])
+        cost = self.fit.fit_cost(self.refined)
         if self.settings.feed > 0:
             self.filter.feed(self.nearest(self.refined), self.settings.feed)
         found.frame_columns.update(
-            hybrid_choice=choice, fit_cost=costs[choice], fit_cost_proposal=self.fit.fit_cost(found.estimate)
+            hybrid_choice=choice, fit_cost=cost, fit_cost_proposal=self.fit.fit_cost(found.estimate)
         )
         timings = {**found.timings_ms, "refine": elapsed_ms(start)}
         return TbfResult(
@@ -106,5 +122,5 @@ class HybridTracker(TbfTracker):
             timings_ms=timings,
             part_columns=found.part_columns,
             frame_columns=found.frame_columns,
-            series={**found.series, "hybrid/fit_cost": costs[choice], "hybrid/choice": float(choice)},
+            series={**found.series, "hybrid/fit_cost": cost, "hybrid/choice": float(choice)},
         )

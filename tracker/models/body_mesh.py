@@ -162,16 +162,20 @@ class BodyMesh:
         vertices, weights = self.rest_vertices[subset], self.weights[subset]
         jacobian = np.zeros((len(subset), 3, POSE_SIZE))
         jacobian[:, :, :3] = np.eye(3) * weights.sum(axis=1)[:, None, None]
-        carried = np.einsum("jab,vjb->vja", rotations, vertices[:, None, :] - self.rest_heads[None]) + heads[None]
-        below = self._descendants  # (J, J): below[j, b] when bone b is j or under it
-        for joint in range(len(self.parents)) if joints is None else joints:
-            share = weights * below[joint]  # (V, J): each vertex's weights on the bones that joint turns
-            if not share.any():
-                continue
-            lever = np.einsum("vb,vba->va", share, carried - heads[joint])  # sum_b w_b (p_b - h'_j)
-            axes = from_t_pose[joint] @ right_jacobian(pose[3 + 3 * joint : 6 + 3 * joint])  # dr -> world axis
-            # a x lever = -[lever]_x a
-            jacobian[:, :, 3 + 3 * joint : 6 + 3 * joint] = -np.einsum("vab,bc->vac", _cross_matrices(lever), axes)
+        joints = np.arange(len(self.parents)) if joints is None else np.fromiter(joints, dtype=np.int64)
+        if not len(joints):
+            return jacobian
+        # p_b for every vertex and bone, (V, J, 3)
+        carried = np.matmul(vertices[None] - self.rest_heads[:, None], np.transpose(rotations, (0, 2, 1)))
+        carried = np.transpose(carried + heads[:, None], (1, 0, 2))
+        below = self._descendants[joints].astype(np.float64)  # (K, J): the bones each joint turns
+        moment = np.transpose(weights[:, :, None] * carried, (0, 2, 1)) @ below.T  # (V, 3, K): sum_b w_b p_b
+        lever = moment - (weights @ below.T)[:, None, :] * heads[joints].T[None]  # sum_b w_b (p_b - h'_j)
+        rates = np.stack([right_jacobian(pose[3 + 3 * joint : 6 + 3 * joint]) for joint in joints])
+        axes = np.transpose(from_t_pose[joints] @ rates, (0, 2, 1))  # (K, 3, 3): dr's three components -> axes
+        turned = np.cross(axes[None], np.transpose(lever, (0, 2, 1))[:, :, None, :])  # (V, K, 3, 3): a x lever
+        columns = (3 + 3 * joints[:, None] + np.arange(3)).ravel()
+        jacobian[:, :, columns] = np.transpose(turned, (0, 3, 1, 2)).reshape(len(subset), 3, -1)
         return jacobian
 
     @cached_property
@@ -269,10 +273,3 @@ class BodyMesh:
             used, inverse = np.unique(faces, return_inverse=True)
             topology.append((used, inverse.reshape(faces.shape).astype(np.int32)))
         return topology
-
-
-def _cross_matrices(vectors: np.ndarray) -> np.ndarray:
-    """``(n, 3, 3)``: ``[v]_x`` of each of ``(n, 3)`` vectors."""
-    out = np.zeros((len(vectors), 3, 3))
-    out[:, 0, 1], out[:, 0, 2], out[:, 1, 2] = -vectors[:, 2], vectors[:, 1], -vectors[:, 0]
-    return out - out.transpose(0, 2, 1)

@@ -191,6 +191,11 @@ class TreeFilter:
             timings_ms=timings,
         )
 
+    @property
+    def posterior(self) -> np.ndarray:
+        """``(N,)`` the last step's posterior over the samples (the next frame's prior is made from it)."""
+        return self._posterior
+
     def feed(self, sample: int, share: float) -> None:
         """Move ``share`` of the posterior onto ``sample`` (an estimate made outside the filter, e.g. refined, that
         the next frame's prior should start from)."""
