@@ -3,7 +3,10 @@ subject of its own, into ``reports/benchmark/<clip>/<row>/``; the table ``report
 clip, then mean ± std over clips: `eval.benchmark`), and per clip and row Fig 5's strip and the error against the
 dictionary's floor.
 
-    python -m experiments.benchmark [--split cmu] [--rows tbf_1_view ...] [--reports reports]
+    python -m experiments.benchmark [--split cmu] [--rows tbf_1_view ...] [--clips test|validation] [--reports reports]
+
+``--clips validation`` runs the split's validation clips instead, into ``reports/benchmark_validation/`` and
+``reports/benchmark_validation.md``: where a setting is chosen, never on the test clips.
 
 The split (`experiments.benchmark_split`, ``conf/benchmark/cmu.yaml``) is checked before anything runs. Every
 row that searches a dictionary (its tracker has ``samples``) builds it from the split's dictionary clips, at the
@@ -80,13 +83,14 @@ def run_row(row: Row, run_dir: Path, overrides: list[str]) -> None:
     subprocess.run(args, check=False)
 
 
-def run_benchmark(split: Split, rows: dict[str, Row], reports: Path) -> Section:
-    """Every row on every test clip, one run after another (a paper-scale run takes much of the memory); then the
-    tables and figures."""
-    root = reports / "benchmark"
+def run_benchmark(split: Split, rows: dict[str, Row], reports: Path, clips: str = "test") -> Section:
+    """Every row on every clip of the list ``clips`` (test, or validation: where settings are chosen), one run after
+    another (a paper-scale run takes much of the memory); then the tables and figures."""
+    name = "benchmark" if clips == "test" else f"benchmark_{clips}"
+    root = reports / name
     dictionary = {folder: searches_dictionary(row) for folder, row in rows.items()}
     figures = []
-    for clip in split.clips("test"):
+    for clip in split.clips(clips):
         for folder, row in rows.items():
             run_dir = root / Path(clip).stem / folder
             print(f"benchmark: {clip}, {row.label} ...", flush=True)
@@ -99,12 +103,12 @@ def run_benchmark(split: Split, rows: dict[str, Row], reports: Path) -> Section:
     labels = {folder: row.label for folder, row in split.rows.items()}  # runs of other rows kept earlier too
     per_clip = benchmark_table(root, labels)
     summary = summary_table(per_clip, labels)
-    write_text(reports / "benchmark.csv", per_clip.to_csv(index=False))
+    write_text(reports / f"{name}.csv", per_clip.to_csv(index=False))
     text = markdown(summary) + "\n\n" + markdown(per_clip)
-    write_text(reports / "benchmark.md", "# Real-motion benchmark\n\n" + text + "\n")
+    write_text(reports / f"{name}.md", f"# Real-motion benchmark, {clips} clips\n\n" + text + "\n")
     section = (
-        "### The real-motion benchmark\n\n"
-        f"Every row on the test clips ({', '.join(split.clips('test'))}), whole at {split.fps:g} fps; the "
+        f"### The real-motion benchmark, {clips} clips\n\n"
+        f"Every row on the {clips} clips ({', '.join(split.clips(clips))}), whole at {split.fps:g} fps; the "
         "dictionaries from the split's dictionary clips only. Mean ± std over clips, then per clip.\n\n" + text + "\n"
     )
     return Section(f"\nReal-motion benchmark:\n{text}\n" + "\n".join(f"  {f}" for f in figures), section)
@@ -128,6 +132,7 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--split", default="cmu", help="a split in conf/benchmark/ or a YAML file of one")
     parser.add_argument("--rows", nargs="+", help="the split's rows to run (default: every row)")
+    parser.add_argument("--clips", choices=("test", "validation"), default="test", help="which of the split's clips")
     parser.add_argument("--reports", type=Path, default=Path("reports"))
     args = parser.parse_args(argv)
     try:
@@ -139,7 +144,7 @@ def main(argv: list[str] | None = None) -> None:
         print(f"error: {error}", file=sys.stderr)
         sys.exit(2)
     rows = {name: row for name, row in split.rows.items() if not args.rows or name in args.rows}
-    print(run_benchmark(split, rows, args.reports).console)
+    print(run_benchmark(split, rows, args.reports, args.clips).console)
 
 
 if __name__ == "__main__":

@@ -75,7 +75,7 @@ def test_the_benchmark_on_a_tiny_split_tabulates_every_row_against_the_clips_flo
         "tbf": {"label": "tree filtering", "experiment": "tbf_paper_scale", "overrides": small},
         "abis": {"label": "AbIS", "experiment": "abis_body", "overrides": ["rig=body_multi"]},
     }
-    path = write_split(tmp_path, test=["mocap/69_20.bvh"], max_frames=2, rows=rows)
+    path = write_split(tmp_path, validation=["mocap/143_33.bvh"], test=["mocap/69_20.bvh"], max_frames=2, rows=rows)
     reports = tmp_path / "reports"
     main(["--split", str(path), "--reports", str(reports)])
     runs = {folder: reports / "benchmark" / "69_20" / folder for folder in rows}
@@ -93,3 +93,6 @@ def test_the_benchmark_on_a_tiny_split_tabulates_every_row_against_the_clips_flo
     stamp = (runs["tbf"] / "metrics.json").stat().st_mtime_ns
     main(["--split", str(path), "--reports", str(reports), "--rows", "tbf"])  # finished with the same overrides
     assert (runs["tbf"] / "metrics.json").stat().st_mtime_ns == stamp
+    main(["--split", str(path), "--reports", str(reports), "--rows", "tbf", "--clips", "validation"])
+    validation = pd.read_csv(reports / "benchmark_validation.csv")
+    assert list(validation["clip"]) == ["143_33"] and (reports / "benchmark_validation" / "143_33" / "tbf").is_dir()
