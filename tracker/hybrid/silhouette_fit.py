@@ -66,25 +66,36 @@ class FitSettings:
 
 class ViewField:
     """One view's observed silhouette as the fit reads it: its outside distance field (pixels) with its gradient,
-    sampled bilinearly, and its edge points (at most ``edge_points``, evenly along the pixel list)."""
+    sampled bilinearly, and its edge points (at most ``edge_points``, evenly along the pixel list) with their outward
+    normals. The fields are computed in a window of the image around the silhouette, ``MARGIN_PX`` wider on every
+    side (beyond it, a point reads the window's border: further than the robust scale, so its direction is what
+    counts)."""
+
+    MARGIN_PX = 32
 
     def __init__(self, silhouette: np.ndarray, camera: Camera, edge_points: int) -> None:
         silhouette = np.asarray(silhouette, dtype=bool)
         self.camera = camera
-        self.outside = distance_transform_edt(~silhouette)
+        rows, cols = np.nonzero(silhouette)
+        low = np.maximum([rows.min(), cols.min()] if len(rows) else [0, 0], self.MARGIN_PX) - self.MARGIN_PX
+        high = np.array([rows.max(), cols.max()]) + self.MARGIN_PX + 1 if len(rows) else np.array(silhouette.shape)
+        self.offset = np.array([low[1], low[0]], dtype=np.float64)  # the window's corner, (u, v)
+        window = silhouette[low[0] : high[0], low[1] : high[1]]
+        self.outside = distance_transform_edt(~window)
         self.gradient = np.stack(np.gradient(self.outside)[::-1])  # (d/du, d/dv), each (h, w)
-        rows, cols = np.nonzero(silhouette & ~binary_erosion(silhouette))
+        rows, cols = np.nonzero(window & ~binary_erosion(window))
         step = max(1, int(np.ceil(len(rows) / edge_points)))
         rows, cols = rows[::step], cols[::step]
-        self.edge = np.stack([cols, rows], axis=1).astype(np.float64)  # (n, 2) pixels (u, v)
+        self.edge = np.stack([cols, rows], axis=1) + self.offset  # (n, 2) pixels (u, v)
         # The outward normal at each edge point: the gradient of the signed distance (outside minus inside).
-        signed = self.outside - distance_transform_edt(silhouette)
+        signed = self.outside - distance_transform_edt(window)
         normals = np.stack([g[rows, cols] for g in np.gradient(signed)[::-1]], axis=1)
         self.edge_normals = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
 
     def sample(self, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``outside`` and its ``(n, 2)`` gradient at pixels ``uv`` (bilinear; beyond the image, the border's)."""
-        coordinates = np.stack([uv[:, 1], uv[:, 0]])
+        """``outside`` and its ``(n, 2)`` gradient at pixels ``uv`` (bilinear; beyond the window, its border's)."""
+        local = uv - self.offset
+        coordinates = np.stack([local[:, 1], local[:, 0]])
         value = map_coordinates(self.outside, coordinates, order=1, mode="nearest")
         gradient = np.stack([map_coordinates(g, coordinates, order=1, mode="nearest") for g in self.gradient], 1)
         return value, gradient
