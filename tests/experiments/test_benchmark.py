@@ -8,8 +8,10 @@ import pytest
 import yaml
 
 from eval.benchmark import MEASURES
-from experiments.benchmark import clip_overrides, main
+from experiments.benchmark import clip_overrides, main, searches_dictionary
 from experiments.benchmark_split import LISTS, SplitError, load_split
+from experiments.schemas import CONFIG_DIR
+from experiments.validate import validate_command_line
 from tracker.data import data_path
 from tracker.models.body_shapes import STANDARD_BODIES
 from tracker.tbf.sample_spec import SampleSpec, TrueRate, clip_files
@@ -96,3 +98,14 @@ def test_the_benchmark_on_a_tiny_split_tabulates_every_row_against_the_clips_flo
     main(["--split", str(path), "--reports", str(reports), "--rows", "tbf", "--clips", "validation"])
     validation = pd.read_csv(reports / "benchmark_validation.csv")
     assert list(validation["clip"]) == ["143_33"] and (reports / "benchmark_validation" / "143_33" / "tbf").is_dir()
+
+
+@pytest.mark.parametrize("folder", list(load_split("cmu").rows))
+def test_every_row_of_the_project_split_is_a_valid_run_of_its_clips(folder):
+    """A clip of each skeleton (the DAZ-friendly one at its true rate): the config check reads every clip the
+    dictionary names, so each row is checked on two clips, not all."""
+    split = load_split("cmu")
+    row = split.rows[folder]
+    for clip in ("mocap/69_20.bvh", "mocap_daz/salsa_06.bvh"):
+        overrides = clip_overrides(split, clip, searches_dictionary(row))
+        validate_command_line([f"experiment={row.experiment}", *overrides, *row.overrides], CONFIG_DIR, "config")
