@@ -3,8 +3,9 @@
 Per view, the observed silhouette S (bool, the camera's pixels) gives two distance fields (`ViewField`): ``outside``,
 each pixel's distance to S (0 inside it), and its edge points (S's boundary pixels, evenly thinned). With the
 body's vertices v_i (`BodyMesh.posed_vertices`) projected to pixels u_i (`Camera.project`), the cost sums, over
-the views, robust squares (``rho(r) = r^2`` up to ``robust_px``, linear beyond: Huber) of
-    region    ``outside(u_i)`` for every vertex: the body stays within the silhouette;
+the views and the two terms, the mean of robust squares (``rho(r) = r^2`` up to ``robust_px``, linear beyond:
+Huber) of
+    region    ``outside(u_i)`` for every ``vertex_stride``-th vertex: the body stays within the silhouette;
     cover     for every edge point e, ``n_e . (u_k - e)`` for the body's outline vertex k nearest it in the image
               (n_e: the silhouette's outward normal at e; a vertex is on the outline where its normal is near
               square to the camera's ray, ``|n . ray| < outline_cos``): the body's outline reaches every part of
@@ -12,11 +13,11 @@ the views, robust squares (``rho(r) = r^2`` up to ``robust_px``, linear beyond: 
 and a prior ``prior_weight^2 |r_j - r_j^0|^2`` on each fitted joint's rotation vector, towards the starting pose
 (a joint the silhouettes do not constrain, a limb's twist, stays where it was). The parameters are the root's
 position and the rotation vectors of `FIT_JOINTS`; Levenberg-Marquardt steps them by the Gauss-Newton system
-of the residuals' Jacobian, analytic: the image gradient of ``outside`` (for cover, the identity) times the
+of the residuals' Jacobian, analytic: the image gradient of ``outside`` (for cover, the edge's normal) times the
 projection's Jacobian (`projection_jacobian`) times the skinned vertices' (`BodyMesh.vertex_jacobian`).
 
-`fit_cost` is the cost without the prior, per view the mean over its vertices and edge points: what the hybrid
-compares candidates by (the same residuals for every candidate, so the numbers compare).
+`fit_cost` is the cost without the prior: what the hybrid compares candidates by (the same vertices and edge
+points for every candidate, so the numbers compare).
 """
 
 from __future__ import annotations
@@ -52,7 +53,7 @@ class FitSettings:
     """The silhouette fit's iterations, terms and weights (see the module docstring)."""
 
     iterations: Annotated[int, Range(0, 100)] = 10
-    vertex_stride: Annotated[int, Range(1, 100)] = 6  # the body's vertices fitted: every this many
+    vertex_stride: Annotated[int, Range(1, 100)] = 6  # the region term's vertices: every this many (outline: all)
     edge_points: Annotated[int, Range(8, 10_000)] = 400  # per view, the silhouette's edge points at most
     outline_cos: Annotated[float, Range(0.0, 1.0)] = 0.35
     robust_px: Positive = 8.0
@@ -182,7 +183,7 @@ class SilhouetteFit:
         return self.body.vertex_jacobian(pose, vertices, FIT_JOINTS, transforms)[:, :, FIT_COLUMNS]
 
     def fit_cost(self, pose: np.ndarray) -> float:
-        """The robust cost without the prior, each view's the mean over its residuals; summed over the views."""
+        """The cost without the prior: over the views and their two terms, the sum of each term's mean robust square."""
         values, _ = self.residuals(pose, jacobian=False)
         return float(sum(huber(v, self.settings.robust_px).mean() for v in values if len(v)))
 
@@ -194,9 +195,7 @@ class SilhouetteFit:
         prior_rows = np.r_[np.zeros(3), np.full(len(FIT_COLUMNS) - 3, settings.prior_weight)]
 
         def total(candidate: np.ndarray) -> float:
-            values, _ = self.residuals(candidate, jacobian=False)
-            data = sum(huber(v, settings.robust_px).sum() / len(v) for v in values if len(v))
-            return float(data + ((prior_rows * (candidate[FIT_COLUMNS] - anchor)) ** 2).sum())
+            return self.fit_cost(candidate) + float(((prior_rows * (candidate[FIT_COLUMNS] - anchor)) ** 2).sum())
 
         current, damping = total(pose), settings.damping
         for _ in range(settings.iterations if iterations is None else iterations):
