@@ -13,7 +13,7 @@ from tests.conftest import SMALL_ARM_GRID, SMALL_GRID, TBF_RUN, run_cli
 from tracker.registry import TRACKERS
 
 RIGS_OF_MODEL = {"dsq_arm": ("mono", "orthogonal3"), "body_mesh": ("body_side", "body_multi")}
-NEEDS = {"tbf": ("cost=nwxor", "motion=dm2")}
+GRID_NEEDS = ("cost=nwxor", "motion=dm2")  # for a tracker that needs them: a grid of samples has no motion to learn
 SMALL_SAMPLES = {"body_mesh": tuple(SMALL_GRID), "dsq_arm": (SMALL_ARM_GRID,)}
 VIEWS = {rig: len(build(compose([f"rig={rig}"])).cameras) for rigs in RIGS_OF_MODEL.values() for rig in rigs}
 COMBINATIONS = [
@@ -29,6 +29,7 @@ COMBINATIONS = [
 def test_every_allowed_combination_runs_two_frames(tracker, model, rig, tmp_path):
     out = tmp_path / "out"
     needed = [f"{key}={value}" for key, value in TRACKERS[tracker].models[model].settings]
+    searches = any(setting.name == "samples" for setting in TRACKERS[tracker].fields)  # a dictionary: a small one
     result = run_cli(
         out,
         *needed,
@@ -37,9 +38,9 @@ def test_every_allowed_combination_runs_two_frames(tracker, model, rig, tmp_path
         f"rig={rig}",
         "frames=2",
         "record.images=false",
-        f"tracker.cache_dir={tmp_path / 'cache'}" if tracker == "tbf" else "seed=0",
-        *NEEDS.get(tracker, ()),
-        *(SMALL_SAMPLES[model] if tracker == "tbf" else ()),
+        f"tracker.cache_dir={tmp_path / 'cache'}" if searches else "seed=0",
+        *(GRID_NEEDS if TRACKERS[tracker].needs else ()),
+        *(SMALL_SAMPLES[model] if searches else ()),
         cwd=tmp_path,
     )
     assert result.returncode == 0, result.stderr

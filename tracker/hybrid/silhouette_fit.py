@@ -11,7 +11,8 @@ Huber) of
               square to the camera's ray, ``|n . ray| < outline_cos``): the body's outline reaches every part of
               the silhouette's (an ICP step, point to line);
 and a prior ``prior_weight^2 |r_j - r_j^0|^2`` on each fitted joint's rotation vector, towards the starting pose
-(a joint the silhouettes do not constrain, a limb's twist, stays where it was). The parameters are the root's
+(a joint the silhouettes do not constrain, a limb's twist, stays where it was), and where a place for the root is
+given, ``root_prior^2 |t - t^0|^2`` on its position (one view hardly sees depth). The parameters are the root's
 position and the rotation vectors of `FIT_JOINTS`; Levenberg-Marquardt steps them by the Gauss-Newton system
 of the residuals' Jacobian, analytic: the image gradient of ``outside`` (for cover, the edge's normal) times the
 projection's Jacobian (`projection_jacobian`) times the skinned vertices' (`BodyMesh.vertex_jacobian`).
@@ -58,6 +59,7 @@ class FitSettings:
     outline_cos: Annotated[float, Range(0.0, 1.0)] = 0.35
     robust_px: Positive = 8.0
     prior_weight: NonNegative = 2.0  # pixels per radian of a joint's rotation away from the starting pose
+    root_prior: NonNegative = 20.0  # pixels per metre of the root away from where it is held (`refine`'s root)
     damping: Positive = 1e-3  # Levenberg-Marquardt's first lambda, relative to the system's diagonal
     tolerance: NonNegative = 0.02  # stop once an iteration lowers the cost by less than this fraction of it
 
@@ -187,12 +189,15 @@ class SilhouetteFit:
         values, _ = self.residuals(pose, jacobian=False)
         return float(sum(huber(v, self.settings.robust_px).mean() for v in values if len(v)))
 
-    def refine(self, start: np.ndarray, iterations: int | None = None) -> np.ndarray:
+    def refine(self, start: np.ndarray, iterations: int | None = None, root: np.ndarray | None = None) -> np.ndarray:
         """``start`` refined by Levenberg-Marquardt (see the module docstring) for ``iterations`` at most (None: the
-        settings'); the pose vector it ends at."""
+        settings'), the root's position held near ``root`` (None: free); the pose vector it ends at."""
         settings, pose = self.settings, np.asarray(start, dtype=np.float64).copy()
         anchor = pose[FIT_COLUMNS].copy()
-        prior_rows = np.r_[np.zeros(3), np.full(len(FIT_COLUMNS) - 3, settings.prior_weight)]
+        root_weight = 0.0 if root is None else settings.root_prior
+        if root is not None:
+            anchor[:3] = root
+        prior_rows = np.r_[np.full(3, root_weight), np.full(len(FIT_COLUMNS) - 3, settings.prior_weight)]
 
         def total(candidate: np.ndarray) -> float:
             return self.fit_cost(candidate) + float(((prior_rows * (candidate[FIT_COLUMNS] - anchor)) ** 2).sum())

@@ -5,9 +5,9 @@ samples for the frame's silhouettes: a global search that recovers what a local 
 probable samples, placed where the person stands, and the last frame's refined pose are the candidates; each is
 refined for ``screen_iterations`` by the continuous fit of the tracker's own body to every view's silhouette
 (`tracker.hybrid.silhouette_fit`: the joints and the root by Levenberg-Marquardt with the skinning's analytic
-Jacobian), and the one that then explains the views best (the lowest `SilhouetteFit.fit_cost`) is refined on to
-the estimate. ``feed`` of the filter's posterior is moved onto the sample nearest it, so the next frame's prior
-starts from it. The tracker never sees the truth; the
+Jacobian, the root held near where tree filtering placed the person), and the one that then explains the views
+best (the lowest `SilhouetteFit.fit_cost`) is refined on to the estimate. ``feed`` of the filter's posterior is
+moved onto the sample nearest it, so the next frame's prior starts from it. The tracker never sees the truth; the
 evaluation judges its estimates, and its dictionary's floor, as tree filtering's.
 
 Frame columns: ``hybrid_choice`` (the candidate kept: 0 the filter's best sample, then its next proposals, last
@@ -104,10 +104,11 @@ class HybridTracker(TbfTracker):
         start = time.perf_counter()
         self.fit.observe([observation.silhouettes[camera.name] for camera in self.cameras])
         candidates = self.proposals(found) + ([self.refined] if self.refined is not None else [])
-        screened = [self.fit.refine(pose, self.settings.screen_iterations) for pose in candidates]
+        placed = found.estimate[:3]  # where tree filtering placed the person this frame
+        screened = [self.fit.refine(pose, self.settings.screen_iterations, placed) for pose in candidates]
         costs = [self.fit.fit_cost(pose) for pose in screened]
         choice = int(np.argmin(costs))
-        self.refined = self._estimate = self.fit.refine(screened[choice])
+        self.refined = self._estimate = self.fit.refine(screened[choice], root=placed)
         cost = self.fit.fit_cost(self.refined)
         if self.settings.feed > 0:
             self.filter.feed(self.nearest(self.refined), self.settings.feed)
