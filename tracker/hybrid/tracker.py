@@ -99,7 +99,7 @@ class HybridTracker(TbfTracker):
         return poses
 
     def step(self, observation: Observation) -> TbfResult:
-        """Tree filtering's step, then its proposal and the previous refined pose refined and the better kept."""
+        """Tree filtering's step, then its proposals and the previous refined pose screened, the best refined on."""
         found = super().step(observation)
         if found.failure is not None:
             return found
