@@ -1,5 +1,7 @@
 """The real-motion benchmark's tables (`experiments.benchmark`): one row per test clip and tracker setup, from each
-run's ``metrics.json`` and ``timings.json`` (`eval.runs.collect`), and per setup the mean ± std over clips.
+run's ``metrics.json`` and ``timings.json`` (`eval.runs.collect`), and per setup the mean ± std over clips. A
+frame the tracker could not use (``failed``: the subject out of a camera's view, say) keeps the last estimate, and
+its error counts.
 
 The floor of a clip is the dictionary's: the root-aligned MPJPE of the sample nearest the truth at every frame
 (`tracker.evaluation.dictionary`), read from a run of that clip that searched the dictionary; every setup of the
@@ -33,7 +35,7 @@ def benchmark_table(root: Path, labels: dict[str, str]) -> pd.DataFrame:
     setups' order."""
     runs = collect([root])
     if runs.empty:
-        return pd.DataFrame(columns=["clip", "tracker", "status", "frames", *MEASURES, "aligned / floor"])
+        return pd.DataFrame(columns=["clip", "tracker", "status", "frames", "failed", *MEASURES, "aligned / floor"])
     runs["clip"] = [Path(run).parent.name for run in runs["run"]]
     runs["folder"] = [Path(run).name for run in runs["run"]]
     floors = runs.dropna(subset=["mpjpe_floor_mm"]).groupby("clip")["mpjpe_floor_mm"].first()
@@ -42,7 +44,15 @@ def benchmark_table(root: Path, labels: dict[str, str]) -> pd.DataFrame:
         for folder, label in labels.items():
             for run in runs[(runs["clip"] == clip) & (runs["folder"] == folder)].to_dict("records"):
                 run["mpjpe_floor_mm"] = floors.get(clip, np.nan)
-                row = {"clip": clip, "tracker": label, "status": run["status"], "frames": run["frames"]}
+                failed = run.get("failed_frames", 0)
+                failed = 0 if pd.isna(failed) else int(failed)  # frames with no estimate: the last one counts
+                row = {
+                    "clip": clip,
+                    "tracker": label,
+                    "status": run["status"],
+                    "frames": run["frames"],
+                    "failed": failed,
+                }
                 row |= {column: round(float(run.get(metric, np.nan)), 1) for column, metric in MEASURES.items()}
                 row["aligned / floor"] = round(run.get("mpjpe_root_aligned_mm", np.nan) / run["mpjpe_floor_mm"], 2)
                 rows.append(row)
@@ -58,6 +68,7 @@ def summary_table(per_clip: pd.DataFrame, labels: dict[str, str]) -> pd.DataFram
             continue
         done = runs[runs["status"] == "ok"]
         row = {"tracker": label, "clips": f"{len(done)} of {len(runs)}"}
+        row["failed frames"] = f"{int(done['failed'].sum())} of {int(done['frames'].sum())}"
         for column in (*MEASURES, "aligned / floor"):
             values = done[column].astype(float).dropna()
             digits = 2 if column == "aligned / floor" else 1
