@@ -43,7 +43,7 @@ def benchmark_table(root: Path, labels: dict[str, str]) -> pd.DataFrame:
     for clip in sorted(runs["clip"].unique()):
         for folder, label in labels.items():
             for run in runs[(runs["clip"] == clip) & (runs["folder"] == folder)].to_dict("records"):
-                run["mpjpe_floor_mm"] = floors.get(clip, np.nan)
+                floor = floors.get(clip, np.nan)  # the clip's, whether or not this row searched a dictionary
                 failed = run.get("failed_frames", 0)
                 failed = 0 if pd.isna(failed) else int(failed)  # frames with no estimate: the last one counts
                 row = {
@@ -54,7 +54,8 @@ def benchmark_table(root: Path, labels: dict[str, str]) -> pd.DataFrame:
                     "failed": failed,
                 }
                 row |= {column: round(float(run.get(metric, np.nan)), 1) for column, metric in MEASURES.items()}
-                row["aligned / floor"] = round(run.get("mpjpe_root_aligned_mm", np.nan) / run["mpjpe_floor_mm"], 2)
+                row["floor mm"] = round(float(floor), 1)
+                row["aligned / floor"] = round(run.get("mpjpe_root_aligned_mm", np.nan) / floor, 2)
                 rows.append(row)
     return pd.DataFrame(rows)
 

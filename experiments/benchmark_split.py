@@ -7,8 +7,7 @@ clip in two lists stops it with one line (`SplitError`).
 from __future__ import annotations
 
 import zlib
-from dataclasses import dataclass, field
-from fnmatch import fnmatch
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Annotated
 
@@ -20,7 +19,7 @@ from tracker.data import data_dir, data_files, data_path
 from tracker.models.body_shapes import MacroShape, draw_subject
 from tracker.ranges import Positive, Range, Seed
 from tracker.settings import check_values, from_plain, settings_of
-from tracker.tbf.sample_spec import TrueRate
+from tracker.tbf.sample_spec import TrueRate, true_rate
 
 SPLITS_DIR = CONFIG_DIR / "benchmark"
 LISTS = ("dictionary", "validation", "test")
@@ -56,7 +55,7 @@ class Split:
 
     def true_rate(self, clip: str) -> float | None:
         """The capture rate of ``clip`` when its header's is wrong (`true_fps`), else None."""
-        return next((rate.fps for rate in self.true_fps if fnmatch(clip, rate.files)), None)
+        return true_rate(clip, self.true_fps)
 
     def subject(self, clip: str) -> MacroShape:
         """The subject of ``clip``: drawn from the standard bodies' range by the seed and the clip's name, so a
@@ -92,8 +91,7 @@ def load_split(path: str | Path) -> Split:
         rows = {folder: Row(**row) for folder, row in (plain.get("rows") or {}).items()}
     except (TypeError, ValueError) as error:
         raise SplitError(f"{path}: {error}") from None
-    split = from_plain(Split, {key: value for key, value in plain.items() if key != "rows"})
-    split = Split(**{s.name: getattr(split, s.name) for s in settings_of(Split) if s.name != "rows"}, rows=rows)
+    split = replace(from_plain(Split, {key: value for key, value in plain.items() if key != "rows"}), rows=rows)
     check_clips(split, path)
     return split
 

@@ -132,12 +132,14 @@ def clip_files(spec: SampleSpec, key: str = "tracker") -> list[tuple[int, str, f
             raise ValueError(
                 f"{key}.samples.clips[{index}]={pattern}: no file matches it in the data directory {data_dir()}"
             )
-        for path in found:
-            rates = [
-                rate.fps for rate in spec.clip_true_fps if fnmatch(str(data_path(path)), str(data_path(rate.files)))
-            ]
-            files.append((index, path, rates[0] if rates else None))
+        files += [(index, path, true_rate(path, spec.clip_true_fps)) for path in found]
     return files
+
+
+def true_rate(path: str, rates: tuple[TrueRate, ...]) -> float | None:
+    """The capture rate of the clip at data path ``path`` by the first of ``rates`` whose files match it (both
+    resolved in the data directory), or None: its header's rate holds."""
+    return next((rate.fps for rate in rates if fnmatch(str(data_path(path)), str(data_path(rate.files)))), None)
 
 
 def cached_sample_poses(spec: SampleSpec, body: BodyMesh, cache_dir: str | Path) -> tuple[np.ndarray, np.ndarray]:
