@@ -189,9 +189,12 @@ class SilhouetteFit:
         values, _ = self.residuals(pose, jacobian=False)
         return float(sum(huber(v, self.settings.robust_px).mean() for v in values if len(v)))
 
-    def refine(self, start: np.ndarray, iterations: int | None = None, root: np.ndarray | None = None) -> np.ndarray:
+    def refine(
+        self, start: np.ndarray, iterations: int | None = None, root: np.ndarray | None = None
+    ) -> tuple[np.ndarray, float]:
         """``start`` refined by Levenberg-Marquardt (see the module docstring) for ``iterations`` at most (None: the
-        settings'), the root's position held near ``root`` (None: free); the pose vector it ends at."""
+        settings'), the root's position held near ``root`` (None: free); the pose vector it ends at and its
+        `fit_cost` (computed on the way)."""
         settings, pose = self.settings, np.asarray(start, dtype=np.float64).copy()
         anchor = pose[FIT_COLUMNS].copy()
         root_weight = 0.0 if root is None else settings.root_prior
@@ -199,10 +202,12 @@ class SilhouetteFit:
             anchor[:3] = root
         prior_rows = np.r_[np.full(3, root_weight), np.full(len(FIT_COLUMNS) - 3, settings.prior_weight)]
 
-        def total(candidate: np.ndarray) -> float:
-            return self.fit_cost(candidate) + float(((prior_rows * (candidate[FIT_COLUMNS] - anchor)) ** 2).sum())
+        def total(candidate: np.ndarray) -> tuple[float, float]:
+            """The cost with the prior, and the `fit_cost` in it."""
+            fitted = self.fit_cost(candidate)
+            return fitted + float(((prior_rows * (candidate[FIT_COLUMNS] - anchor)) ** 2).sum()), fitted
 
-        current, damping = total(pose), settings.damping
+        (current, fitted), damping = total(pose), settings.damping
         for _ in range(settings.iterations if iterations is None else iterations):
             values, rows = self.residuals(pose)
             hessian = np.diag(prior_rows**2)
@@ -217,13 +222,19 @@ class SilhouetteFit:
                 system = hessian + damping * np.diag(np.diag(hessian) + 1e-9)
                 trial = pose.copy()
                 trial[FIT_COLUMNS] -= np.linalg.solve(system, gradient)
-                cost = total(trial)
+                cost, trial_fitted = total(trial)
                 if cost < current:
-                    pose, current, damping, gain = trial, cost, max(damping / 10, 1e-9), current - cost
+                    pose, current, fitted, damping, gain = (
+                        trial,
+                        cost,
+                        trial_fitted,
+                        max(damping / 10, 1e-9),
+                        current - cost,
+                    )
                     break
                 damping *= 10
             else:
                 break
             if gain < settings.tolerance * current:
                 break
-        return pose
+        return pose, fitted

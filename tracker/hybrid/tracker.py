@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Annotated, ClassVar
 
 import numpy as np
@@ -108,22 +108,17 @@ class HybridTracker(TbfTracker):
         candidates = self.proposals(found) + ([self.refined] if self.refined is not None else [])
         placed = found.estimate[:3]  # where tree filtering placed the person this frame
         screened = [self.fit.refine(pose, self.settings.screen_iterations, placed) for pose in candidates]
-        costs = [self.fit.fit_cost(pose) for pose in screened]
-        choice = int(np.argmin(costs))
-        self.refined = self._estimate = self.fit.refine(screened[choice], root=placed)
-        cost = self.fit.fit_cost(self.refined)
+        choice = int(np.argmin([cost for _, cost in screened]))
+        self.refined, cost = self.fit.refine(screened[choice][0], root=placed)
+        self._estimate = self.refined
         if self.settings.feed > 0:
             self.filter.feed(self.nearest(self.refined), self.settings.feed)
         found.frame_columns.update(
             hybrid_choice=choice, fit_cost=cost, fit_cost_proposal=self.fit.fit_cost(found.estimate)
         )
-        timings = {**found.timings_ms, "refine": elapsed_ms(start)}
-        return TbfResult(
-            filter=found.filter,
-            frame=found.frame,
+        return replace(
+            found,
             estimate=self.refined.copy(),
-            timings_ms=timings,
-            part_columns=found.part_columns,
-            frame_columns=found.frame_columns,
+            timings_ms={**found.timings_ms, "refine": elapsed_ms(start)},
             series={**found.series, "hybrid/fit_cost": cost, "hybrid/choice": float(choice)},
         )

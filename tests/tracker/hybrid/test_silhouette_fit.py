@@ -52,7 +52,8 @@ def test_the_fit_recovers_a_perturbed_pose_from_three_rendered_silhouettes(body,
     fit = SilhouetteFit(body, RIG, FitSettings(iterations=15))
     fit.observe(silhouettes(renderer, body, pose, RIG))
     start = perturbed(pose)
-    refined = fit.refine(start)
+    refined, cost = fit.refine(start)
+    assert cost == fit.fit_cost(refined)  # the cost it returns is its pose's
     before, after = joint_errors_mm(body, pose, start), joint_errors_mm(body, pose, refined)
     assert fit.fit_cost(refined) < 0.2 * fit.fit_cost(start)
     assert after["absolute"] < 0.3 * before["absolute"] and after["aligned"] < 0.6 * before["aligned"], (before, after)
@@ -64,7 +65,8 @@ def test_from_one_view_the_fit_recovers_what_the_view_sees(body, pose, renderer)
     fit = SilhouetteFit(body, [camera], FitSettings(iterations=15))
     fit.observe(silhouettes(renderer, body, pose, [camera]))
     start = perturbed(pose)
-    refined = fit.refine(start)
+    refined, cost = fit.refine(start)
+    assert cost == fit.fit_cost(refined)  # the cost it returns is its pose's
 
     def pixel_error(estimate):
         return np.linalg.norm(
