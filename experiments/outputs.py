@@ -1,7 +1,7 @@
 """A run's tables and summary: each frame -> rows of ``frames.parquet``, the rows -> ``metrics.json``, ``timings.json``.
 
 Rows: one per frame and part, frame-major. Columns: ``frame``, ``part``, ``visible_px_<view>`` (label pixels),
-the stage timings ``<stage>_ms`` (frame-level, repeated on each part's row), for runs that capture silhouettes
+``in_view_<view>`` (the view holds the whole object: `tracker.sequence.wholly_in_view`), the stage timings ``<stage>_ms`` (frame-level, repeated on each part's row), for runs that capture silhouettes
 ``silhouette_iou_<view>`` (extracted silhouette vs render mask); the model's evaluation columns (truth, and with
 an estimate the estimate and its errors: `tracker.evaluation`); with a tracker's result its own columns
 (`tracker.protocol.StepResult`) and ``failure`` (empty when the frame was used). Angles are radians here; the
@@ -59,6 +59,7 @@ def frame_rows(
     evaluation of it (``evaluated``: per-part and per-frame columns)."""
     part_columns: dict[str, Any] = dict(evaluated[0])
     frame_columns: dict[str, Any] = {f"{stage}_ms": ms for stage, ms in frame.timings_ms.items()}
+    frame_columns.update({f"in_view_{view}": seen for view, seen in frame.in_view.items()})
     if captured is not None:
         frame_columns.update({f"silhouette_iou_{view}": value for view, value in captured.iou.items()})
     frame_columns.update(evaluated[1])

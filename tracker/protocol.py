@@ -41,7 +41,8 @@ class RenderedFrame:
 
     truth: ``(n_parts, n_params)`` truth parameters; meshes: the truth surfaces that were rendered;
     views: rendered images keyed by camera name; visible_px: per view, ``(n_parts,)`` label pixel counts
-    (part k's count at index k); timings_ms: stage name -> milliseconds.
+    (part k's count at index k); in_view: per view, whether the camera sees the whole object (some label pixels,
+    none on the image's border: `tracker.sequence.wholly_in_view`); timings_ms: stage name -> milliseconds.
     """
 
     frame: int
@@ -49,6 +50,7 @@ class RenderedFrame:
     meshes: list[SurfaceMesh]
     views: dict[str, RenderedView]
     visible_px: dict[str, np.ndarray]
+    in_view: dict[str, bool] = field(default_factory=dict)
     timings_ms: dict[str, float] = field(default_factory=dict)
 
     def observation(self, silhouettes: Mapping[str, np.ndarray] | None = None) -> Observation:

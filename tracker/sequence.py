@@ -47,6 +47,7 @@ def simulate(
             meshes=meshes,
             views=views,
             visible_px={name: label_areas(view.labels, n_parts) for name, view in views.items()},
+            in_view={name: wholly_in_view(view.labels) for name, view in views.items()},
             timings_ms={"pose": 1e3 * (posed - start), "render": 1e3 * (rendered - posed)},
         )
 
@@ -67,6 +68,14 @@ def background_frames(
         )
         for name, view in empty.items()
     }
+
+
+def wholly_in_view(labels: np.ndarray) -> bool:
+    """Whether a label image holds the whole object: some of it, and none on the image's border (a silhouette cut
+    by the border, or an empty one, is not the object's whole outline)."""
+    labels = np.asarray(labels)
+    border = (labels[0], labels[-1], labels[:, 0], labels[:, -1])
+    return bool(labels.any()) and not any(edge.any() for edge in border)
 
 
 def label_areas(labels: np.ndarray, n_parts: int) -> np.ndarray:

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 import yaml
 
-from eval.benchmark import MEASURES
+from eval.benchmark import MEASURES, benchmark_table
 from experiments.benchmark import clip_overrides, main, searches_dictionary
 from experiments.benchmark_split import LISTS, SPLITS_DIR, SplitError, load_split
 from experiments.schemas import CONFIG_DIR
@@ -87,17 +87,35 @@ def test_the_benchmark_on_a_tiny_split_tabulates_every_row_against_the_clips_flo
     assert metrics["tbf"]["config"]["model"]["shape"] == metrics["abis"]["config"]["model"]["shape"]
     table = pd.read_csv(reports / "benchmark.csv")
     assert list(table["tracker"]) == ["tree filtering", "AbIS"] and set(MEASURES) <= set(table.columns)
-    floor = round(metrics["tbf"]["mpjpe_floor_mm"], 1)
-    assert (table["floor mm"] == floor).all()  # AbIS searches no dictionary: held against the clip's
-    assert table.loc[1, "aligned / floor"] == round(metrics["abis"]["mpjpe_root_aligned_mm"] / floor, 2)
+    assert list(table["scored"]) == [2, 2]  # 69_20 starts in every view
+    floor = metrics["tbf"]["mpjpe_floor_mm"]  # AbIS searches no dictionary: held against the clip's
+    assert table["floor mm"].to_numpy() == pytest.approx(floor, abs=0.1)  # per-frame values kept to 0.1 mm
+    assert table.loc[1, "root-aligned mm"] == round(metrics["abis"]["mpjpe_root_aligned_mm"], 1)
+    assert table.loc[1, "aligned / floor"] == pytest.approx(metrics["abis"]["mpjpe_root_aligned_mm"] / floor, abs=0.01)
     assert "± " in (reports / "benchmark.md").read_text()
     assert all((run / "fig5.png").exists() and (run / "error_against_floor.png").exists() for run in runs.values())
+    assert_scored_where_every_row_saw_the_subject(reports / "benchmark", runs, {f: r["label"] for f, r in rows.items()})
     stamp = (runs["tbf"] / "metrics.json").stat().st_mtime_ns
     main(["--split", str(path), "--reports", str(reports), "--rows", "tbf"])  # finished with the same overrides
     assert (runs["tbf"] / "metrics.json").stat().st_mtime_ns == stamp
     main(["--split", str(path), "--reports", str(reports), "--rows", "tbf", "--clips", "validation"])
     validation = pd.read_csv(reports / "benchmark_validation.csv")
     assert list(validation["clip"]) == ["143_33"] and (reports / "benchmark_validation" / "143_33" / "tbf").is_dir()
+
+
+def assert_scored_where_every_row_saw_the_subject(root, runs, labels):
+    """One row's camera losing the subject at frame 1 leaves frame 0 alone scored, for every row."""
+    path = runs["abis"] / "frames.parquet"
+    frames = pd.read_parquet(path)
+    view = next(column for column in frames.columns if column.startswith("in_view_"))
+    frames.loc[frames["frame"] == 1, view] = False
+    frames.to_parquet(path)
+    table = benchmark_table(root, labels)
+    assert list(table["scored"]) == [1, 1] and list(table["frames"]) == [2, 2]
+    for folder, row in zip(labels, table.to_dict("records"), strict=True):
+        first = pd.read_parquet(runs[folder] / "frames.parquet").drop_duplicates("frame").iloc[0]
+        assert row["root-aligned mm"] == round(first["joint_error_aligned_mm"], 1)
+        assert row["PA-MPJPE mm"] == round(first["joint_error_pa_mm"], 1)
 
 
 @pytest.mark.parametrize("folder", list(yaml.safe_load((SPLITS_DIR / "cmu.yaml").read_text())["rows"]))

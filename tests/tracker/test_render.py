@@ -184,3 +184,19 @@ def test_importing_the_core_needs_no_opengl():
         "assert not any(m.split('.')[0] in ('hydra', 'omegaconf', 'rerun') for m in sys.modules)"
     )
     assert result.returncode == 0, result.stderr
+
+
+@pytest.mark.parametrize(
+    ("edge_u", "whole"),
+    [(None, True), (0.0, False), (-200.0, False)],  # in the middle; cut by the left border; out of the image
+)
+def test_a_view_holds_the_whole_object_only_when_no_part_of_it_touches_the_border(rig, renderer, edge_u, whole):
+    from tracker.sequence import wholly_in_view
+
+    camera, depth, radius = rig[0], 2.0, 0.1
+    x = 0.0 if edge_u is None else (edge_u - camera.cx) * depth / camera.fx  # the sphere's centre projects to u
+    center = camera.position + camera.rotation @ np.array([x, 0.0, depth])
+    labels = renderer.render([camera], [sphere_mesh(center, radius)])[camera.name].labels
+    uv, _ = camera.project(center[None])
+    assert (edge_u is None) == (abs(uv[0, 0] - camera.cx) < 1)  # where it was put, by the projection alone
+    assert wholly_in_view(labels) == whole
