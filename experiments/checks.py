@@ -69,9 +69,17 @@ def check_combination(entries: dict[str, Entry], choices: dict[str, str], plain:
             raise ValueError(f"{group}={choices[group]} needs model={allowed}, not model={choices['model']}")
     fit = None if tracker.models is None else tracker.models[model]
     try:
-        views = len(entries["rig"].build(plain["rig"]))
+        cameras = entries["rig"].build(plain["rig"])
     except ValueError as error:  # a camera that cannot be built
         raise ValueError(f"rig={choices['rig']}: {error}") from None
+    views = len(cameras)
+    width, height = tracker.min_image
+    for camera in cameras:
+        if camera.width < width or camera.height < height:
+            raise ValueError(
+                f"rig={choices['rig']}: camera {camera.name} is {camera.width}x{camera.height}, "
+                f"tracker={tracker.name} needs at least {width}x{height} (set rig.width and rig.height)"
+            )
     combination = f"tracker={choices['tracker']} tracks model={choices['model']}"
     if fit is not None and not fit.allows(views):
         advice = f"; add {fit.advice()}" if fit.rig else ""

@@ -8,9 +8,11 @@ from __future__ import annotations
 import dataclasses
 import importlib.util
 import os
+import re
 import tempfile
 from pathlib import Path
 
+import yaml
 from hydra import compose, initialize_config_dir
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.errors import HydraException, MissingConfigException, OverrideParseException
@@ -145,9 +147,23 @@ def _compose(config_dir: Path, config_name: str, overrides: list[str]):
         options = [o for o in (error.options or []) if not o.startswith(SCHEMA_PREFIX)]
         raise ConfigError(f"{group}={option}: no such option, allowed {', '.join(options)}") from None
     except HydraException as error:
-        cause = error.__cause__
+        cause = error.__cause__ or error.__context__  # a user preset's unknown key: the context, not the cause
         message = _describe(cause) if isinstance(cause, OmegaConfBaseException) else _first_line(error)
-        raise ConfigError(message) from None
+        where = re.match(r"In '([^']+)'", str(error))
+        raise ConfigError(f"{where.group(1)}.yaml: {message}" if where else message) from None
+    except yaml.YAMLError as error:  # a user's YAML that does not parse
+        raise ConfigError(_yaml_problem(error)) from None
+
+
+def _yaml_problem(error: yaml.YAMLError) -> str:
+    """Where a YAML file stops parsing and why, in one line (where what failed began, e.g. an unclosed bracket)."""
+    mark = getattr(error, "context_mark", None) or getattr(error, "problem_mark", None)
+    problem = getattr(error, "problem", None) or _first_line(error)
+    if mark is None:
+        return f"a YAML file does not parse: {problem}"
+    context = getattr(error, "context", None)
+    why = f"{context}: {problem}" if context else problem
+    return f"{mark.name}, line {mark.line + 1}, column {mark.column + 1}: not valid YAML, {why}"
 
 
 def _describe(error: OmegaConfBaseException) -> str:

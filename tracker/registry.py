@@ -71,6 +71,7 @@ class Entry:
     models: Mapping[str, Fit] | None = None
     observes: tuple[str, ...] = ()  # what the run must capture for it, e.g. "silhouettes"
     presentation: Presentation = field(default_factory=Presentation)  # its panels and colours in the recording
+    min_image: tuple[int, int] = (1, 1)  # a tracker's smallest camera image (width, height) to track from
     # Before the run: check(settings, frames=..., key=..., model=...) raises ValueError naming the key (settings: the
     # settings dataclass, or the component's settings as attributes; key: its config group; model: the model's name).
     check: Callable[..., None] | None = None

@@ -2,6 +2,7 @@
 wrong and what is allowed, no files) or, found inside a run, is recorded (a failed frame or ``status: failed:
 <reason>``) with every output still readable."""
 
+import importlib.util
 import json
 import re
 import subprocess
@@ -34,7 +35,18 @@ def _with_nan(data: bytes) -> bytes:
     return head + b"MOTION" + b"\n".join(lines)
 
 
+def _frames_kept(count: int):
+    def edit(data: bytes) -> bytes:
+        head, motion = data.split(b"MOTION", 1)
+        lines = motion.strip().split(b"\n")  # Frames:, Frame Time:, then one line per frame
+        return head + b"MOTION\n" + b"\n".join([f"Frames: {count}".encode(), lines[1], *lines[2 : 2 + count]]) + b"\n"
+
+    return edit
+
+
 BVH_VARIANTS = {
+    "one_frame.bvh": (_frames_kept(1), r"the clip has 1 frame\(s\), no motion to track$"),
+    "no_frames.bvh": (_frames_kept(0), r"the clip has 0 frame\(s\), no motion to track$"),
     "truncated.bvh": (
         _truncated,
         r"the file ends inside frame \d+ \(\d+ of 96 values; the header says 36\d frames\): "
@@ -77,9 +89,27 @@ AT_START = [
     ),
     (
         ["model=body_mesh", "scene=bvh", f"scene.path={SHORT_CLIP}", "frames=1000"],
-        rf"^frames=1000: scene\.path={re.escape(str(SHORT_CLIP))} has 90 frames at 30 fps from scene\.start_s=0\.0; "
-        r"allowed at most 90$",
+        rf"^frames=1000: scene\.path={re.escape(str(SHORT_CLIP))} has 90 frames at 30 fps from scene\.start_s=0\.0 "
+        r"\(3\.00 s of motion\); allowed at most 90$",
     ),  # 360 steps of .0083333 s = 2.99999 s: 89 steps of 1/30 s
+    (
+        ["model=body_mesh", "scene=bvh", f"scene.path={SHORT_CLIP}", "scene.start_s=100"],
+        rf"^scene\.start_s=100\.0: past the end of {re.escape(str(SHORT_CLIP))} \(3\.00 s of motion\); allowed "
+        r"below 3\.00$",
+    ),
+    (
+        ["experiment=tbf_table4c", "tracker.cache_dir=/proc/version/cache"],
+        r"^tracker\.cache_dir=/proc/version/cache: /proc/version is a file, not a folder$",
+    ),
+    pytest.param(
+        ["experiment=tbf_table4c", "tracker.build.backend=ray"],
+        r"^tracker\.build\.backend=ray: Ray is not installed here \(make ray installs it\); allowed loky$",
+        marks=pytest.mark.skipif(importlib.util.find_spec("ray") is not None, reason="Ray is installed here"),
+    ),
+    (
+        ["experiment=tbf_table4c", "rig.width=64", "rig.height=48"],
+        r"^rig=body_side: camera main is 64x48, tracker=tbf needs at least 80x60 \(set rig\.width and rig\.height\)$",
+    ),
     (["model=body_mesh", "model.triangles=10"], r"^model\.triangles=10 is out of range"),
     (
         ["cost=nwxor"],
@@ -198,7 +228,7 @@ def _fails_at_start(argv, message, tmp_path, monkeypatch, capsys):
     assert [p.name for p in tmp_path.iterdir() if not p.name.endswith(".bvh")] == []  # no runs/, multirun/, logs
 
 
-@pytest.mark.parametrize("argv, message", AT_START, ids=[" ".join(argv) for argv, _ in AT_START])
+@pytest.mark.parametrize("argv, message", AT_START, ids=[" ".join(getattr(c, "values", c)[0]) for c in AT_START])
 def test_a_bad_override_stops_at_start_with_one_line(argv, message, tmp_path, monkeypatch, capsys):
     _fails_at_start(argv, message, tmp_path, monkeypatch, capsys)
 
@@ -209,6 +239,28 @@ def test_a_bad_bvh_file_stops_at_start_with_one_line(name, tmp_path, monkeypatch
     path = _bvh_variant(tmp_path, name, edit)
     argv = ["model=body_mesh", "scene=bvh", f"scene.path={path}"]
     _fails_at_start(argv, rf"^scene\.path={re.escape(str(path))}: {message}", tmp_path, monkeypatch, capsys)
+
+
+def test_a_users_preset_that_does_not_parse_or_names_an_unknown_key_stops_at_start_with_one_line(
+    tmp_path, monkeypatch, capsys
+):
+    presets = tmp_path / "user" / "experiment"
+    presets.mkdir(parents=True)
+    head = "# @package _global_\ndefaults:\n  - tbf_table4c\n"
+    (presets / "broken.yaml").write_text(head + "tracker:\n  thresholds: [0.1, 0.2\n")
+    (presets / "typo.yaml").write_text(head + "tracker:\n  thresholdz: [0.1, 0.2, 0.3]\n")
+    monkeypatch.chdir(tmp_path)
+    cases = {
+        "broken": rf"^{re.escape(str(presets / 'broken.yaml'))}, line 5, column 15: not valid YAML, while parsing a "
+        r"flow sequence: expected ',' or '\]', but got '<stream end>'$",
+        "typo": r"^experiment/typo\.yaml: tracker\.thresholdz: unknown key, allowed keys here: samples, thresholds",
+    }
+    for preset, message in cases.items():
+        with pytest.raises(SystemExit) as stopped:
+            main([f"hydra.searchpath=[file://{tmp_path / 'user'}]", f"experiment={preset}"])
+        error = capsys.readouterr().err
+        assert stopped.value.code == 2 and error.count("\n") == 1 and re.search(message, error.removeprefix("error: "))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["user"]  # no run folder
 
 
 def _run(tmp_path, *overrides):
@@ -264,17 +316,32 @@ def test_a_subject_leaving_the_view_gives_failed_frames_and_the_run_goes_on(tmp_
     assert recorded["/metrics/tree/entropy"] == sorted(set(per_frame["frame"]) - set(failed["frame"]))
 
 
-def test_an_unreadable_cache_is_rebuilt_not_used(tmp_path):
+def test_a_damaged_cache_is_rebuilt_not_used(tmp_path):
     cache = tmp_path / "c"
     arguments = [*BODY_TBF, "frames=2", f"tracker.cache_dir={cache}", "record.images=false", *SMALL_GRID]
     first, run_dir = _run(tmp_path, *arguments)
     assert first.returncode == 0, first.stderr
+    expected = (run_dir / "metrics.json").read_bytes()
     for array in cache.glob("samples/*/labels_80x60.npy"):
         array.write_bytes(array.read_bytes()[:-100])  # a truncated write
-    for tree in cache.glob("trees/*.npz"):
-        tree.write_bytes(b"not a tree")
+    for tree in cache.glob("**/tree-*.npz"):
+        data = bytearray(tree.read_bytes())
+        data[len(data) // 2] ^= 0xFF  # one byte flipped inside an array
+        tree.write_bytes(bytes(data))
     again, run_dir = _run(tmp_path, *arguments)
     assert again.returncode == 0, again.stderr
     log = (run_dir / "run.log").read_text()
-    assert "is unusable" in log and "rebuilding it" in log
-    assert json.loads((run_dir / "metrics.json").read_text())["status"] == "ok"
+    assert "sample cache" in log and "tree cache" in log and log.count("is damaged") == 2, log
+    assert (run_dir / "metrics.json").read_bytes() == expected
+    for derived in cache.glob("samples/*/derived.json"):  # every sigma scaled by hand: never used
+        stored = json.loads(derived.read_text())
+        stored["values"] = {name: 1000 * value for name, value in stored["values"].items()}
+        derived.write_text(json.dumps(stored))
+    edited, run_dir = _run(tmp_path, *arguments)
+    assert edited.returncode == 0 and "do not match their digest" in (run_dir / "run.log").read_text()
+    assert (run_dir / "metrics.json").read_bytes() == expected
+    for derived in cache.glob("samples/*/derived.json"):
+        derived.write_text(derived.read_text()[: len(derived.read_text()) // 2])  # cut short
+    cut, run_dir = _run(tmp_path, *arguments)
+    assert cut.returncode == 0 and "cannot be read (JSONDecodeError)" in (run_dir / "run.log").read_text()
+    assert (run_dir / "metrics.json").read_bytes() == expected

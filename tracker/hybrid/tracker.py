@@ -32,6 +32,7 @@ from tracker.ranges import Range
 from tracker.registry import TRACKERS, Fit
 from tracker.tbf.costs import Cost
 from tracker.tbf.motion import RandomWalk
+from tracker.tbf.samples import LEVEL_RESOLUTIONS
 from tracker.tbf.settings import TbfSettings, check_settings
 from tracker.tbf.tracker import TBF_LOOK, TbfResult, TbfTracker
 from tracker.timing import elapsed_ms
@@ -70,6 +71,7 @@ class NearestSample:
     models={"body_mesh": Fit((1, 4))},
     observes=("silhouettes",),
     presentation=TBF_LOOK,
+    min_image=LEVEL_RESOLUTIONS[0],  # the tree's coarsest level
     check=check_settings,
 )
 class HybridTracker(TbfTracker):

@@ -149,11 +149,20 @@ def check_clip(scene: MocapScene, frames: int, key: str, model: str) -> None:
     """Before a run: the scene's file is a readable clip of a known skeleton holding ``frames`` frames from its start.
     Raises ``ValueError`` naming the config keys (``key``: the scene's, e.g. ``scene``)."""
     clip = read_body_clip(scene.path, f"{key}.path", scene.true_fps)
+    motion_s = max(clip.frames - 2, 0) * clip.frame_time  # frame 0 is the T-pose: the motion starts at frame 1
+    if clip.frames < 3:
+        raise ValueError(f"{key}.path={scene.path}: the clip has {clip.frames} frame(s), no motion to track")
+    if scene.start_s >= motion_s:
+        raise ValueError(
+            f"{key}.start_s={scene.start_s}: past the end of {scene.path} ({motion_s:.2f} s of motion); "
+            f"allowed below {motion_s:.2f}"
+        )
     available = available_frames(clip, scene.start_s, scene.fps)
     if frames > available:
         raise ValueError(
             f"frames={frames}: {key}.path={scene.path} has {available} frames at {scene.fps:g} fps "
-            f"from {key}.start_s={scene.start_s}; allowed at most {available}"
+            f"from {key}.start_s={scene.start_s} ({motion_s - scene.start_s:.2f} s of motion); allowed at most "
+            f"{available}"
         )
 
 

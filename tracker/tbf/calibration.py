@@ -14,6 +14,7 @@ from tracker.tbf.samples import PoseSampleSet
 from tracker.tbf.scoring import ObservationScorer
 
 CALIBRATION_SAMPLES = 200
+SAME_SILHOUETTE = 1e-9  # a distance this small is rounding: the two silhouettes are the same
 
 
 def neighbour_scale(
@@ -31,7 +32,7 @@ def neighbour_scale(
             continue
         distances = ObservationScorer(cost, full, stack.window).scores(stack)
         distances[index] = np.inf
-        distances[distances == 0] = np.inf  # identical silhouettes are no step
+        distances[distances <= SAME_SILHOUETTE] = np.inf  # identical silhouettes (up to rounding) are no step
         if np.isfinite(distances).any():
             nearest.append(distances.min())
     if not nearest:

@@ -100,7 +100,7 @@ def load_or_build(
             try:
                 return sample_store.load(folder, key, resolutions, check)
             except (OSError, ValueError, KeyError) as problem:
-                log.warning("sample cache %s is unusable (%s): rebuilding it", folder, problem)
+                log.warning("sample cache %s is damaged (%s): rebuilding it", folder, problem)
                 shutil.rmtree(folder, ignore_errors=True)
         start = time.perf_counter()
         build_set(body, camera, poses, folder, resolutions, build or BuildSettings(), progress)

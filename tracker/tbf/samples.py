@@ -23,6 +23,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
+import logging
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,6 +35,8 @@ from tracker.atomic import exclusive, write_json
 from tracker.geometry.cameras import Camera
 from tracker.tbf.costs import Window
 from tracker.tbf.scoring import SilhouetteRuns, SilhouetteStack
+
+log = logging.getLogger(__name__)
 
 
 class Posable(Protocol):
@@ -55,6 +58,27 @@ class Posable(Protocol):
 LEVEL_RESOLUTIONS = ((80, 60), (160, 120), (320, 240))  # (width, height) of the tree's levels, top to bottom
 RESOLUTIONS = LEVEL_RESOLUTIONS[::-1]  # as rendered: the finest first, the others reduced from it
 FORMAT_VERSION = 3
+
+
+def values_digest(values: dict[str, float]) -> str:
+    return hashlib.sha256(json.dumps(values, sort_keys=True).encode()).hexdigest()
+
+
+def read_derived(path: Path) -> dict[str, float]:
+    """The values kept in a set's ``derived.json``; none (all computed again, with a warning) when the file cannot be
+    read or its values do not match the digest written with them: damaged, cut short, or edited by hand."""
+    if not path.exists():
+        return {}
+    try:
+        stored = json.loads(path.read_text())
+        values = stored["values"]
+        if values_digest(values) == stored["sha256"]:
+            return values
+        problem = "its values do not match their digest"
+    except (OSError, ValueError, KeyError, TypeError) as error:
+        problem = f"it cannot be read ({type(error).__name__})"
+    log.warning("%s is damaged (%s): computing its values again", path, problem)
+    return {}
 
 
 @dataclass(frozen=True, eq=False)
@@ -84,10 +108,10 @@ class PoseSampleSet:
             return compute()
         path = self.folder / "derived.json"
         with exclusive(self.folder.parent / f".{self.key}.derived.lock"):
-            known = json.loads(path.read_text()) if path.exists() else {}
+            known = read_derived(path)
             if name not in known:
                 known[name] = float(compute())
-                write_json(path, known)
+                write_json(path, {"values": known, "sha256": values_digest(known)})
         return known[name]
 
 

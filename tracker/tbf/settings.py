@@ -3,7 +3,10 @@ them before a run."""
 
 from __future__ import annotations
 
+import importlib.util
+import os
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Annotated, Literal
 
 from tracker.models.makehuman import Triangles
@@ -47,9 +50,22 @@ class TbfSettings:
     arm_samples: ArmGridSpec = field(default_factory=ArmGridSpec)
 
 
+def check_cache_dir(folder: str, key: str) -> None:
+    """The cache folder is a folder, or can be made one: its nearest existing ancestor is a writable folder."""
+    path = Path(folder).absolute()
+    existing = next(parent for parent in (path, *path.parents) if parent.exists())
+    if not existing.is_dir():
+        raise ValueError(f"{key}={folder}: {existing} is a file, not a folder")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise ValueError(f"{key}={folder}: {existing} is not writable")
+
+
 def check_settings(settings: TbfSettings, frames: int, key: str, model: str) -> None:
-    """Before a run: every clip the samples come from is a readable clip of a known skeleton; the arm is not placed
-    on a floor."""
+    """Before a run: the cache folder can be made, Ray is here if it is asked for, every clip the samples come from
+    is a readable clip of a known skeleton, and the arm is not placed on a floor."""
+    check_cache_dir(settings.cache_dir, f"{key}.cache_dir")
+    if settings.build.backend == "ray" and importlib.util.find_spec("ray") is None:
+        raise ValueError(f"{key}.build.backend=ray: Ray is not installed here (make ray installs it); allowed loky")
     if model == "dsq_arm" and settings.align != "none":
         raise ValueError(f"{key}.align={settings.align}: the arm stands on no floor, allowed none")
     for index, path, rate in clip_files(settings.samples, key):

@@ -42,7 +42,7 @@ from tracker.tbf.own_body import own_body
 from tracker.tbf.placing import AsSeen, FeetAligned, GroundPlaced, Placing, ViewsPlaced
 from tracker.tbf.sample_build import load_or_build
 from tracker.tbf.sample_spec import cached_sample_poses
-from tracker.tbf.samples import SampleViews
+from tracker.tbf.samples import LEVEL_RESOLUTIONS, SampleViews
 from tracker.tbf.settings import TbfSettings, check_settings
 from tracker.tbf.tree import PoseTree, load_or_build_tree, thresholds_for_shares
 from tracker.timing import elapsed_ms
@@ -95,6 +95,7 @@ TBF_LOOK = Presentation(
     models={"body_mesh": Fit((1, 4)), "dsq_arm": Fit((1, 4))},
     observes=("silhouettes",),
     presentation=TBF_LOOK,
+    min_image=LEVEL_RESOLUTIONS[0],  # the tree's coarsest level
     check=check_settings,
 )
 class TbfTracker(Tracker):

@@ -21,6 +21,8 @@ import hashlib
 import json
 import logging
 import time
+import zipfile
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -99,8 +101,8 @@ def load_or_build_tree(
         if path.exists():
             try:
                 return _load(path, key, len(samples), thresholds, resolutions)
-            except (OSError, ValueError, KeyError) as problem:
-                log.warning("tree cache %s is unusable (%s): rebuilding it", path, problem)
+            except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error) as problem:
+                log.warning("tree cache %s is damaged (%s): rebuilding it", path, problem)
         return _build_logged(samples, thresholds, resolutions, key, path)
 
 
