@@ -71,10 +71,12 @@ def read_derived(path: Path) -> dict[str, float]:
         return {}
     try:
         stored = json.loads(path.read_text())
-        values = stored["values"]
-        if values_digest(values) == stored["sha256"]:
-            return values
-        problem = "its values do not match their digest"
+        if "sha256" not in stored:
+            problem = "its values carry no digest: written by an older version"
+        elif values_digest(stored["values"]) == stored["sha256"]:
+            return stored["values"]
+        else:
+            problem = "its values do not match their digest"
     except (OSError, ValueError, KeyError, TypeError) as error:
         problem = f"it cannot be read ({type(error).__name__})"
     log.warning("%s is damaged (%s): computing its values again", path, problem)
