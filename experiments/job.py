@@ -23,7 +23,7 @@ from experiments.checks import check_config
 from experiments.components import Components, build, import_plugins
 from experiments.loop import run_frames
 from experiments.outputs import RunLog, summarize, timing_summary
-from experiments.recording import RunRecording
+from experiments.recording import RecordingLost, RunRecording
 from tracker.atomic import write_json, write_parquet
 
 log = logging.getLogger(__name__)
@@ -56,11 +56,22 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
         if stop.requested:
             status = f"failed: interrupted by {stop.requested}"
         if recording is not None:
-            recording.close()
-        metrics = write_outputs(cfg, choices, components, output_dir, frames, status)
+            try:
+                recording.close()
+            except RecordingLost as lost:  # the other outputs are still written, and say why it is missing
+                log.error("%s", lost)
+                status = f"failed: {lost}"
+        try:
+            metrics = write_outputs(cfg, choices, components, output_dir, frames, status)
+        except OSError as error:  # a full disk, or the folder gone: nothing half-written is left (tracker.atomic)
+            raise OutputsLost(f"{output_dir}: the run's outputs could not be written: {error}") from None
     if stop.requested:  # outputs are safe; now stop like the signal asked (a sweep stops too)
         raise KeyboardInterrupt if stop.requested == "SIGINT" else SystemExit(128 + signal.SIGTERM)
     return metrics
+
+
+class OutputsLost(OSError):
+    """The run's tables could not be written (e.g. a full disk); its message is the one line the user sees."""
 
 
 def write_outputs(

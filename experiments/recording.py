@@ -43,6 +43,15 @@ from tracker.tbf.costs import weight_map
 APPLICATION_ID = "articulated-tracking"
 TIMELINE = "frame"
 # Rows wait in memory (up to 64 MiB) and go out in large chunks: a whole run of a series in one.
+# The recording's last write may take this long; a writer that has not finished by then has failed (on a full disk
+# Rerun's file writer stops, and a flush without a timeout waits for it for ever).
+FLUSH_TIMEOUT_S = 60.0
+
+
+class RecordingLost(OSError):
+    """``run.rrd`` could not be written (nothing half-written is left: its temporary file is removed)."""
+
+
 BATCHES = rr.ChunkBatcherConfig(
     flush_tick=datetime.timedelta(hours=1), flush_num_bytes=64 << 20, flush_num_rows=1 << 22
 )
@@ -239,8 +248,12 @@ class RunRecording:
         if self._file is None:
             return
         file, self._file = self._file, None
-        self._log_series()
-        self._log_videos()
-        self.stream.flush()
-        self.stream.disconnect()
-        file.commit()
+        try:
+            self._log_series()
+            self._log_videos()
+            self.stream.flush(timeout_sec=FLUSH_TIMEOUT_S)
+            self.stream.disconnect()
+            file.commit()
+        except Exception as error:  # Rerun's writer failed (a full disk): its flush raises, or never returns
+            file.discard()
+            raise RecordingLost(f"{self.path} could not be written: {error}") from None

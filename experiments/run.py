@@ -22,7 +22,7 @@ from omegaconf import DictConfig
 
 from experiments.checks import ConfigError
 from experiments.components import import_plugins
-from experiments.job import finished_metrics, run_job
+from experiments.job import OutputsLost, finished_metrics, run_job
 from experiments.schemas import CONFIG_DIR, CONFIG_NAME
 from experiments.validate import plugins_named, validate_command_line
 
@@ -37,7 +37,13 @@ def hydra_main(cfg: DictConfig) -> dict:
     if hydra_cfg.mode == RunMode.MULTIRUN and (metrics := finished_metrics(cfg, output_dir)) is not None:
         log.info("run finished earlier, kept: %s", output_dir)  # resuming a sweep redoes only the rest
         return metrics
-    metrics = run_job(cfg, output_dir, choices)
+    try:
+        metrics = run_job(cfg, output_dir, choices)
+    except OutputsLost as lost:
+        log.error("%s", lost)
+        if hydra_cfg.mode == RunMode.RUN:
+            sys.exit(1)
+        return {"status": f"failed: {lost}"}  # a sweep goes on to its next job
     log.info("run %s: %s", metrics["status"], output_dir)
     if metrics["status"] != "ok" and hydra_cfg.mode == RunMode.RUN:
         sys.exit(1)  # a single run reports failure by its exit code; a sweep goes on to its next job
@@ -46,6 +52,7 @@ def hydra_main(cfg: DictConfig) -> dict:
 
 def main(argv: list[str] | None = None) -> None:
     argv = sys.argv[1:] if argv is None else argv
+    logging.raiseExceptions = False  # a log line that cannot be written (a full disk) is dropped, not a traceback
     try:
         import_plugins(plugins_named(argv))  # their components and schemas, before anything is composed
         validate_command_line(argv, CONFIG_DIR, CONFIG_NAME)

@@ -9,6 +9,7 @@ import dataclasses
 import importlib.util
 import os
 import re
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -32,6 +33,9 @@ _INFORMATIONAL_FLAGS = set(
     "--help -h --hydra-help --cfg -c --info -i --version --shell-completion -sc --resolve --package -p".split()
 )
 _MULTIRUN_FLAGS = {"--multirun", "-m"}
+# Free space a run's folder must have at start (its recording alone is a few MB to tens of MB): on a full disk
+# Rerun's file writer stops and waits for ever, so a run there would hang rather than fail.
+MIN_FREE_BYTES = 32 * 2**20
 
 
 def _jobs(argv: list[str]) -> tuple[list[str], bool] | None:
@@ -100,6 +104,12 @@ def check_output_dir(key: str, value: str) -> None:
         os.rmdir(tempfile.mkdtemp(prefix=".write-check-", dir=existing))
     except OSError as error:
         raise ConfigError(f"{key}={value}: cannot make it, {existing} is not writable ({error.strerror})") from None
+    free = shutil.disk_usage(existing).free
+    if free < MIN_FREE_BYTES:
+        raise ConfigError(
+            f"{key}={value}: {existing} has {free / 2**20:.1f} MiB free; a run needs at least "
+            f"{MIN_FREE_BYTES / 2**20:.0f} MiB"
+        )
 
 
 def plugins_named(argv: list[str]) -> list[str]:
