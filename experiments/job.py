@@ -66,7 +66,7 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
         except OSError as error:  # a full disk, or the folder gone: nothing half-written is left (tracker.atomic)
             raise OutputsLost(f"{output_dir}: the run's outputs could not be written: {error}") from None
     if stop.requested:  # outputs are safe; now stop like the signal asked (a sweep stops too)
-        raise KeyboardInterrupt if stop.requested == "SIGINT" else SystemExit(128 + signal.SIGTERM)
+        raise Interrupted(stop.requested)
     return metrics
 
 
@@ -110,17 +110,20 @@ def remove_stale_temporaries(output_dir: Path) -> None:
 
 
 class StopRequest:
-    """SIGINT and SIGTERM ask the frame loop to stop after the current frame (then the run writes its outputs).
+    """SIGINT and SIGTERM stop the run: while it builds its components (a sample set, say: the shards finished so
+    far are kept for the next run), at once; once its frames run (`defer`), after the current frame. Either way the
+    run then writes its outputs, ``status: failed: interrupted by <signal>``.
 
-    A KeyboardInterrupt raised wherever the signal lands can be swallowed (inside a finalizer of a GL object it is
-    only printed), and the run would go on; a flag checked once per frame cannot be missed. A second signal of the
-    same kind takes the default action at once.
+    In the frames a KeyboardInterrupt raised wherever the signal lands can be swallowed (inside a finalizer of a GL
+    object it is only printed), and the run would go on; a flag checked once per frame cannot be missed. A second
+    signal of the same kind takes the default action at once.
     """
 
     SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
     def __init__(self) -> None:
         self.requested: str | None = None
+        self.deferred = False
         self._previous: dict[int, Any] = {}
 
     @classmethod
@@ -131,15 +134,27 @@ class StopRequest:
                 request._previous[number] = signal.signal(number, request._handle)
         return request
 
+    def defer(self) -> None:
+        """From now on a signal stops the run after the current frame."""
+        self.deferred = True
+
     def _handle(self, number: int, _frame: Any) -> None:
         self.requested = signal.Signals(number).name
-        log.warning("%s: stopping after this frame (again to stop at once)", self.requested)
         signal.signal(number, self._previous.get(number, signal.SIG_DFL))
+        if not self.deferred:
+            log.warning("%s: stopping", self.requested)
+            raise Interrupted(self.requested)
+        log.warning("%s: stopping after this frame (again to stop at once)", self.requested)
 
     def restore(self) -> None:
         for number, previous in self._previous.items():
             signal.signal(number, previous)
         self._previous = {}
+
+
+class Interrupted(KeyboardInterrupt):
+    """A stop asked for before the frames began (`StopRequest`): the run ends, its outputs say so. A
+    KeyboardInterrupt, so that no ``except Exception`` on the way swallows it."""
 
 
 def failure_reason(error: BaseException) -> str:

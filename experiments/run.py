@@ -12,6 +12,8 @@ option files join with ``hydra.searchpath=[file://<folder>]``.
 from __future__ import annotations
 
 import logging
+import os
+import signal
 import sys
 from pathlib import Path
 
@@ -50,6 +52,22 @@ def hydra_main(cfg: DictConfig) -> dict:
     return metrics
 
 
+class SweepStop:
+    """In a sweep's own process, the first SIGINT or SIGTERM (a terminal sends it to the jobs' processes too) waits
+    for the running jobs, which stop after their current frame and write their outputs, marked interrupted; the
+    sweep then ends. A second one stops at once."""
+
+    @classmethod
+    def install(cls) -> None:
+        for number in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(number, cls._first)
+
+    @staticmethod
+    def _first(number: int, _frame) -> None:
+        log.warning("%s: the sweep stops once its running jobs have written their outputs", signal.Signals(number).name)
+        signal.signal(number, signal.default_int_handler if number == signal.SIGINT else signal.SIG_DFL)
+
+
 def main(argv: list[str] | None = None) -> None:
     argv = sys.argv[1:] if argv is None else argv
     logging.raiseExceptions = False  # a log line that cannot be written (a full disk) is dropped, not a traceback
@@ -59,7 +77,16 @@ def main(argv: list[str] | None = None) -> None:
     except ConfigError as error:
         print(f"error: {error}", file=sys.stderr)
         sys.exit(2)
-    hydra_main()
+    if {"-m", "--multirun"} & set(argv):
+        SweepStop.install()
+        # joblib's resource tracker (a process of its own) warns of the semaphores of workers a stop ended
+        os.environ.setdefault("PYTHONWARNINGS", "ignore:resource_tracker:UserWarning")
+    try:
+        hydra_main()
+    except KeyboardInterrupt as interrupt:  # the run's outputs are written and say so (experiments.job)
+        name = str(interrupt) or "SIGINT"
+        print(f"interrupted by {name}", file=sys.stderr)
+        sys.exit(128 + signal.Signals[name].value)
 
 
 if __name__ == "__main__":

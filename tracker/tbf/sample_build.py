@@ -17,8 +17,10 @@ from __future__ import annotations
 
 import json
 import logging
+import multiprocessing
 import os
 import shutil
+import signal
 import sys
 import time
 from collections.abc import Iterator
@@ -273,16 +275,25 @@ def _run(tasks, settings: BuildSettings) -> Iterator:
     """Each task's result, as they finish, on the configured joblib backend (in this process for one job)."""
     from joblib import Parallel, delayed, parallel_config
 
-    tasks = [delayed(function)(*arguments, **keywords) for function, arguments, keywords in tasks]
+    tasks = list(tasks)
     if settings.jobs == 1 or len(tasks) <= 1:
         yield from (function(*arguments, **keywords) for function, arguments, keywords in tasks)
         return
+    tasks = [delayed(_in_worker)(function, *arguments, **keywords) for function, arguments, keywords in tasks]
     if settings.backend == "ray":
         from ray.util.joblib import register_ray  # the Ray extra: make ray
 
         register_ray()
     with parallel_config(backend=settings.backend, n_jobs=settings.jobs):
         yield from Parallel(return_as="generator_unordered")(tasks)
+
+
+def _in_worker(function, *arguments, **keywords):
+    """A task in a worker process, deaf to Ctrl-C: the interrupt is the parent's to handle (it keeps the shards
+    finished so far, for a resumed build), not each worker's to print a traceback of."""
+    if multiprocessing.parent_process() is not None:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    return function(*arguments, **keywords)
 
 
 _RENDERERS: dict[tuple, object] = {}

@@ -1,0 +1,70 @@
+"""Ctrl-C and SIGTERM end a run with one line and nothing lost: sent to the whole process group (as a terminal does)
+while a sample set is built on worker processes, the workers stay silent, the run's outputs say it was interrupted,
+the shards built so far stay for the next run to resume from (`tests/tracker/tbf/test_samples.py`), and the exit
+status is the signal's."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+
+@pytest.mark.parametrize("signal_name", ["SIGINT", "SIGTERM"])
+def test_an_interrupt_during_a_sample_build_ends_the_run_with_one_line(tmp_path, signal_name):
+    cache, run_dir = tmp_path / "cache", tmp_path / "run"
+    command = [
+        sys.executable,
+        "-m",
+        "experiments.run",
+        "experiment=tbf_table4c",
+        "frames=2",
+        f"tracker.cache_dir={cache}",
+        "tracker.build.jobs=2",
+        "tracker.build.shard_size=64",
+        f"hydra.run.dir={run_dir}",
+    ]
+    run = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    deadline = time.monotonic() + 240
+    while not list(cache.glob("samples/.*.building/shard*")) and time.monotonic() < deadline and run.poll() is None:
+        time.sleep(0.2)
+    assert run.poll() is None, "the build ended before a shard was seen"
+    os.killpg(run.pid, getattr(signal, signal_name))  # the group: the run and its workers
+    output, _ = run.communicate(timeout=120)
+    assert run.returncode == 128 + getattr(signal, signal_name), output
+    assert "Traceback" not in output and output.strip().splitlines()[-1] == f"interrupted by {signal_name}", output
+    assert len(output.strip().splitlines()) <= 2, output  # the run's warning, and the line that says why it ended
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    assert metrics["status"] == f"failed: interrupted by {signal_name}"
+    assert list(cache.glob("samples/.*.building/shard*")), "the finished shards are kept for the next run"
+
+
+def test_an_interrupted_sweep_marks_its_running_jobs_and_resumes_with_the_rest(tmp_path):
+    sweep_dir = tmp_path / "sweep"
+    command = [sys.executable, "-m", "experiments.run", "-m", "model=dsq_arm", "frames=100", "seed=0,1,2"]
+    command.append(f"hydra.sweep.dir={sweep_dir}")
+    sweep = subprocess.Popen(
+        command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True
+    )
+    deadline = time.monotonic() + 240
+    while not list(sweep_dir.glob("*/.run.rrd.*.tmp")) and time.monotonic() < deadline and sweep.poll() is None:
+        time.sleep(0.2)
+    time.sleep(1)
+    os.killpg(sweep.pid, signal.SIGINT)
+    output, _ = sweep.communicate(timeout=120)
+    assert sweep.returncode == 130 and "Traceback" not in output, output
+    assert output.strip().splitlines()[-1] == "interrupted by SIGINT", output
+    statuses = {job.parent.name: json.loads(job.read_text())["status"] for job in sweep_dir.glob("*/metrics.json")}
+    assert set(statuses.values()) <= {"ok", "failed: interrupted by SIGINT"}, statuses
+    assert "failed: interrupted by SIGINT" in statuses.values(), statuses  # the running jobs said so
+    finished = {
+        name: (sweep_dir / name / "metrics.json").stat().st_mtime_ns for name, s in statuses.items() if s == "ok"
+    }
+    again = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert again.returncode == 0, again.stderr
+    statuses = {job.parent.name: json.loads(job.read_text())["status"] for job in sweep_dir.glob("*/metrics.json")}
+    assert statuses == {"0": "ok", "1": "ok", "2": "ok"}
+    assert all((sweep_dir / name / "metrics.json").stat().st_mtime_ns == stamp for name, stamp in finished.items())
