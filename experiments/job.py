@@ -23,7 +23,8 @@ from experiments.checks import check_config
 from experiments.components import Components, build, import_plugins
 from experiments.loop import run_frames
 from experiments.outputs import RunLog, summarize, timing_summary
-from experiments.recording import RecordingLost, RunRecording
+from experiments.recording import RunRecording
+from experiments.recording_file import RecordingLost
 from tracker.atomic import write_json, write_parquet
 
 log = logging.getLogger(__name__)

@@ -14,13 +14,12 @@ Sized for keeping: rows are batched into large chunks (a few hundred per run ins
 so the file compresses across frames and the viewer loads it whole), images go as video, and a mesh's vertices are
 written again only when its shape changed (a part that moved rigidly gets a Transform3D of its last vertices).
 Nothing here knows a tracker: colours and panels come from the components' registrations (`tracker.presentation`,
-laid out by `experiments.presentation`). Each recording has its own ``recording_id`` and a default blueprint; the
-file is written under a temporary name and renamed by `RunRecording.close`, so a crashed run leaves no partial file.
+laid out by `experiments.presentation`). Each recording has its own ``recording_id`` and a default blueprint; its
+file is `experiments.recording_file`'s (no partial file is ever left).
 """
 
 from __future__ import annotations
 
-import datetime
 import uuid
 from collections.abc import Sequence
 from pathlib import Path
@@ -32,29 +31,15 @@ from eval.video import VideoEncoder
 from experiments.components import Components
 from experiments.presentation import PALETTE, POINTS, default_blueprint
 from experiments.recorded_meshes import MeshLog
+from experiments.recording_file import RecordingFile
 from experiments.schemas import RecordSettings
-from tracker.atomic import AtomicFile
 from tracker.geometry.cameras import Camera
 from tracker.observe.silhouettes import CapturedFrame
 from tracker.protocol import Points, RenderedFrame, StepResult
 from tracker.registry import COSTS
 from tracker.tbf.costs import weight_map
 
-APPLICATION_ID = "articulated-tracking"
 TIMELINE = "frame"
-# Rows wait in memory (up to 64 MiB) and go out in large chunks: a whole run of a series in one.
-# The recording's last write may take this long; a writer that has not finished by then has failed (on a full disk
-# Rerun's file writer stops, and a flush without a timeout waits for it for ever).
-FLUSH_TIMEOUT_S = 60.0
-
-
-class RecordingLost(OSError):
-    """``run.rrd`` could not be written (nothing half-written is left: its temporary file is removed)."""
-
-
-BATCHES = rr.ChunkBatcherConfig(
-    flush_tick=datetime.timedelta(hours=1), flush_num_bytes=64 << 20, flush_num_rows=1 << 22
-)
 SILHOUETTE = [
     rr.AnnotationInfo(id=0, label="outside", color=(0, 0, 0, 0)),
     rr.AnnotationInfo(id=1, label="silhouette", color=(255, 230, 0, 255)),
@@ -82,12 +67,11 @@ class RunRecording:
             if record.images
             else {}
         )
-        self._file: AtomicFile | None = AtomicFile(self.path)
-        self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=self.recording_id, batcher_config=BATCHES)
         blueprint = default_blueprint(
             components.views, self.model.part_names, shown, self.silhouettes, self.weight_maps
         )
-        self.stream.save(self._file.temporary, default_blueprint=blueprint)
+        self._file = RecordingFile(self.path, self.recording_id, blueprint)
+        self.stream = self._file.stream
         self._log_static(components.cameras)
         self._static: set[str] = set()  # entities whose point states (classes, colours) are logged
         self._meshes = MeshLog(self.stream)  # meshes written again only when they change shape
@@ -244,16 +228,9 @@ class RunRecording:
             )
 
     def close(self) -> None:
-        """Write the series and videos, flush, close the file and move it to ``path`` (idempotent)."""
-        if self._file is None:
-            return
-        file, self._file = self._file, None
-        try:
-            self._log_series()
-            self._log_videos()
-            self.stream.flush(timeout_sec=FLUSH_TIMEOUT_S)
-            self.stream.disconnect()
-            file.commit()
-        except Exception as error:  # Rerun's writer failed (a full disk): its flush raises, or never returns
-            file.discard()
-            raise RecordingLost(f"{self.path} could not be written: {error}") from None
+        """Write the series and videos, then close the file (`RecordingFile.close`; idempotent)."""
+        self._file.close(last_writes=self._log_last)
+
+    def _log_last(self) -> None:
+        self._log_series()
+        self._log_videos()

@@ -33,6 +33,7 @@ from tracker.render.labels import LabelRenderer
 from tracker.render.mesh import SurfaceMesh
 from tracker.render.offscreen import SceneRenderer
 from tracker.tbf import sample_build
+from tracker.tbf.build_workers import BuildSettings
 from tracker.tbf.sample_spec import sample_poses
 
 log = logging.getLogger(__name__)
@@ -108,7 +109,7 @@ def bench_set_images(poses: np.ndarray, body, camera) -> dict[str, float]:
     with tempfile.TemporaryDirectory() as cache:
         start = time.perf_counter()
         folder = Path(cache) / "set"
-        sample_build.build_set(body, camera, poses, folder, sample_build.RESOLUTIONS, sample_build.BuildSettings())
+        sample_build.build_set(body, camera, poses, folder, sample_build.RESOLUTIONS, BuildSettings())
         now_ms = 1e3 * (time.perf_counter() - start) / len(poses)
         coarse = np.load(folder / "labels_80x60.npy")
         u0, v0, u1, v1 = json.loads((folder / "meta.json").read_text())["windows"]["labels_320x240"]
@@ -183,7 +184,7 @@ def _report_rendering(composed: Components, poses: np.ndarray, count: int, overr
         poses,
         [slice(0, len(poses))],
         4,
-        sample_build.BuildSettings(jobs=1),
+        BuildSettings(jobs=1),
     )
     figures = bench_rendering(chosen, composed.model, camera, layout.tile, layout.near)
     log.info(

@@ -17,26 +17,22 @@ from __future__ import annotations
 
 import json
 import logging
-import multiprocessing
 import os
 import shutil
-import signal
 import sys
 import time
-from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Literal
 
 import numpy as np
 from tqdm import tqdm
 
 from tracker.atomic import atomic_path, exclusive
 from tracker.geometry.cameras import Camera, resized
-from tracker.ranges import Range
 from tracker.sequence import label_areas
-from tracker.settings import validate
 from tracker.tbf import sample_store
+from tracker.tbf.build_workers import BuildSettings, run_tasks
 from tracker.tbf.costs import Window
 from tracker.tbf.samples import (
     RESOLUTIONS,
@@ -53,21 +49,6 @@ from tracker.tol import MIN_DEPTH_M
 log = logging.getLogger(__name__)
 
 SKIN_BATCH = 64  # poses skinned at once (larger batches leave the cache and get slower per pose)
-
-
-@dataclass(frozen=True)
-class BuildSettings:
-    """How a sample set is built: ``shard_size`` poses at a time over ``jobs`` processes (-1: one per core) on
-    joblib's ``backend``: ``loky`` (processes on this machine) or ``ray`` (Ray: a local one or a cluster's)."""
-
-    jobs: Annotated[int, Range(-1, 256)] = -1
-    backend: Literal["loky", "ray"] = "loky"
-    shard_size: Annotated[int, Range(1, 1_000_000)] = 512  # poses: a shard's images stay well under 100 MB
-
-    def __post_init__(self) -> None:
-        validate(self)
-        if self.jobs == 0:
-            raise ValueError("jobs=0 is not allowed: allowed -1 (one per core) or >= 1")
 
 
 @dataclass(frozen=True)
@@ -143,7 +124,7 @@ def build_set(
     show = sys.stderr.isatty() if progress is None else progress
     tasks = ((render_shard, (body, finest, poses[shards[k]], layout, factors), {"shard": k}) for k in todo)
     for shard in tqdm(
-        _run(tasks, settings), total=len(todo), desc="rendering pose samples", disable=not show, unit="shard"
+        run_tasks(tasks, settings), total=len(todo), desc="rendering pose samples", disable=not show, unit="shard"
     ):
         _store_shard(building, shard, shards[shard["shard"]], labels, areas)
     _finish(building, folder, poses, shards, resolutions, windows)
@@ -222,7 +203,7 @@ def _layout(
     if path.exists():
         saved = json.loads(path.read_text())
         return Layout(tuple(saved["window"]), tuple(saved["tile"]), saved["near"])
-    bounds = np.array(list(_run(((shard_bounds, (body, camera, poses[rows]), {}) for rows in shards), settings)))
+    bounds = np.array(list(run_tasks(((shard_bounds, (body, camera, poses[rows]), {}) for rows in shards), settings)))
     if bounds[:, 4].min() <= MIN_DEPTH_M:
         raise ValueError("a pose sample reaches behind the camera")
     low, high = bounds[:, :2].min(axis=0), bounds[:, 2:4].max(axis=0)
@@ -269,31 +250,6 @@ def _finish(building: Path, folder: Path, poses: np.ndarray, shards: list[slice]
         path.unlink()
     (building / "layout.json").unlink()
     os.replace(building, folder)
-
-
-def _run(tasks, settings: BuildSettings) -> Iterator:
-    """Each task's result, as they finish, on the configured joblib backend (in this process for one job)."""
-    from joblib import Parallel, delayed, parallel_config
-
-    tasks = list(tasks)
-    if settings.jobs == 1 or len(tasks) <= 1:
-        yield from (function(*arguments, **keywords) for function, arguments, keywords in tasks)
-        return
-    tasks = [delayed(_in_worker)(function, *arguments, **keywords) for function, arguments, keywords in tasks]
-    if settings.backend == "ray":
-        from ray.util.joblib import register_ray  # the Ray extra: make ray
-
-        register_ray()
-    with parallel_config(backend=settings.backend, n_jobs=settings.jobs):
-        yield from Parallel(return_as="generator_unordered")(tasks)
-
-
-def _in_worker(function, *arguments, **keywords):
-    """A task in a worker process, deaf to Ctrl-C: the interrupt is the parent's to handle (it keeps the shards
-    finished so far, for a resumed build), not each worker's to print a traceback of."""
-    if multiprocessing.parent_process() is not None:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-    return function(*arguments, **keywords)
 
 
 _RENDERERS: dict[tuple, object] = {}

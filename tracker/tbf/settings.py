@@ -13,8 +13,8 @@ from tracker.models.makehuman import Triangles
 from tracker.motion.mocap import read_body_clip
 from tracker.ranges import Finite, Positive, Range
 from tracker.tbf.arm_dictionary import ArmGridSpec
+from tracker.tbf.build_workers import BuildSettings
 from tracker.tbf.filter import FilterSettings
-from tracker.tbf.sample_build import BuildSettings
 from tracker.tbf.sample_spec import SampleSpec, clip_files
 
 Share = Annotated[float, Range(0.0, 1.0, low_open=True)]

@@ -6,8 +6,9 @@ import pytest
 from tracker.geometry.rigs import mono
 from tracker.models.body_skeleton import joint_angle_differences
 from tracker.motion.body_swing import BodySwing
+from tracker.tbf.build_workers import BuildSettings
 from tracker.tbf.pose_sets import remove_near_duplicates
-from tracker.tbf.sample_build import BuildSettings, load_or_build
+from tracker.tbf.sample_build import load_or_build
 from tracker.tbf.samples import RESOLUTIONS, cache_key, occlusion_flags, reduce_labels
 
 CAMERA = mono(position=(4.0, 0.0, 0.9), target=(0.0, 0.0, 0.9), focal_px=480.0, width=320, height=240)[0]
@@ -180,13 +181,14 @@ def test_a_killed_build_resumes_with_the_shards_it_finished(body, varied_poses, 
         "from tracker.models.makehuman import build_body\n"
         "from tracker.geometry.rigs import mono\n"
         "from tracker.tbf import sample_build\n"
+        "from tracker.tbf.build_workers import BuildSettings\n"
         "camera = mono(position=(4.0, 0.0, 0.9), target=(0.0, 0.0, 0.9), focal_px=480.0, width=320,\n"
         "              height=240)[0]\n"
         "render = sample_build.render_shard\n"
         "def slow(*a, **k):\n    time.sleep(0.5)\n    return render(*a, **k)\n"
         "sample_build.render_shard = slow\n"
         f"sample_build.load_or_build(build_body(), camera, np.load('{tmp_path / 'poses.npy'}'),\n"
-        f"    '{tmp_path / 'c'}', progress=False, build=sample_build.BuildSettings(jobs=1, shard_size=20))\n"
+        f"    '{tmp_path / 'c'}', progress=False, build=BuildSettings(jobs=1, shard_size=20))\n"
     )
     process = subprocess.Popen([sys.executable, "-c", script])
     deadline = time.monotonic() + 120

@@ -1,0 +1,53 @@
+"""Where a sample build's tasks run (`BuildSettings`): in this process, on joblib's processes of this machine
+(``loky``) or on Ray (a local one or a cluster's: ``make ray``), their results yielded as they finish."""
+
+from __future__ import annotations
+
+import multiprocessing
+import signal
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Annotated, Literal
+
+from tracker.ranges import Range
+from tracker.settings import validate
+
+
+@dataclass(frozen=True)
+class BuildSettings:
+    """How a sample set is built: ``shard_size`` poses at a time over ``jobs`` processes (-1: one per core) on
+    joblib's ``backend``: ``loky`` (processes on this machine) or ``ray`` (Ray: a local one or a cluster's)."""
+
+    jobs: Annotated[int, Range(-1, 256)] = -1
+    backend: Literal["loky", "ray"] = "loky"
+    shard_size: Annotated[int, Range(1, 1_000_000)] = 512  # poses: a shard's images stay well under 100 MB
+
+    def __post_init__(self) -> None:
+        validate(self)
+        if self.jobs == 0:
+            raise ValueError("jobs=0 is not allowed: allowed -1 (one per core) or >= 1")
+
+
+def run_tasks(tasks, settings: BuildSettings) -> Iterator:
+    """Each task's result, as they finish, on the configured joblib backend (in this process for one job)."""
+    from joblib import Parallel, delayed, parallel_config
+
+    tasks = list(tasks)
+    if settings.jobs == 1 or len(tasks) <= 1:
+        yield from (function(*arguments, **keywords) for function, arguments, keywords in tasks)
+        return
+    tasks = [delayed(_in_worker)(function, *arguments, **keywords) for function, arguments, keywords in tasks]
+    if settings.backend == "ray":
+        from ray.util.joblib import register_ray  # the Ray extra: make ray
+
+        register_ray()
+    with parallel_config(backend=settings.backend, n_jobs=settings.jobs):
+        yield from Parallel(return_as="generator_unordered")(tasks)
+
+
+def _in_worker(function, *arguments, **keywords):
+    """A task in a worker process, deaf to Ctrl-C: the interrupt is the parent's to handle (it keeps the shards
+    finished so far, for a resumed build), not each worker's to print a traceback of."""
+    if multiprocessing.parent_process() is not None:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    return function(*arguments, **keywords)
