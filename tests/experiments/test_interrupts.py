@@ -5,6 +5,7 @@ status is the signal's."""
 
 import json
 import os
+import random
 import signal
 import subprocess
 import sys
@@ -68,3 +69,28 @@ def test_an_interrupted_sweep_marks_its_running_jobs_and_resumes_with_the_rest(t
     statuses = {job.parent.name: json.loads(job.read_text())["status"] for job in sweep_dir.glob("*/metrics.json")}
     assert statuses == {"0": "ok", "1": "ok", "2": "ok"}
     assert all((sweep_dir / name / "metrics.json").stat().st_mtime_ns == stamp for name, stamp in finished.items())
+
+
+@pytest.mark.slow
+def test_a_sweep_killed_at_ten_random_points_loses_nothing_and_does_nothing_twice(tmp_path):
+    sweep_dir = tmp_path / "sweep"
+    command = [sys.executable, "-m", "experiments.run", "-m", "model=dsq_arm", "frames=40", "seed=0,1,2,3,4,5"]
+    command.append(f"hydra.sweep.dir={sweep_dir}")
+    rng = random.Random(0)
+    finished: dict[str, int] = {}  # job -> its metrics.json's mtime when first seen finished
+    for _ in range(10):
+        sweep = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+        time.sleep(rng.uniform(0.5, 12.0))
+        if sweep.poll() is None:
+            os.killpg(sweep.pid, signal.SIGKILL)  # no handler runs: the outputs are what the atomic writes left
+        sweep.wait()
+        for path in sweep_dir.glob("*/metrics.json"):
+            metrics = json.loads(path.read_text())  # never half-written: it parses
+            if metrics["status"] == "ok":
+                assert finished.setdefault(path.parent.name, path.stat().st_mtime_ns) == path.stat().st_mtime_ns
+        assert not list(sweep_dir.glob("*/run.rrd")) or all(p.stat().st_size > 0 for p in sweep_dir.glob("*/run.rrd"))
+    completed = subprocess.run(command, capture_output=True, text=True, timeout=600)
+    assert completed.returncode == 0, completed.stderr
+    statuses = {path.parent.name: json.loads(path.read_text())["status"] for path in sweep_dir.glob("*/metrics.json")}
+    assert statuses == {str(job): "ok" for job in range(6)}
+    assert all((sweep_dir / job / "metrics.json").stat().st_mtime_ns == stamp for job, stamp in finished.items())
