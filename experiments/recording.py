@@ -29,14 +29,13 @@ import rerun as rr
 
 from eval.video import VideoEncoder
 from experiments.components import Components
-from experiments.presentation import PALETTE, POINTS, default_blueprint
+from experiments.presentation import PALETTE, POINTS, run_blueprint, shown_looks, weight_map_costs
 from experiments.recorded_meshes import MeshLog
 from experiments.recording_file import RecordingFile
 from experiments.schemas import RecordSettings
 from tracker.geometry.cameras import Camera
 from tracker.observe.silhouettes import CapturedFrame
 from tracker.protocol import Points, RenderedFrame, StepResult
-from tracker.registry import COSTS
 from tracker.tbf.costs import weight_map
 
 TIMELINE = "frame"
@@ -53,10 +52,8 @@ class RunRecording:
         self.path = Path(path)
         self.recording_id = str(uuid.uuid4())
         self.model, self.record, self.evaluation = components.model, record, components.evaluation
-        self.silhouettes = "silhouettes" in components.observes
-        self.weight_maps = COSTS.names() if self.silhouettes and record.weight_maps and record.images else []
-        shown = [components.entries[kind].presentation for kind in ("tracker", "model")]  # its panels first
-        looks = shown[::-1]  # the tracker's colours over the model's
+        self.weight_maps = weight_map_costs(components, record)
+        looks = shown_looks(components)[::-1]  # the tracker's colours over the model's
         self._state_colors = {state: colour for look in looks for state, colour in look.state_colors.items()}
         self._point_colors = {name: colour for look in looks for name, colour in look.point_colors.items()}
         self._videos = (
@@ -67,10 +64,7 @@ class RunRecording:
             if record.images
             else {}
         )
-        blueprint = default_blueprint(
-            components.views, self.model.part_names, shown, self.silhouettes, self.weight_maps
-        )
-        self._file = RecordingFile(self.path, self.recording_id, blueprint)
+        self._file = RecordingFile(self.path, self.recording_id, run_blueprint(components, record))
         self.stream = self._file.stream
         self._log_static(components.cameras)
         self._static: set[str] = set()  # entities whose point states (classes, colours) are logged

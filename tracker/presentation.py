@@ -20,11 +20,13 @@ PAPER_PART = 1  # paper 1's "part 2" (it counts from 1): the second part, whose 
 @dataclass(frozen=True)
 class Panel:
     """A time-series plot: its ``title``, the entity path it shows (``origin``) and, when given, only the series at
-    these paths below it (``contents``, e.g. ``("entropy",)``)."""
+    these paths below it (``contents``, e.g. ``("entropy",)``; ``"level1/**"``: that path and all below it, the
+    one wildcard Rerun's entity filters support: no other ``*``)."""
 
     title: str
     origin: str
     contents: tuple[str, ...] = ()
+    of_estimate: bool = False  # it plots the estimate's errors: left out when the tracker estimates nothing
 
 
 def no_panels(part_names: Sequence[str]) -> tuple[Panel, ...]:

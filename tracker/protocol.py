@@ -170,6 +170,7 @@ class RenderOnly(Tracker):
     """No estimation: the run renders and records the scene (what every tracker observes)."""
 
     name: ClassVar[str] = "render_only"
+    estimates: ClassVar[bool] = False  # the recording leaves out the panels of the estimate's errors
 
     def start(self, model: Model, cameras: Sequence[Camera], initial: np.ndarray, rng: np.random.Generator) -> None:
         pass

