@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import multiprocessing
 import signal
+import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Annotated, Literal
@@ -41,7 +42,9 @@ def run_tasks(tasks, settings: BuildSettings) -> Iterator:
         from ray.util.joblib import register_ray  # the Ray extra: make ray
 
         register_ray()
-    with parallel_config(backend=settings.backend, n_jobs=settings.jobs):
+    with parallel_config(backend=settings.backend, n_jobs=settings.jobs), warnings.catch_warnings():
+        # An interrupted build (Ctrl-C) cancels the running tasks: expected, not a warning to print.
+        warnings.filterwarnings("ignore", message=r".*tasks which were still being processed", category=UserWarning)
         yield from Parallel(return_as="generator_unordered")(tasks)
 
 
