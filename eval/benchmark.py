@@ -32,7 +32,8 @@ MEASURES = {
     "joint angle °": "joint_angle_error_deg",
     "root orientation °": "root_orientation_error_deg",
 }
-TIMING = ("estimation ms/frame", "estimate_ms_median")  # the run's median over frames (timings.json)
+# The median over the scored frames (a frame the tracker could not use took no estimation time).
+TIMING = ("estimation ms/frame", "estimate_ms")
 COLUMNS = ["clip", "tracker", "status", "frames", "scored", "failed", *MEASURES, TIMING[0], "aligned / floor"]
 
 
@@ -89,7 +90,7 @@ def clip_row(clip: str, label: str, run: dict, frames: pd.DataFrame, scored: pd.
     row |= {"scored": len(kept), "failed": failed}  # failed: frames with no estimate (the last one counts)
     for column, name in MEASURES.items():
         row[column] = round(float(kept[name].mean()), 1) if name in kept and len(kept) else np.nan
-    row[TIMING[0]] = round(float(run.get(TIMING[1], np.nan)), 1)
+    row[TIMING[0]] = round(float(kept[TIMING[1]].median()), 1) if TIMING[1] in kept and len(kept) else np.nan
     aligned = kept["joint_error_aligned_mm"].mean() if "joint_error_aligned_mm" in kept else np.nan
     row["aligned / floor"] = round(float(aligned / kept["floor_mm"].mean()), 2) if len(kept) else np.nan
     return row
