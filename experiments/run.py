@@ -84,7 +84,7 @@ def main(argv: list[str] | None = None) -> None:
     try:
         hydra_main()
     except KeyboardInterrupt as interrupt:  # the run's outputs are written and say so (experiments.job)
-        name = str(interrupt) or "SIGINT"
+        name = str(interrupt) if str(interrupt) in signal.Signals.__members__ else "SIGINT"
         print(f"interrupted by {name}", file=sys.stderr)
         sys.exit(128 + signal.Signals[name].value)
 
