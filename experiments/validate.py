@@ -27,6 +27,7 @@ from omegaconf.errors import (
 
 from experiments.checks import ConfigError, check_config, unknown_key
 from experiments.schemas import SCHEMA_PREFIX
+from tracker.atomic import nearest_folder
 
 # Flags after which Hydra runs nothing (help, printing the config, shell completion): nothing to validate.
 _INFORMATIONAL_FLAGS = set(
@@ -96,10 +97,10 @@ def _key(override: str) -> str:
 
 def check_output_dir(key: str, value: str) -> None:
     """The run's output folder can be made: its nearest existing ancestor is a writable folder."""
-    path = Path(value).absolute()
-    existing = next(parent for parent in (path, *path.parents) if parent.exists())
-    if not existing.is_dir():
-        raise ConfigError(f"{key}={value}: {existing} is a file, not a folder")
+    try:
+        existing = nearest_folder(value)
+    except ValueError as error:
+        raise ConfigError(f"{key}={value}: {error}") from None
     try:  # a trial folder, removed at once (permissions alone do not tell: root may not write in /proc either)
         os.rmdir(tempfile.mkdtemp(prefix=".write-check-", dir=existing))
     except OSError as error:

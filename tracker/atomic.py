@@ -49,6 +49,16 @@ def atomic_path(target: str | Path) -> Iterator[Path]:
         file.discard()
 
 
+def nearest_folder(path: str | Path) -> Path:
+    """``path``, or its nearest ancestor that exists: where making it would start. A ValueError if that is a file
+    (nothing can be made under it)."""
+    absolute = Path(path).absolute()
+    existing = next(parent for parent in (absolute, *absolute.parents) if parent.exists())
+    if not existing.is_dir():
+        raise ValueError(f"{existing} is a file, not a folder")
+    return existing
+
+
 def write_json(target: str | Path, data: Any) -> None:
     with atomic_path(target) as temporary:
         temporary.write_text(json.dumps(data, indent=2, sort_keys=True, allow_nan=False) + "\n")

@@ -6,9 +6,9 @@ from __future__ import annotations
 import importlib.util
 import os
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Annotated, Literal
 
+from tracker.atomic import nearest_folder
 from tracker.models.makehuman import Triangles
 from tracker.motion.mocap import read_body_clip
 from tracker.ranges import Finite, Positive, Range
@@ -52,10 +52,10 @@ class TbfSettings:
 
 def check_cache_dir(folder: str, key: str) -> None:
     """The cache folder is a folder, or can be made one: its nearest existing ancestor is a writable folder."""
-    path = Path(folder).absolute()
-    existing = next(parent for parent in (path, *path.parents) if parent.exists())
-    if not existing.is_dir():
-        raise ValueError(f"{key}={folder}: {existing} is a file, not a folder")
+    try:
+        existing = nearest_folder(folder)
+    except ValueError as error:
+        raise ValueError(f"{key}={folder}: {error}") from None
     if not os.access(existing, os.W_OK | os.X_OK):
         raise ValueError(f"{key}={folder}: {existing} is not writable")
 
