@@ -10,6 +10,7 @@ import hashlib
 import json
 import logging
 import zipfile
+import zlib
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -20,6 +21,8 @@ from tracker.atomic import atomic_path
 
 log = logging.getLogger(__name__)
 CORE = Path(__file__).resolve().parent
+# What reading a damaged ``.npz`` raises: a truncated or flipped file, a zip member whose CRC or deflate fails.
+DAMAGED_NPZ = (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error)
 
 
 @functools.cache
@@ -47,7 +50,7 @@ def memoized(folder: str | Path, inputs: Any, compute: Callable[[], Mapping[str,
             return {name: stored[name] for name in stored.files}
     except FileNotFoundError:
         pass
-    except (OSError, ValueError, KeyError, zipfile.BadZipFile) as error:
+    except DAMAGED_NPZ as error:
         log.warning("%s cannot be read (%s): computing it again", path, error)
     arrays = {name: np.asarray(value) for name, value in compute().items()}
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -21,14 +21,13 @@ import hashlib
 import json
 import logging
 import time
-import zipfile
-import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from tracker.atomic import atomic_path, exclusive
+from tracker.memo import DAMAGED_NPZ
 from tracker.tbf.samples import LEVEL_RESOLUTIONS, PoseSampleSet, SampleViews
 
 log = logging.getLogger(__name__)
@@ -101,7 +100,7 @@ def load_or_build_tree(
         if path.exists():
             try:
                 return _load(path, key, len(samples), thresholds, resolutions)
-            except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error) as problem:
+            except DAMAGED_NPZ as problem:
                 log.warning("tree cache %s is damaged (%s): rebuilding it", path, problem)
         return _build_logged(samples, thresholds, resolutions, key, path)
 
