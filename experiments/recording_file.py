@@ -35,10 +35,6 @@ class RecordingFile:
         self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=recording_id, batcher_config=BATCHES)
         self.stream.save(self._file.temporary, default_blueprint=blueprint)
 
-    @property
-    def closed(self) -> bool:
-        return self._file is None
-
     def close(self, last_writes: Callable[[], None] = lambda: None) -> None:
         """``last_writes``, then flush the stream (within `FLUSH_TIMEOUT_S`), close the file and give it its name
         (idempotent)."""
