@@ -13,6 +13,8 @@ import json
 import logging
 import signal
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -111,9 +113,9 @@ def remove_stale_temporaries(output_dir: Path) -> None:
 
 
 class StopRequest:
-    """SIGINT and SIGTERM stop the run: while it builds its components (a sample set, say: the shards finished so
-    far are kept for the next run), at once; once its frames run (`defer`), after the current frame. Either way the
-    run then writes its outputs, ``status: failed: interrupted by <signal>``.
+    """SIGINT and SIGTERM stop the run: while the tracker starts (`at_once`: a sample set being built, say, the shards
+    finished so far kept for the next run), at once; otherwise after the current frame. Either way the run then
+    writes its outputs, ``status: failed: interrupted by <signal>``.
 
     In the frames a KeyboardInterrupt raised wherever the signal lands can be swallowed (inside a finalizer of a GL
     object it is only printed), and the run would go on; a flag checked once per frame cannot be missed. A second
@@ -124,7 +126,7 @@ class StopRequest:
 
     def __init__(self) -> None:
         self.requested: str | None = None
-        self.deferred = False
+        self.deferred = True
         self._previous: dict[int, Any] = {}
 
     @classmethod
@@ -135,9 +137,16 @@ class StopRequest:
                 request._previous[number] = signal.signal(number, request._handle)
         return request
 
-    def defer(self) -> None:
-        """From now on a signal stops the run after the current frame."""
-        self.deferred = True
+    @contextmanager
+    def at_once(self) -> Iterator[None]:
+        """Within the block, a signal (or one already received) stops the run at once (`Interrupted`)."""
+        if self.requested:
+            raise Interrupted(self.requested)
+        self.deferred = False
+        try:
+            yield
+        finally:
+            self.deferred = True
 
     def _handle(self, number: int, _frame: Any) -> None:
         self.requested = signal.Signals(number).name
@@ -154,8 +163,8 @@ class StopRequest:
 
 
 class Interrupted(KeyboardInterrupt):
-    """A stop asked for before the frames began (`StopRequest`): the run ends, its outputs say so. A
-    KeyboardInterrupt, so that no ``except Exception`` on the way swallows it."""
+    """The run stopped by a signal (`StopRequest`): raised at once while the tracker starts, else once the outputs
+    are written. A KeyboardInterrupt, so that no ``except Exception`` on the way swallows it."""
 
 
 def failure_reason(error: BaseException) -> str:

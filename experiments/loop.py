@@ -25,15 +25,15 @@ def run_frames(
     log: RunLog,
 ) -> None:
     """Start the tracker, then run every frame, appending its table rows and stage timings to ``log``
-    (once the tracker has started, ``stop.requested`` ends the loop after the current frame). The tracker sees each
-    frame's observation only."""
+    (``stop.requested`` ends the loop after the current frame; while the tracker starts, a stop is at once). The
+    tracker sees each frame's observation only."""
     settings, model, cameras, tracker = components.settings, components.model, components.cameras, components.tracker
     nuisance = settings.render.nuisance()
     nuisance_rng = np.random.default_rng([settings.seed, 2])  # the camera's own stream (1: the tracker's)
     renderer = settings.render.renderer(cameras[0].width, cameras[0].height)
     # The tracker's own random stream (stream 1 of the run's seed; the model's textures use others).
-    tracker.start(model, cameras, components.scene.params(model, 0), np.random.default_rng([settings.seed, 1]))
-    stop.defer()  # a stop asked for from here waits for the current frame to end
+    with stop.at_once():  # a stop while the tracker starts (a sample build) need not wait for it
+        tracker.start(model, cameras, components.scene.params(model, 0), np.random.default_rng([settings.seed, 1]))
     with renderer:
         capture = None
         if "silhouettes" in components.observes:  # paper 2's observation: background subtraction
