@@ -49,8 +49,11 @@ def run_tasks(tasks, settings: BuildSettings) -> Iterator:
 
 
 def _in_worker(function, *arguments, **keywords):
-    """A task in a worker process, deaf to Ctrl-C: the interrupt is the parent's to handle (it keeps the shards
-    finished so far, for a resumed build), not each worker's to print a traceback of."""
+    """A task in a worker process, deaf to Ctrl-C and SIGTERM (a terminal or a job system sends them to the whole
+    process group): the stop is the parent's to handle (it keeps the shards finished so far, for a resumed build,
+    and ends its workers itself), not each worker's. A worker that printed a traceback, or died by SIGTERM halfway
+    through sending its shard back, could leave the parent waiting forever on the rest of the message."""
     if multiprocessing.parent_process() is not None:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        for number in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(number, signal.SIG_IGN)
     return function(*arguments, **keywords)
