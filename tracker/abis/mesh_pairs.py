@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from tracker.abis.correspondences import PairTable
 from tracker.geometry.cameras import Camera
@@ -39,11 +40,13 @@ class MeshPairs(PairTable):
 
 
 def ray_hits(
-    camera: Camera, pixels: np.ndarray, vertices: np.ndarray, faces: np.ndarray
+    camera: Camera, pixels: np.ndarray, vertices: np.ndarray, faces: np.ndarray, nearest: int | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Where the viewing rays of ``pixels`` ``(n, 2)`` first meet the triangles ``faces`` ``(m, 3)`` (indices into
     ``vertices`` ``(V, 3)``; both sides count): per pixel the row of the face hit (-1 for none) and the hit's
-    barycentric coordinates ``(n, 3)`` (Moller-Trumbore, every ray against every face)."""
+    barycentric coordinates ``(n, 3)`` (Moller-Trumbore). Every ray is tried against every face, or with
+    ``nearest``, against the ``nearest`` faces whose projected centroids lie nearest its pixel (a whole body's
+    faces: the front face under a pixel is among the few around it)."""
     n = len(pixels)
     hit_face, barycentric = np.full(n, -1), np.zeros((n, 3))
     if n == 0 or len(faces) == 0:
@@ -52,23 +55,29 @@ def ray_hits(
         np.column_stack([(pixels[:, 0] - camera.cx) / camera.fx, (pixels[:, 1] - camera.cy) / camera.fy, np.ones(n)])
         @ camera.rotation.T
     )
-    a, b, c = (vertices[faces[:, k]] for k in range(3))
-    edge1, edge2 = b - a, c - a  # (m, 3)
-    p = np.cross(directions[:, None, :], edge2[None])  # (n, m, 3)
-    determinant = np.einsum("nmd,md->nm", p, edge1)
+    if nearest is None or nearest >= len(faces):
+        tried = np.arange(len(faces))[None]  # one row, for every ray
+    else:
+        uv, _ = camera.project(vertices)
+        centroids = np.nan_to_num(uv[faces].mean(axis=1), nan=-1e6)
+        tried = cKDTree(centroids).query(pixels, k=nearest)[1].reshape(n, nearest)
+    a, b, c = (vertices[faces[tried, k]] for k in range(3))  # (n or 1, tried, 3)
+    edge1, edge2 = b - a, c - a
+    p = np.cross(directions[:, None, :], edge2)
+    determinant = np.einsum("nmd,nmd->nm", p, edge1)
     usable = np.abs(determinant) > ZERO_LENGTH
     inverse = np.where(usable, 1.0 / np.where(usable, determinant, 1.0), 0.0)
-    to_origin = camera.position - a  # (m, 3)
-    u = np.einsum("nmd,md->nm", p, to_origin) * inverse
-    q = np.cross(to_origin, edge1)  # (m, 3)
-    v = np.einsum("nd,md->nm", directions, q) * inverse
-    depth = np.einsum("md,md->m", edge2, q)[None] * inverse  # along the ray, in units of its direction (z)
+    to_origin = camera.position - a
+    u = np.einsum("nmd,nmd->nm", p, to_origin) * inverse
+    q = np.cross(to_origin, edge1)
+    v = np.einsum("nd,nmd->nm", directions, q) * inverse
+    depth = np.einsum("nmd,nmd->nm", edge2, q) * inverse  # along the ray, in units of its direction (z)
     inside = usable & (u >= 0) & (v >= 0) & (u + v <= 1) & (depth > 0)
     depth = np.where(inside, depth, np.inf)
-    nearest = np.argmin(depth, axis=1)
+    first = np.argmin(depth, axis=1)
     rows = np.arange(n)
-    found = np.isfinite(depth[rows, nearest])
-    hit_face[found] = nearest[found]
-    u_hit, v_hit = u[rows, nearest][found], v[rows, nearest][found]
+    found = np.isfinite(depth[rows, first])
+    hit_face[found] = np.broadcast_to(tried, depth.shape)[rows, first][found]
+    u_hit, v_hit = u[rows, first][found], v[rows, first][found]
     barycentric[found] = np.column_stack([1 - u_hit - v_hit, u_hit, v_hit])
     return hit_face, barycentric

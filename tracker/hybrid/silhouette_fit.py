@@ -1,4 +1,4 @@
-"""Fitting the skinned body to the views' observed silhouettes: the continuous refinement of the hybrid tracker.
+"""Fitting the skinned body to the views' observed silhouettes and feature pairs: the hybrid's continuous refinement.
 
 Per view, the observed silhouette S (bool, the camera's pixels) gives two distance fields (`ViewField`): ``outside``,
 each pixel's distance to S (0 inside it), and its edge points (S's boundary pixels, evenly thinned). With the
@@ -10,28 +10,33 @@ Huber) of
               (n_e: the silhouette's outward normal at e; a vertex is on the outline where its normal is near
               square to the camera's ray, ``|n . ray| < outline_cos``): the body's outline reaches every part of
               the silhouette's (an ICP step, point to line);
+a feature term, with the frame's pairs (`tracker.hybrid.feature_pairs`), ``features.weight`` times the mean robust
+square (up to ``features.robust_px``) of each pair's point on the posed body projected, minus its feature's pixel
+(``u`` and ``v``): the skin follows its texture where the outline cannot tell how a part turned;
 and a prior ``prior_weight^2 |r_j - r_j^0|^2`` on each fitted joint's rotation vector, towards the starting pose
 (a joint the silhouettes do not constrain, a limb's twist, stays where it was), and where a place for the root is
 given, ``root_prior^2 |t - t^0|^2`` on its position (one view hardly sees depth). The parameters are the root's
 position and the rotation vectors of `FIT_JOINTS`; Levenberg-Marquardt steps them by the Gauss-Newton system
 of the residuals' Jacobian, analytic: the image gradient of ``outside`` (for cover, the edge's normal) times the
-projection's Jacobian (`projection_jacobian`) times the skinned vertices' (`BodyMesh.vertex_jacobian`).
+projection's Jacobian (`projection_jacobian`) times the skinned vertices' (`BodyMesh.vertex_jacobian`; a pair's
+point: its face's corners' blended by its barycentric coordinates).
 
-`fit_cost` is the cost without the prior: what the hybrid compares candidates by (the same vertices and edge
-points for every candidate, so the numbers compare).
+`fit_cost` is the cost without the prior: what the hybrid compares candidates by (the same vertices, edge points
+and pairs for every candidate, so the numbers compare).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import Annotated
+from dataclasses import dataclass, field
+from typing import Annotated, NamedTuple
 
 import numpy as np
 from scipy.ndimage import binary_erosion, distance_transform_edt, map_coordinates
 from scipy.spatial import cKDTree
 
 from tracker.geometry.cameras import Camera, projection_jacobian
+from tracker.hybrid.feature_pairs import FeaturePairSettings, ViewPairs
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.body_skeleton import JOINT_INDEX
 from tracker.ranges import NonNegative, Positive, Range
@@ -62,6 +67,7 @@ class FitSettings:
     root_prior: NonNegative = 20.0  # pixels per metre of the root away from where it is held (`refine`'s root)
     damping: Positive = 1e-3  # Levenberg-Marquardt's first lambda, relative to the system's diagonal
     tolerance: NonNegative = 0.02  # stop once an iteration lowers the cost by less than this fraction of it
+    features: FeaturePairSettings = field(default_factory=FeaturePairSettings)
 
     def __post_init__(self) -> None:
         validate(self)
@@ -91,8 +97,8 @@ class ViewField:
         rows, cols = rows[::step], cols[::step]
         self.edge = np.stack([cols, rows], axis=1) + self.offset  # (n, 2) pixels (u, v)
         # The outward normal at each edge point: the gradient of the signed distance (outside minus inside).
-        signed = self.outside - distance_transform_edt(window)
-        normals = np.stack([g[rows, cols] for g in np.gradient(signed)[::-1]], axis=1)
+        self.inside = distance_transform_edt(window)
+        normals = np.stack([g[rows, cols] for g in np.gradient(self.outside - self.inside)[::-1]], axis=1)
         self.edge_normals = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
 
     def sample(self, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -102,6 +108,15 @@ class ViewField:
         value = map_coordinates(self.outside, coordinates, order=1, mode="nearest")
         gradient = np.stack([map_coordinates(g, coordinates, order=1, mode="nearest") for g in self.gradient], 1)
         return value, gradient
+
+    def inside_px(self, uv: np.ndarray) -> np.ndarray:
+        """Each pixel's distance inside the silhouette (0 outside it; the nearest pixel's)."""
+        local = np.rint(uv - self.offset).astype(np.int64)
+        height, width = self.inside.shape
+        within = (local[:, 0] >= 0) & (local[:, 0] < width) & (local[:, 1] >= 0) & (local[:, 1] < height)
+        distance = np.zeros(len(uv))
+        distance[within] = self.inside[local[within, 1], local[within, 0]]
+        return distance
 
 
 def huber_weights(residuals: np.ndarray, scale: float) -> np.ndarray:
@@ -113,6 +128,16 @@ def huber_weights(residuals: np.ndarray, scale: float) -> np.ndarray:
 def huber(residuals: np.ndarray, scale: float) -> np.ndarray:
     size = np.abs(residuals)
     return np.where(size <= scale, size**2, 2 * scale * size - scale**2)
+
+
+class Term(NamedTuple):
+    """A block of the fit's residuals: their ``values``, their ``rows`` of the Jacobian by `FIT_COLUMNS` (None when
+    not asked for), the Huber scale and the ``weight`` of their mean robust square in the cost."""
+
+    values: np.ndarray
+    rows: np.ndarray | None
+    robust_px: float
+    weight: float
 
 
 def pixel_rows(camera: Camera, points: np.ndarray, vertex_rows: np.ndarray) -> np.ndarray:
@@ -129,12 +154,14 @@ class SilhouetteFit:
         self.region = np.arange(0, len(body.rest_vertices), settings.vertex_stride)
         self.rest_normals = vertex_normals(body.rest_vertices, body.faces)
         self.fields: list[ViewField] = []
+        self.pairs: list[ViewPairs] = []
 
-    def observe(self, silhouettes: Sequence[np.ndarray]) -> None:
-        """This frame's silhouettes, one per camera in the cameras' order."""
+    def observe(self, silhouettes: Sequence[np.ndarray], pairs: Sequence[ViewPairs] | None = None) -> None:
+        """This frame's silhouettes and feature pairs (None: none), one per camera in the cameras' order."""
         self.fields = [
             ViewField(s, camera, self.settings.edge_points) for s, camera in zip(silhouettes, self.cameras, strict=True)
         ]
+        self.pairs = list(pairs) if pairs is not None else [ViewPairs.empty() for _ in self.cameras]
 
     def normals(self, rotations: np.ndarray) -> np.ndarray:
         """``(V, 3)`` the posed vertices' unit normals, skinned as the vertices are (the bones' ``rotations``)."""
@@ -148,35 +175,50 @@ class SilhouetteFit:
         rays /= np.linalg.norm(rays, axis=1, keepdims=True)
         return np.flatnonzero(np.abs(np.einsum("va,va->v", normals, rays)) < self.settings.outline_cos)
 
-    def residuals(self, pose: np.ndarray, jacobian: bool = True) -> tuple[list[np.ndarray], list[np.ndarray]]:
-        """Per view, two blocks: the region residuals, then the cover residuals; with ``jacobian``, each block's
-        rows by `FIT_COLUMNS` (else no rows)."""
+    def residuals(self, pose: np.ndarray, jacobian: bool = True) -> list[Term]:
+        """Per view, the region term, the cover term and, with pairs observed, the feature term (a pair's ``u`` then
+        its ``v`` residual); with ``jacobian``, each term's rows by `FIT_COLUMNS` (else None)."""
         transforms = self.body.bone_transforms(pose)
         points = self.body.posed_vertices(pose, transforms=transforms)
         normals = self.normals(transforms[0])
-        values, blocks = [], []  # blocks: per residual block, its weights on the pixels and the vertices they move
-        for field in self.fields:
-            uv, _ = field.camera.project(points)
+        settings, features = self.settings, self.settings.features
+        # Per term, what moves its residuals: the camera, each residual's direction on the pixel of its point, and
+        # the point: a blend of vertices (``corners`` (n, c), ``blend`` (n, c): one vertex, or a face's corners).
+        terms, moves = [], []
+        for view, pairs in zip(self.fields, self.pairs, strict=True):
+            uv, _ = view.camera.project(points)
             uv = np.nan_to_num(uv, nan=-1e3)
-            outside, gradient = field.sample(uv[self.region])
-            outline = self.outline(points, normals, field.camera)
-            if len(outline) and len(field.edge):
-                _, nearest = cKDTree(uv[outline]).query(field.edge)
-                cover_vertices, edge, edge_normals = outline[nearest], field.edge, field.edge_normals
+            outside, gradient = view.sample(uv[self.region])
+            outline = self.outline(points, normals, view.camera)
+            if len(outline) and len(view.edge):
+                _, nearest = cKDTree(uv[outline]).query(view.edge)
+                cover_vertices, edge, edge_normals = outline[nearest], view.edge, view.edge_normals
             else:
-                cover_vertices, edge, edge_normals = np.zeros(0, dtype=np.int64), field.edge[:0], field.edge_normals[:0]
-            values += [outside, np.einsum("na,na->n", uv[cover_vertices] - edge, edge_normals)]
-            blocks += [(field.camera, gradient, self.region), (field.camera, edge_normals, cover_vertices)]
+                cover_vertices, edge, edge_normals = np.zeros(0, dtype=np.int64), view.edge[:0], view.edge_normals[:0]
+            cover = np.einsum("na,na->n", uv[cover_vertices] - edge, edge_normals)
+            terms += [Term(outside, None, settings.robust_px, 1.0), Term(cover, None, settings.robust_px, 1.0)]
+            for directions, vertices in ((gradient, self.region), (edge_normals, cover_vertices)):
+                moves.append((view.camera, directions, vertices[:, None], np.ones((len(vertices), 1))))
+            if len(pairs) and features.weight > 0:
+                corners = self.body.faces[pairs.faces]
+                seen, _ = view.camera.project(np.einsum("kc,kcd->kd", pairs.barycentric, points[corners]))
+                values = (np.nan_to_num(seen, nan=-1e3) - pairs.pixels).ravel()  # u0, v0, u1, v1, ...
+                terms.append(Term(values, None, features.robust_px, features.weight))
+                directions = np.tile(np.eye(2), (len(pairs), 1))
+                moves.append((view.camera, directions, np.repeat(corners, 2, 0), np.repeat(pairs.barycentric, 2, 0)))
         if not jacobian:
-            return values, []
-        needed, where = np.unique(np.concatenate([vertices for _, _, vertices in blocks]), return_inverse=True)
+            return terms
+        needed, where = np.unique(np.concatenate([corners.ravel() for *_, corners, _ in moves]), return_inverse=True)
         moved = self.vertex_rows(pose, needed, transforms)
-        rows, first = [], 0
-        for camera, directions, vertices in blocks:
-            at = where[first : first + len(vertices)]
-            first += len(vertices)
-            rows.append(np.einsum("na,nac->nc", directions, pixel_rows(camera, points[vertices], moved[at])))
-        return values, rows
+        first = 0
+        for index, (camera, directions, corners, blend) in enumerate(moves):
+            at = where[first : first + corners.size].reshape(corners.shape)
+            first += corners.size
+            point = np.einsum("nc,ncd->nd", blend, points[corners])
+            point_rows = np.einsum("nc,ncdj->ndj", blend, moved[at])
+            rows = np.einsum("na,nac->nc", directions, pixel_rows(camera, point, point_rows))
+            terms[index] = terms[index]._replace(rows=rows)
+        return terms
 
     def vertex_rows(
         self, pose: np.ndarray, vertices: np.ndarray, transforms: tuple[np.ndarray, np.ndarray] | None = None
@@ -185,9 +227,13 @@ class SilhouetteFit:
         return self.body.vertex_jacobian(pose, vertices, FIT_JOINTS, transforms)[:, :, FIT_COLUMNS]
 
     def fit_cost(self, pose: np.ndarray) -> float:
-        """The cost without the prior: over the views and their two terms, the sum of each term's mean robust square."""
-        values, _ = self.residuals(pose, jacobian=False)
-        return float(sum(huber(v, self.settings.robust_px).mean() for v in values if len(v)))
+        """How well ``pose`` explains the views: the cost without the prior (see the module docstring)."""
+        return self.cost(self.residuals(pose, jacobian=False))
+
+    @staticmethod
+    def cost(terms: Sequence[Term]) -> float:
+        """Each term's weight times its mean robust square, summed."""
+        return float(sum(term.weight * huber(term.values, term.robust_px).mean() for term in terms if len(term.values)))
 
     def refine(
         self, start: np.ndarray, iterations: int | None = None, root: np.ndarray | None = None
@@ -209,15 +255,14 @@ class SilhouetteFit:
 
         (current, fitted), damping = total(pose), settings.damping
         for _ in range(settings.iterations if iterations is None else iterations):
-            values, rows = self.residuals(pose)
             hessian = np.diag(prior_rows**2)
             gradient = prior_rows**2 * (pose[FIT_COLUMNS] - anchor)
-            for value, row in zip(values, rows, strict=True):
-                if not len(value):
+            for term in self.residuals(pose):
+                if not len(term.values):
                     continue
-                weight = huber_weights(value, settings.robust_px) / len(value)
-                hessian += row.T @ (row * weight[:, None])
-                gradient += row.T @ (weight * value)
+                weight = term.weight * huber_weights(term.values, term.robust_px) / len(term.values)
+                hessian += term.rows.T @ (term.rows * weight[:, None])
+                gradient += term.rows.T @ (weight * term.values)
             while damping < 1e8:
                 system = hessian + damping * np.diag(np.diag(hessian) + 1e-9)
                 trial = pose.copy()

@@ -10,9 +10,13 @@ best (the lowest `SilhouetteFit.fit_cost`) is refined on to the estimate. ``feed
 moved onto the sample nearest it, so the next frame's prior starts from it. The tracker never sees the truth; the
 evaluation judges its estimates, and its dictionary's floor, as tree filtering's.
 
+The fit also follows the skin's features (`tracker.hybrid.feature_pairs`): each frame's features are tied to the
+refined body, and the next frame's pairs ask those points to move with them.
+
 Frame columns: ``hybrid_choice`` (the candidate kept: 0 the filter's best sample, then its next proposals, last
-the previous refined pose), ``fit_cost`` (of the
-chosen pose) and ``fit_cost_proposal`` (of the proposal before refining); the stage ``refine`` in the timings.
+the previous refined pose), ``fit_cost`` (of the chosen pose), ``fit_cost_proposal`` (of the proposal before
+refining) and ``feature_pairs`` (over the views); the stage ``refine`` in the timings (the features' tracking
+with it).
 """
 
 from __future__ import annotations
@@ -25,6 +29,7 @@ from typing import Annotated, ClassVar
 import numpy as np
 
 from tracker.geometry.cameras import Camera
+from tracker.hybrid.feature_pairs import FeaturePairs
 from tracker.hybrid.silhouette_fit import FitSettings, SilhouetteFit
 from tracker.models.body_mesh import BodyMesh
 from tracker.protocol import Observation
@@ -84,6 +89,8 @@ class HybridTracker(TbfTracker):
     def start(self, model: BodyMesh, cameras: Sequence[Camera], initial: np.ndarray, rng: np.random.Generator) -> None:
         super().start(model, cameras, initial, rng)
         self.fit = SilhouetteFit(self.body, self.cameras, self.settings.fit)
+        pairing = self.settings.fit.features
+        self.features = FeaturePairs(self.body, self.cameras, pairing) if pairing.weight > 0 else None
         self.nearest = NearestSample(self.samples.poses)
         self.refined = None
 
@@ -102,25 +109,37 @@ class HybridTracker(TbfTracker):
 
     def step(self, observation: Observation) -> TbfResult:
         """Tree filtering's step, then its proposals and the previous refined pose screened, the best refined on."""
+        start = time.perf_counter()
+        pairs = (
+            None if self.features is None else self.features.pairs([observation.images[c.name] for c in self.cameras])
+        )
+        pairing_ms = elapsed_ms(start)
         found = super().step(observation)
         if found.failure is not None:
+            if self.features is not None:
+                self.features.forget()
             return found
         start = time.perf_counter()
-        self.fit.observe([observation.silhouettes[camera.name] for camera in self.cameras])
+        self.fit.observe([observation.silhouettes[camera.name] for camera in self.cameras], pairs)
         candidates = self.proposals(found) + ([self.refined] if self.refined is not None else [])
         placed = found.estimate[:3]  # where tree filtering placed the person this frame
         screened = [self.fit.refine(pose, self.settings.screen_iterations, placed) for pose in candidates]
         choice = int(np.argmin([cost for _, cost in screened]))
         self.refined, cost = self.fit.refine(screened[choice][0], root=placed)
         self._estimate = self.refined
+        if self.features is not None:
+            self.features.anchor(self.refined, [view.inside_px for view in self.fit.fields])
         if self.settings.feed > 0:
             self.filter.feed(self.nearest(self.refined), self.settings.feed)
         found.frame_columns.update(
-            hybrid_choice=choice, fit_cost=cost, fit_cost_proposal=self.fit.fit_cost(found.estimate)
+            hybrid_choice=choice,
+            fit_cost=cost,
+            fit_cost_proposal=self.fit.fit_cost(found.estimate),
+            feature_pairs=sum(len(view) for view in self.fit.pairs),
         )
         return replace(
             found,
             estimate=self.refined.copy(),
-            timings_ms={**found.timings_ms, "refine": elapsed_ms(start)},
+            timings_ms={**found.timings_ms, "refine": elapsed_ms(start) + pairing_ms},
             series={**found.series, "hybrid/fit_cost": cost, "hybrid/choice": float(choice)},
         )

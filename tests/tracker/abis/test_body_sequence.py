@@ -57,6 +57,21 @@ def test_rays_meet_the_nearest_face_under_each_pixel_as_a_naive_search_finds_it(
     np.testing.assert_allclose(camera.project(points)[0], pixels[found], atol=1e-6)  # the point is under its pixel
 
 
+def test_rays_tried_against_the_faces_nearest_their_pixels_meet_the_front_face_of_the_whole_body(body):
+    """With ``nearest``, the same hits as every face tried (the naive search), over the whole body: the arms cross
+    in front of the torso, so many rays pass several layers."""
+    camera = RIG[0]
+    pose = arms_pose(body, (30.0, 20.0, 40.0), (-10.0, 8.0, 20.0), yaw_deg=-30.0)
+    vertices = body.posed_vertices(pose)
+    inside = np.flatnonzero(np.isfinite(camera.project(vertices)[0]).all(axis=1))
+    pixels = camera.project(vertices[inside[:: len(inside) // 30]])[0] + 0.3  # on the body, beside a vertex
+    hit, barycentric = ray_hits(camera, pixels, vertices, body.faces, nearest=64)
+    naive_hit, naive_barycentric = _naive_ray_hits(camera, pixels, vertices, body.faces)
+    np.testing.assert_array_equal(hit, naive_hit)
+    np.testing.assert_allclose(barycentric, naive_barycentric, atol=1e-9)
+    assert (hit >= 0).mean() > 0.75  # some beside the outline miss
+
+
 def test_the_part_tree_runs_from_the_pelvis_and_each_part_carries_its_limb(body):
     parents = part_parents(body.parents)
     name = dict(enumerate(PART_NAMES))
