@@ -7,6 +7,7 @@ import time
 from typing import Any
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 from tqdm import tqdm
 
 from experiments.components import Components
@@ -40,14 +41,18 @@ def run_frames(
             empty = background_frames(cameras, renderer, settings.silhouette.background_frames, nuisance, nuisance_rng)
             capture = SilhouetteCapture.learn(empty, settings.silhouette)
         frames = simulate(model, components.scene, cameras, renderer, settings.frames, nuisance, nuisance_rng)
-        for frame in tqdm(frames, total=settings.frames, desc="frames", disable=not sys.stderr.isatty()):
-            captured = capture_frame(capture, frame)
-            result = estimate(tracker, frame, frame.observation(captured.silhouettes if captured else None))
-            evaluated = evaluate(components, frame, result)
-            record_frame(recording, frame, captured, result, evaluated)
-            log.add(frame_rows(frame, components, result, captured, evaluated), frame.timings_ms, result)
-            if stop.requested:
-                break
+        # A frame's linear algebra is small (the hybrid's fit: systems of 72 unknowns): BLAS threads waiting for
+        # each other cost more than they share, most on a busy machine (the hybrid's refinement took 4x as long
+        # with two threads as with one while the machine ran other work).
+        with threadpool_limits(limits=1, user_api="blas"):
+            for frame in tqdm(frames, total=settings.frames, desc="frames", disable=not sys.stderr.isatty()):
+                captured = capture_frame(capture, frame)
+                result = estimate(tracker, frame, frame.observation(captured.silhouettes if captured else None))
+                evaluated = evaluate(components, frame, result)
+                record_frame(recording, frame, captured, result, evaluated)
+                log.add(frame_rows(frame, components, result, captured, evaluated), frame.timings_ms, result)
+                if stop.requested:
+                    break
 
 
 def capture_frame(capture: SilhouetteCapture | None, frame: RenderedFrame) -> CapturedFrame | None:

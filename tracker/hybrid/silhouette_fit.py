@@ -155,6 +155,7 @@ class SilhouetteFit:
         self.rest_normals = vertex_normals(body.rest_vertices, body.faces)
         self.fields: list[ViewField] = []
         self.pairs: list[ViewPairs] = []
+        self._last: tuple | None = None  # the last pose asked, and its `_terms`
 
     def observe(self, silhouettes: Sequence[np.ndarray], pairs: Sequence[ViewPairs] | None = None) -> None:
         """This frame's silhouettes and feature pairs (None: none), one per camera in the cameras' order."""
@@ -162,6 +163,7 @@ class SilhouetteFit:
             ViewField(s, camera, self.settings.edge_points) for s, camera in zip(silhouettes, self.cameras, strict=True)
         ]
         self.pairs = list(pairs) if pairs is not None else [ViewPairs.empty() for _ in self.cameras]
+        self._last = None
 
     def normals(self, rotations: np.ndarray) -> np.ndarray:
         """``(V, 3)`` the posed vertices' unit normals, skinned as the vertices are (the bones' ``rotations``)."""
@@ -177,7 +179,30 @@ class SilhouetteFit:
 
     def residuals(self, pose: np.ndarray, jacobian: bool = True) -> list[Term]:
         """Per view, the region term, the cover term and, with pairs observed, the feature term (a pair's ``u`` then
-        its ``v`` residual); with ``jacobian``, each term's rows by `FIT_COLUMNS` (else None)."""
+        its ``v`` residual); with ``jacobian``, each term's rows by `FIT_COLUMNS` (else None).
+
+        The last pose's terms are kept: Levenberg-Marquardt asks for the Jacobian where it has just taken a step,
+        whose cost it computed to accept it."""
+        pose = np.asarray(pose, dtype=np.float64)
+        if self._last is None or not np.array_equal(self._last[0], pose):
+            self._last = (pose.copy(), *self._terms(pose))
+        _, terms, moves, points, transforms = self._last
+        if not jacobian:
+            return list(terms)
+        needed, where = np.unique(np.concatenate([corners.ravel() for *_, corners, _ in moves]), return_inverse=True)
+        moved = self.vertex_rows(pose, needed, transforms)
+        rows, first = [], 0
+        for term, (camera, directions, corners, blend) in zip(terms, moves, strict=True):
+            at = where[first : first + corners.size].reshape(corners.shape)
+            first += corners.size
+            point = np.einsum("nc,ncd->nd", blend, points[corners])
+            point_rows = np.einsum("nc,ncdj->ndj", blend, moved[at])
+            rows.append(term._replace(rows=np.einsum("na,nac->nc", directions, pixel_rows(camera, point, point_rows))))
+        return rows
+
+    def _terms(self, pose: np.ndarray) -> tuple[list[Term], list[tuple], np.ndarray, tuple[np.ndarray, np.ndarray]]:
+        """The terms at ``pose`` without their rows, what moves each (below), the posed vertices, the bones'
+        transforms."""
         transforms = self.body.bone_transforms(pose)
         points = self.body.posed_vertices(pose, transforms=transforms)
         normals = self.normals(transforms[0])
@@ -206,19 +231,7 @@ class SilhouetteFit:
                 terms.append(Term(values, None, features.robust_px, features.weight))
                 directions = np.tile(np.eye(2), (len(pairs), 1))
                 moves.append((view.camera, directions, np.repeat(corners, 2, 0), np.repeat(pairs.barycentric, 2, 0)))
-        if not jacobian:
-            return terms
-        needed, where = np.unique(np.concatenate([corners.ravel() for *_, corners, _ in moves]), return_inverse=True)
-        moved = self.vertex_rows(pose, needed, transforms)
-        first = 0
-        for index, (camera, directions, corners, blend) in enumerate(moves):
-            at = where[first : first + corners.size].reshape(corners.shape)
-            first += corners.size
-            point = np.einsum("nc,ncd->nd", blend, points[corners])
-            point_rows = np.einsum("nc,ncdj->ndj", blend, moved[at])
-            rows = np.einsum("na,nac->nc", directions, pixel_rows(camera, point, point_rows))
-            terms[index] = terms[index]._replace(rows=rows)
-        return terms
+        return terms, moves, points, transforms
 
     def vertex_rows(
         self, pose: np.ndarray, vertices: np.ndarray, transforms: tuple[np.ndarray, np.ndarray] | None = None
