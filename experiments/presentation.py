@@ -5,8 +5,9 @@ and the model's own panels first. Points without a colour of their own take the 
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
+import numpy as np
 import rerun.blueprint as rrb
 
 from experiments.components import Components
@@ -14,15 +15,98 @@ from experiments.schemas import RecordSettings
 from tracker.presentation import RGB, Panel, Presentation
 from tracker.registry import COSTS
 
+# The 3-D view's eye stands where the sphere round every place the subject takes fills this half-angle of the view
+# (Rerun's eye sees about 27 degrees above and below its axis: a margin for wide and tall panels alike), looking a
+# little down (`EYE_ELEVATION_DEG`) from the first camera's side.
+EYE_HALF_ANGLE_DEG = 20.0
+EYE_ELEVATION_DEG = 15.0
+EYE_FRAMES = 16  # the frames, spread over the run, whose truth surfaces bound the subject
+
+# A plot's series take these, in order, each a colour no other series of the plot has (a series named after a
+# point state takes that state's colour when it is free): at most 12 series a plot.
+SERIES_PALETTE: tuple[RGB, ...] = (
+    (31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189), (140, 86, 75),
+    (227, 119, 194), (127, 127, 127), (188, 189, 34), (23, 190, 207), (255, 255, 255), (255, 215, 0),
+)  # fmt: skip
+
 # States without a colour of their own take these, in order.
 PALETTE: tuple[RGB, ...] = ((0, 220, 0), (0, 160, 255), (255, 40, 40), (150, 150, 150), (255, 200, 0), (200, 0, 200))
 POINTS = (255, 255, 0)  # points of no state, unless a presentation names a colour
 
 
+def subject_eye(components: Components) -> rrb.EyeControls3D:
+    """The 3-D view's eye, framing the subject's truth surfaces at `EYE_FRAMES` frames spread over the run."""
+    model, scene, frames = components.model, components.scene, components.settings.frames
+    picked = np.unique(np.linspace(0, frames - 1, EYE_FRAMES).round().astype(int))
+    points = np.concatenate(
+        [mesh.vertices for frame in picked for mesh in model.surface_meshes(scene.params(model, int(frame)))]
+    )
+    low, high = points.min(axis=0), points.max(axis=0)
+    center, radius = (low + high) / 2, max(float(np.linalg.norm(high - low)) / 2, 1e-3)
+    side = components.cameras[0].position[:2] - center[:2]
+    side = side / np.linalg.norm(side) if np.linalg.norm(side) > 1e-9 else np.array([0.0, -1.0])
+    up = np.radians(EYE_ELEVATION_DEG)
+    direction = np.array([*(np.cos(up) * side), np.sin(up)])
+    position = center + direction * radius / np.sin(np.radians(EYE_HALF_ANGLE_DEG))
+    return rrb.EyeControls3D(position=position, look_target=center, eye_up=(0.0, 0.0, 1.0))
+
+
 def time_series(panel: Panel) -> rrb.TimeSeriesView:
     """A panel as a plot of the series under its origin (only those at its contents, when it names them)."""
     contents = [f"$origin/{leaf}" for leaf in panel.contents] or ["$origin/**"]
-    return rrb.TimeSeriesView(name=panel.title, origin=panel.origin, contents=contents)
+    return plot(name=panel.title, origin=panel.origin, contents=contents)
+
+
+def plot(**view) -> rrb.TimeSeriesView:
+    """A time-series view with its legend in the top left corner (a run's series start near 0 and grow)."""
+    return rrb.TimeSeriesView(**view, plot_legend=rrb.PlotLegend(corner=rrb.Corner2D.LeftTop))
+
+
+def views_of(container) -> list:
+    """A blueprint container's views, depth first (a view has an origin; a container holds views or containers)."""
+    if hasattr(container, "origin"):
+        return [container]
+    return [view for item in container.contents for view in views_of(item)]
+
+
+def shows(view, entity: str) -> bool:
+    """Whether ``view`` shows ``entity`` by Rerun's entity filter rules: a path matches itself; ``path/**`` matches
+    it and everything below; no other wildcard is supported (a rule that uses one matches nothing, as in Rerun); a
+    rule ``- <path>`` leaves out what it matches."""
+    origin = "/" + str(view.origin).strip("/")
+    contents = view.contents or "$origin/**"
+    lines = contents.splitlines() if isinstance(contents, str) else contents  # one query string, or a list
+    entity, included, excluded = "/" + entity.strip("/"), False, False
+    for line in lines:
+        line = line.strip()
+        rule = line.removeprefix("+ ").removeprefix("- ").replace("$origin", origin)
+        path = "/" + rule.strip("/").removesuffix("/**").strip("/")
+        if "*" not in path and (entity == path or (rule.endswith("/**") and entity.startswith(path + "/"))):
+            excluded |= line.startswith("- ")
+            included |= not line.startswith("- ")
+    return included and not excluded
+
+
+def series_colors(blueprint: rrb.Blueprint, series: Sequence[str], named: Mapping[str, RGB]) -> dict[str, RGB]:
+    """A colour for each of the ``series`` entities: plot by plot of ``blueprint``, each series not yet coloured
+    takes the colour ``named`` after its name (its path's last part, e.g. a pair state) if no other series of the
+    plot has it, else the first of `SERIES_PALETTE` the plot has not used."""
+    colours: dict[str, RGB] = {}
+    for view in views_of(blueprint.root_container):
+        if not isinstance(view, rrb.TimeSeriesView):
+            continue
+        shown = sorted(entity for entity in series if shows(view, entity))
+        taken = {colours[entity] for entity in shown if entity in colours}
+        for entity in shown:
+            if entity in colours:
+                continue
+            colour = named.get(entity.rsplit("/", 1)[-1])
+            if colour is None or colour in taken:
+                free = [c for c in SERIES_PALETTE if c not in taken]
+                colour = free[0] if free else SERIES_PALETTE[len(taken) % len(SERIES_PALETTE)]
+            colours[entity] = colour
+            taken.add(colour)
+    return colours
 
 
 def default_blueprint(
@@ -32,11 +116,13 @@ def default_blueprint(
     silhouettes: bool = False,
     weight_maps: Sequence[str] = (),
     estimates: bool = True,
+    eye: rrb.EyeControls3D | None = None,
 ) -> rrb.Blueprint:
     """Each view's image with its overlays on top (with ``silhouettes``: beside it the extracted silhouette and the
     ``weight_maps`` of those costs); below, the 3-D scene and the time series: those of the components' ``looks``
-    (tracker first, then model; the estimate's errors only if the tracker ``estimates``), the silhouettes'
-    quality, the visible pixels and the timings."""
+    (tracker first, then model; the estimate's errors only if the tracker ``estimates``), the silhouettes' quality
+    and the visible pixels; the estimate's errors, then the run's timings first. ``eye``: the 3-D view's
+    (`subject_eye`; None: Rerun's)."""
     panes = []
     for view in views:
         panes.append(rrb.Spatial2DView(name=view, origin=f"world/cameras/{view}/image"))
@@ -51,9 +137,11 @@ def default_blueprint(
                 for cost in weight_maps
             ]
     panels = [panel for look in looks for panel in look.panels(part_names) if estimates or not panel.of_estimate]
-    series = [time_series(panel) for panel in panels]
+    timing = plot(name="timing (ms)", origin="metrics/timing", contents=["$origin/**", "- $origin/estimate/**"])
+    series = [time_series(panel) for panel in panels if panel.of_estimate]
+    series += [timing, *(time_series(panel) for panel in panels if not panel.of_estimate)]
     if silhouettes:
-        series.append(rrb.TimeSeriesView(name="silhouette IoU", origin="metrics/silhouette_iou"))
+        series.append(plot(name="silhouette IoU", origin="metrics/silhouette_iou"))
     return rrb.Blueprint(
         rrb.Vertical(
             rrb.Horizontal(*panes),
@@ -62,17 +150,32 @@ def default_blueprint(
                     name="3-D: truth (model colours), estimate (yellow)",
                     origin="world",
                     contents=["$origin/truth/**", "$origin/estimate/**"],
-                ),  # framed on the subject
-                rrb.Tabs(
-                    *series,
-                    rrb.TimeSeriesView(name="visible pixels", origin="metrics/visible_px"),
-                    rrb.TimeSeriesView(name="timing (ms)", origin="metrics/timing"),
+                    eye_controls=eye,
                 ),
+                rrb.Tabs(*series, *visible_pixel_plots(views, part_names)),
             ),
             row_shares=[1.0, 1.3],
         ),
         collapse_panels=True,
     )
+
+
+def visible_pixel_plots(views: Sequence[str], part_names: Sequence[str]) -> list[rrb.TimeSeriesView]:
+    """The parts' visible pixels: one plot of every view's, or where that makes more than `SERIES_PALETTE` series,
+    each view's parts over as few plots as hold them."""
+    if len(views) * len(part_names) <= len(SERIES_PALETTE):
+        return [plot(name="visible pixels", origin="metrics/visible_px")]
+    count = -(-len(part_names) // len(SERIES_PALETTE))
+    groups = [list(group) for group in np.array_split(list(part_names), count)]
+    return [
+        plot(
+            name=f"visible pixels, {view}" + (f" ({k + 1}/{count})" if count > 1 else ""),
+            origin=f"metrics/visible_px/{view}",
+            contents=[f"$origin/{part}" for part in group],
+        )
+        for view in views
+        for k, group in enumerate(groups)
+    ]
 
 
 def shown_looks(components: Components) -> list[Presentation]:
@@ -94,4 +197,5 @@ def run_blueprint(components: Components, record: RecordSettings) -> rrb.Bluepri
         "silhouettes" in components.observes,
         weight_map_costs(components, record),
         getattr(components.tracker, "estimates", True),
+        subject_eye(components),
     )

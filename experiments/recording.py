@@ -29,7 +29,7 @@ import rerun as rr
 
 from eval.video import VideoEncoder
 from experiments.components import Components
-from experiments.presentation import PALETTE, POINTS, run_blueprint, shown_looks, weight_map_costs
+from experiments.presentation import PALETTE, POINTS, run_blueprint, series_colors, shown_looks, weight_map_costs
 from experiments.recorded_meshes import MeshLog
 from experiments.recording_file import RecordingFile
 from experiments.schemas import RecordSettings
@@ -56,6 +56,9 @@ class RunRecording:
         looks = shown_looks(components)[::-1]  # the tracker's colours over the model's
         self._state_colors = {state: colour for look in looks for state, colour in look.state_colors.items()}
         self._point_colors = {name: colour for look in looks for name, colour in look.point_colors.items()}
+        # Series named after a part or a point state take its colour in their plots (`series_colors`).
+        parts = zip(self.model.part_names, self.model.part_colors, strict=True)
+        self._series_names = {name: tuple(int(c) for c in colour) for name, colour in parts} | self._state_colors
         self._videos = (
             {
                 camera.name: VideoEncoder(camera.width, camera.height, record.video_quality)
@@ -64,7 +67,8 @@ class RunRecording:
             if record.images
             else {}
         )
-        self._file = RecordingFile(self.path, self.recording_id, run_blueprint(components, record))
+        self._blueprint = run_blueprint(components, record)
+        self._file = RecordingFile(self.path, self.recording_id, self._blueprint)
         self.stream = self._file.stream
         self._log_static(components.cameras)
         self._static: set[str] = set()  # entities whose point states (classes, colours) are logged
@@ -191,8 +195,9 @@ class RunRecording:
             self._scalar(f"metrics/params/{name}/{kind}", value)
 
     def log_timings(self, frame: int, timings_ms: dict[str, float]) -> None:
+        """``metrics/timing/<stage>_ms``; the tracker's own stages (``estimate_<stage>``) below ``estimate/``."""
         for stage, milliseconds in timings_ms.items():
-            self._scalar(f"metrics/timing/{stage}_ms", milliseconds, frame)
+            self._scalar(f"metrics/timing/{stage.replace('estimate_', 'estimate/', 1)}_ms", milliseconds, frame)
 
     def _scalar(self, entity: str, value: float, frame: int | None = None) -> None:
         """One value of the series at ``entity``, at ``frame`` (default: the frame being logged)."""
@@ -201,8 +206,12 @@ class RunRecording:
         values.append(float(value))
 
     def _log_series(self) -> None:
-        """Every series as one column (without a wall-clock time per row, which took half a series' bytes)."""
+        """Every series as one column (without a wall-clock time per row, which took half a series' bytes), in a
+        colour of its own among its plot's (`series_colors`)."""
+        colours = series_colors(self._blueprint, list(self._series), self._series_names)
         for entity, (frames, values) in self._series.items():
+            if entity in colours:
+                self.stream.log(entity, rr.SeriesLines(colors=[colours[entity]]), static=True)
             self.stream.send_columns(
                 entity, indexes=[rr.TimeColumn(TIMELINE, sequence=frames)], columns=rr.Scalars.columns(scalars=values)
             )

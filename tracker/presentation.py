@@ -4,8 +4,9 @@ turns them into the recording's blueprint (`experiments.presentation`); the core
 
 A panel plots the series under one entity path of the recording: ``metrics/<name>`` for a tracker's
 `tracker.protocol.StepResult.series` and for the model's parameters (``metrics/params/...``) and errors
-(``metrics/error/...``). Points (`tracker.protocol.Points`) with states take their state's colour, points without
-their overlay's; what a presentation leaves out takes the recording's palette.
+(``metrics/error/...``), and for its stages' timings (``metrics/timing/estimate/<stage>_ms``: `STAGES_PANEL`). Points
+(`tracker.protocol.Points`) with states take their state's colour, points without their overlay's; what a presentation
+leaves out takes the recording's palette.
 """
 
 from __future__ import annotations
@@ -27,6 +28,10 @@ class Panel:
     origin: str
     contents: tuple[str, ...] = ()
     of_estimate: bool = False  # it plots the estimate's errors: left out when the tracker estimates nothing
+
+
+# The tracker's own stages of its estimate (`tracker.protocol.StepResult.timings_ms`), as the run records them.
+STAGES_PANEL = Panel("the estimate's stages (ms)", "metrics/timing/estimate")
 
 
 def no_panels(part_names: Sequence[str]) -> tuple[Panel, ...]:

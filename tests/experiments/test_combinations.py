@@ -5,13 +5,14 @@ and one camera tracks as it did before several views were possible."""
 import dataclasses
 import json
 
+import numpy as np
 import pandas as pd
 import pytest
 import yaml
 from rerun.chunk import RrdReader
 
 from experiments.components import build, compose
-from experiments.presentation import run_blueprint
+from experiments.presentation import EYE_HALF_ANGLE_DEG, run_blueprint, shows, subject_eye, views_of
 from experiments.schemas import RecordSettings
 from tests.conftest import SMALL_ARM_GRID, SMALL_GRID, TBF_RUN, run_cli
 from tracker.registry import TRACKERS
@@ -52,8 +53,24 @@ def test_every_allowed_combination_runs_two_frames(tracker, model, rig, tmp_path
     assert len(metrics["views"]) == VIEWS[rig]
     table = pd.read_parquet(out / "frames.parquet")
     assert sorted(table["frame"].unique()) == [0, 1]
-    empty = empty_views(run_blueprint(build_from(out), RecordSettings()), logged_entities(out / "run.rrd"))
+    components = build_from(out)
+    blueprint, entities = run_blueprint(components, RecordSettings()), logged_entities(out / "run.rrd")
+    empty = empty_views(blueprint, entities)
     assert not empty, f"views of the default layout that show nothing: {empty}"
+    assert_every_plots_series_have_colours_of_their_own(blueprint, out / "run.rrd")
+    assert_the_eye_frames_the_subject(components)
+
+
+def assert_the_eye_frames_the_subject(components):
+    """Every truth vertex at the first and the last frame lies within `EYE_HALF_ANGLE_DEG` of the 3-D view's axis."""
+    eye = subject_eye(components)
+    position, target = (np.array(batch.as_arrow_array().to_pylist()[0]) for batch in (eye.position, eye.look_target))
+    axis = (target - position) / np.linalg.norm(target - position)
+    model, scene = components.model, components.scene
+    for frame in (0, components.settings.frames - 1):
+        points = np.concatenate([mesh.vertices for mesh in model.surface_meshes(scene.params(model, frame))])
+        rays = (points - position) / np.linalg.norm(points - position, axis=1, keepdims=True)
+        assert np.degrees(np.arccos(np.clip(rays @ axis, -1, 1))).max() <= EYE_HALF_ANGLE_DEG + 1e-6
 
 
 def build_from(run_dir):
@@ -67,33 +84,27 @@ def logged_entities(path) -> set[str]:
     return {chunk.entity_path for chunk in RrdReader(path).stream().to_chunks()}
 
 
-def blueprint_views(container) -> list:
-    """The views of a blueprint's container, depth first (a view has an origin; a container, views or containers)."""
-    if hasattr(container, "origin"):
-        return [container]
-    return [view for item in container.contents for view in blueprint_views(item)]
-
-
 def empty_views(blueprint, entities: set[str]) -> list[str]:
-    """The names of ``blueprint``'s views that match no entity of ``entities`` by Rerun's entity filter rules: a
-    path matches itself; ``path/**`` matches it and everything below; no other wildcard is supported (a view that
-    uses one is reported empty, as Rerun shows it)."""
-    empty = []
-    for view in blueprint_views(blueprint.root_container):
-        origin = "/" + str(view.origin).strip("/")
-        contents = view.contents or "$origin/**"
-        lines = contents.splitlines() if isinstance(contents, str) else contents  # one query string, or a list
-        rules = [rule.strip().removeprefix("+ ").replace("$origin", origin) for rule in lines]
-        matched = False
-        for rule in rules:
-            path = "/" + rule.strip("/").removesuffix("/**").strip("/")
-            if "*" in path:
-                continue  # unsupported: matches nothing
-            below = rule.endswith("/**")
-            matched |= any(e == path or (below and e.startswith(path + "/")) for e in entities)
-        if not matched:
-            empty.append(str(view.name))
-    return empty
+    """The names of ``blueprint``'s views that show no entity of ``entities`` (`experiments.presentation.shows`)."""
+    return [str(view.name) for view in views_of(blueprint.root_container) if not any(shows(view, e) for e in entities)]
+
+
+def series_colours(path) -> dict[str, tuple]:
+    """Entity -> the colour a recording gives its series (its static ``SeriesLines``)."""
+    colours = {}
+    for chunk in RrdReader(path).stream().to_chunks():
+        batch = chunk.to_record_batch()
+        if chunk.is_static and "SeriesLines:colors" in batch.schema.names:
+            colours[chunk.entity_path.strip("/")] = tuple(batch.column("SeriesLines:colors").to_pylist()[0])
+    return colours
+
+
+def assert_every_plots_series_have_colours_of_their_own(blueprint, path):
+    """Each time-series view's series are told apart by the colours the recording gives them."""
+    colours = series_colours(path)
+    for view in views_of(blueprint.root_container):
+        shown = [entity for entity in colours if shows(view, entity)]
+        assert len({colours[entity] for entity in shown}) == len(shown), (view.name, shown)
 
 
 def test_the_empty_view_check_knows_rerun_filters():

@@ -80,9 +80,12 @@ def test_recording_has_images_labels_params_and_timings_for_every_frame(five_fra
     for part in PARTS:
         assert frames[f"/world/truth/{part}"] == every_frame
         assert frames[f"/metrics/params/{part}/b1/truth"] == every_frame
-    series = [chunk for chunk in reader.stream().to_chunks() if chunk.entity_path.startswith("/metrics/")]
+    chunks = [chunk for chunk in reader.stream().to_chunks() if chunk.entity_path.startswith("/metrics/")]
+    series = [chunk for chunk in chunks if not chunk.is_static]
     assert all(chunk.timeline_names == ["frame"] for chunk in series)  # a series is sent as columns, one chunk each
     assert len(series) == len({chunk.entity_path for chunk in series})
+    colours = {chunk.entity_path for chunk in chunks if chunk.is_static}  # a plotted one's colour, once
+    assert "/metrics/timing/render_ms" in colours and colours <= {chunk.entity_path for chunk in series}
 
 
 def blueprint_origins(path) -> set[str]:
@@ -99,7 +102,7 @@ def blueprint_origins(path) -> set[str]:
 def test_default_blueprint_shows_the_views_the_scene_and_the_series(five_frame_run, abis_run):
     origins = blueprint_origins(five_frame_run / "run.rrd")
     assert {f"world/cameras/{view}/image" for view in VIEWS} <= origins  # RGB with the label overlay
-    assert {"world", "metrics/visible_px", "metrics/timing"} <= origins
+    assert {"world", "metrics/visible_px", "metrics/timing"} <= origins  # the arm's 9 parts' pixels in one plot
     assert "metrics/params/forearm" in origins  # the model's own: Fig 8's b1 and r2
     assert not any(origin.startswith(("metrics/correspondences", "metrics/error")) for origin in origins)  # no estimate
     tracked = blueprint_origins(abis_run / "run.rrd")
@@ -113,7 +116,7 @@ def test_recorded_truth_series_equals_the_frames_table(five_frame_run):
     expected = table.loc[table["part"] == "forearm", "truth_r2"].to_numpy()
     values = {}
     for chunk in RrdReader(five_frame_run / "run.rrd").stream().to_chunks():
-        if chunk.entity_path == "/metrics/params/forearm/r2/truth":
+        if chunk.entity_path == "/metrics/params/forearm/r2/truth" and not chunk.is_static:  # static: its colour
             batch = chunk.to_record_batch()
             frames, scalars = batch.column("frame").to_pylist(), batch.column("Scalars:scalars").to_pylist()
             values.update(zip(frames, scalars, strict=True))

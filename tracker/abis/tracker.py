@@ -30,7 +30,7 @@ from tracker.abis.settings import AbisSettings
 from tracker.geometry.cameras import Camera
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.dsq_arm import DSQArm
-from tracker.presentation import Panel, Presentation, paper_part_first
+from tracker.presentation import STAGES_PANEL, Panel, Presentation, paper_part_first
 from tracker.protocol import Observation, Tracker
 from tracker.registry import TRACKERS, Fit
 from tracker.render.offscreen import SceneRenderer
@@ -45,6 +45,7 @@ ABIS_LOOK = Presentation(
     panels=lambda parts: [
         *(Panel(f"{part} pairs", f"metrics/correspondences/{part}") for part in paper_part_first(parts)),
         Panel("cost (eq 8, px^2)", "metrics/cost"),
+        STAGES_PANEL,
     ],
     state_colors={
         "tracked": (0, 220, 0),

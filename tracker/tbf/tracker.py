@@ -30,7 +30,7 @@ from tracker.geometry.cameras import Camera
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.dsq_arm import DSQArm
 from tracker.motion.posture import arms_pose
-from tracker.presentation import Panel, Presentation
+from tracker.presentation import STAGES_PANEL, Panel, Presentation
 from tracker.protocol import Observation, SampleDictionary, StepResult, Tracker
 from tracker.registry import TRACKERS, Fit
 from tracker.tbf.alignment import GroundPlacement, ViewsPlacement, sample_spots, spot_pixels
@@ -87,6 +87,7 @@ TBF_LOOK = Presentation(
             tuple(f"level{level}/**" for level in range(1, len(LEVEL_RESOLUTIONS) + 1)),
         ),
         Panel("posterior entropy (nats)", "metrics/tree", ("entropy",)),
+        STAGES_PANEL,
     ]
 )
 
