@@ -118,24 +118,19 @@ def default_blueprint(
     estimates: bool = True,
     eye: rrb.EyeControls3D | None = None,
 ) -> rrb.Blueprint:
-    """Each view's image with its overlays on top (with ``silhouettes``: beside it the extracted silhouette and the
-    ``weight_maps`` of those costs); below, the 3-D scene and the time series: those of the components' ``looks``
-    (tracker first, then model; the estimate's errors only if the tracker ``estimates``), the silhouettes' quality
-    and the visible pixels; the estimate's errors, then the run's timings first. ``eye``: the 3-D view's
-    (`subject_eye`; None: Rerun's)."""
+    """Each view's image with its overlays on top (with ``silhouettes``, the extracted silhouette over it and the
+    ``weight_maps`` of those costs in tabs behind it); below, the 3-D scene and the time series: those of the
+    components' ``looks`` (tracker first, then model; the estimate's errors only if the tracker ``estimates``), the
+    silhouettes' quality and the visible pixels; the estimate's errors, then the run's timings first. ``eye``: the
+    3-D view's (`subject_eye`; None: Rerun's)."""
     panes = []
     for view in views:
-        panes.append(rrb.Spatial2DView(name=view, origin=f"world/cameras/{view}/image"))
-        if silhouettes:
-            panes.append(
-                rrb.Spatial2DView(
-                    name=f"{view} silhouette", origin=f"world/cameras/{view}/image", contents=["$origin/silhouette"]
-                )
-            )
-            panes += [
-                rrb.Spatial2DView(name=f"{view} {cost} weights", origin=f"capture/{view}/weights/{cost}")
-                for cost in weight_maps
-            ]
+        image = rrb.Spatial2DView(name=view, origin=f"world/cameras/{view}/image")  # the silhouette drawn over it
+        weights = [
+            rrb.Spatial2DView(name=f"{view} {cost} weights", origin=f"capture/{view}/weights/{cost}")
+            for cost in (weight_maps if silhouettes else ())
+        ]
+        panes.append(rrb.Tabs(image, *weights, name=view) if weights else image)  # one pane a view
     panels = [panel for look in looks for panel in look.panels(part_names) if estimates or not panel.of_estimate]
     timing = plot(name="timing (ms)", origin="metrics/timing", contents=["$origin/**", "- $origin/estimate/**"])
     series = [time_series(panel) for panel in panels if panel.of_estimate]
