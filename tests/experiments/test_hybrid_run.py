@@ -32,7 +32,9 @@ def test_a_hybrid_run_refines_the_dictionarys_proposal(hybrid_run):
     table = pd.read_parquet(hybrid_run / "frames.parquet").drop_duplicates("frame")
     proposals = metrics["config"]["tracker"]["proposals"]  # then the previous refined pose, from frame 1 on
     assert table["hybrid_choice"].between(0, proposals).all() and table["hybrid_choice"].iloc[0] < proposals
-    assert (table["fit_cost"] <= table["fit_cost_proposal"]).all()  # the fit never ends worse than it started
+    # Without pairs (frame 0) the fit never explains the silhouettes worse than the proposal; with them, it trades
+    # some of the silhouettes' cost for the features'.
+    assert table["fit_cost"].tolist()[0] <= table["fit_cost_proposal"].tolist()[0]
     assert table["feature_pairs"].tolist()[0] == 0 and table["feature_pairs"].tolist()[1] > 20  # the skin's features
     frames = frames_by_entity(hybrid_run / "run.rrd")
     assert frames["/metrics/hybrid/fit_cost"] == [0, 1] and frames["/metrics/tree/entropy"] == [0, 1]

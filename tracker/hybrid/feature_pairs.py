@@ -34,6 +34,7 @@ class FeaturePairSettings:
     and which features pair (at least ``margin_px`` inside the silhouette), their residuals Huber-robust beyond
     ``robust_px``."""
 
+    # On the benchmark split's validation clips (100 frames each, 3 cameras), 1 did better than 0 on each and than 4.
     weight: NonNegative = 1.0
     robust_px: Positive = 2.0
     margin_px: NonNegative = 3.0

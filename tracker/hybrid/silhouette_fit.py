@@ -21,8 +21,9 @@ of the residuals' Jacobian, analytic: the image gradient of ``outside`` (for cov
 projection's Jacobian (`projection_jacobian`) times the skinned vertices' (`BodyMesh.vertex_jacobian`; a pair's
 point: its face's corners' blended by its barycentric coordinates).
 
-`fit_cost` is the cost without the prior: what the hybrid compares candidates by (the same vertices, edge points
-and pairs for every candidate, so the numbers compare).
+`fit_cost` is the silhouettes' terms alone: what the hybrid compares candidates by (the same vertices and edge
+points for every candidate, so the numbers compare). The pairs guide each candidate's fit but do not judge between
+candidates: tied to the last estimate, they would keep a wrong one against a proposal that explains the views.
 """
 
 from __future__ import annotations
@@ -132,12 +133,14 @@ def huber(residuals: np.ndarray, scale: float) -> np.ndarray:
 
 class Term(NamedTuple):
     """A block of the fit's residuals: their ``values``, their ``rows`` of the Jacobian by `FIT_COLUMNS` (None when
-    not asked for), the Huber scale and the ``weight`` of their mean robust square in the cost."""
+    not asked for), the Huber scale and the ``weight`` of their mean robust square in the cost; ``silhouette``: a
+    silhouette's term (what `SilhouetteFit.fit_cost` counts), not the feature pairs'."""
 
     values: np.ndarray
     rows: np.ndarray | None
     robust_px: float
     weight: float
+    silhouette: bool = True
 
 
 def pixel_rows(camera: Camera, points: np.ndarray, vertex_rows: np.ndarray) -> np.ndarray:
@@ -228,7 +231,7 @@ class SilhouetteFit:
                 corners = self.body.faces[pairs.faces]
                 seen, _ = view.camera.project(np.einsum("kc,kcd->kd", pairs.barycentric, points[corners]))
                 values = (np.nan_to_num(seen, nan=-1e3) - pairs.pixels).ravel()  # u0, v0, u1, v1, ...
-                terms.append(Term(values, None, features.robust_px, features.weight))
+                terms.append(Term(values, None, features.robust_px, features.weight, silhouette=False))
                 directions = np.tile(np.eye(2), (len(pairs), 1))
                 moves.append((view.camera, directions, np.repeat(corners, 2, 0), np.repeat(pairs.barycentric, 2, 0)))
         return terms, moves, points, transforms
@@ -240,13 +243,19 @@ class SilhouetteFit:
         return self.body.vertex_jacobian(pose, vertices, FIT_JOINTS, transforms)[:, :, FIT_COLUMNS]
 
     def fit_cost(self, pose: np.ndarray) -> float:
-        """How well ``pose`` explains the views: the cost without the prior (see the module docstring)."""
-        return self.cost(self.residuals(pose, jacobian=False))
+        """How well ``pose`` explains the views' silhouettes: their terms' cost (see the module docstring)."""
+        return self.cost(self.residuals(pose, jacobian=False), silhouettes_only=True)
 
     @staticmethod
-    def cost(terms: Sequence[Term]) -> float:
-        """Each term's weight times its mean robust square, summed."""
-        return float(sum(term.weight * huber(term.values, term.robust_px).mean() for term in terms if len(term.values)))
+    def cost(terms: Sequence[Term], silhouettes_only: bool = False) -> float:
+        """Each term's weight times its mean robust square, summed (over the silhouettes' terms only, or all)."""
+        return float(
+            sum(
+                term.weight * huber(term.values, term.robust_px).mean()
+                for term in terms
+                if len(term.values) and (term.silhouette or not silhouettes_only)
+            )
+        )
 
     def refine(
         self, start: np.ndarray, iterations: int | None = None, root: np.ndarray | None = None
@@ -262,9 +271,10 @@ class SilhouetteFit:
         prior_rows = np.r_[np.full(3, root_weight), np.full(len(FIT_COLUMNS) - 3, settings.prior_weight)]
 
         def total(candidate: np.ndarray) -> tuple[float, float]:
-            """The cost with the prior, and the `fit_cost` in it."""
-            fitted = self.fit_cost(candidate)
-            return fitted + float(((prior_rows * (candidate[FIT_COLUMNS] - anchor)) ** 2).sum()), fitted
+            """The cost with the feature pairs and the prior, and the `fit_cost` in it."""
+            terms = self.residuals(candidate, jacobian=False)
+            prior = float(((prior_rows * (candidate[FIT_COLUMNS] - anchor)) ** 2).sum())
+            return self.cost(terms) + prior, self.cost(terms, silhouettes_only=True)
 
         (current, fitted), damping = total(pose), settings.damping
         for _ in range(settings.iterations if iterations is None else iterations):

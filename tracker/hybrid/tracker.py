@@ -11,12 +11,13 @@ moved onto the sample nearest it, so the next frame's prior starts from it. The 
 evaluation judges its estimates, and its dictionary's floor, as tree filtering's.
 
 The fit also follows the skin's features (`tracker.hybrid.feature_pairs`): each frame's features are tied to the
-refined body, and the next frame's pairs ask those points to move with them.
+refined body, and the next frame's pairs ask those points to move with them. They guide each candidate's fit; the
+silhouettes alone choose between the candidates.
 
 Frame columns: ``hybrid_choice`` (the candidate kept: 0 the filter's best sample, then its next proposals, last
-the previous refined pose), ``fit_cost`` (of the chosen pose), ``fit_cost_proposal`` (of the proposal before
-refining) and ``feature_pairs`` (over the views); the stage ``refine`` in the timings (the features' tracking
-with it).
+the previous refined pose), ``fit_cost`` (the silhouettes' cost of the estimate), ``fit_cost_proposal`` (of the
+proposal before refining) and ``feature_pairs`` (over the views); the stage ``refine`` in the timings (the
+features' tracking with it).
 """
 
 from __future__ import annotations
