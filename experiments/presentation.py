@@ -12,7 +12,7 @@ import rerun.blueprint as rrb
 
 from experiments.components import Components
 from experiments.schemas import RecordSettings
-from tracker.presentation import RGB, Panel, Presentation
+from tracker.presentation import MOST_SERIES, RGB, Panel, Presentation, part_panels
 from tracker.registry import COSTS
 
 # The 3-D view's eye stands where the sphere round every place the subject takes fills this half-angle of the view
@@ -23,7 +23,7 @@ EYE_ELEVATION_DEG = 15.0
 EYE_FRAMES = 16  # the frames, spread over the run, whose truth surfaces bound the subject
 
 # A plot's series take these, in order, each a colour no other series of the plot has (a series named after a
-# point state takes that state's colour when it is free): at most 12 series a plot.
+# part or a point state takes its colour when it is free): one a series, `MOST_SERIES` at most.
 SERIES_PALETTE: tuple[RGB, ...] = (
     (31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189), (140, 86, 75),
     (227, 119, 194), (127, 127, 127), (188, 189, 34), (23, 190, 207), (255, 255, 255), (255, 215, 0),
@@ -156,20 +156,14 @@ def default_blueprint(
 
 
 def visible_pixel_plots(views: Sequence[str], part_names: Sequence[str]) -> list[rrb.TimeSeriesView]:
-    """The parts' visible pixels: one plot of every view's, or where that makes more than `SERIES_PALETTE` series,
-    each view's parts over as few plots as hold them."""
-    if len(views) * len(part_names) <= len(SERIES_PALETTE):
+    """The parts' visible pixels: one plot of every view's, or where that makes more than `MOST_SERIES` series, each
+    view's parts over as few plots as hold them (`part_panels`)."""
+    if len(views) * len(part_names) <= MOST_SERIES:
         return [plot(name="visible pixels", origin="metrics/visible_px")]
-    count = -(-len(part_names) // len(SERIES_PALETTE))
-    groups = [list(group) for group in np.array_split(list(part_names), count)]
     return [
-        plot(
-            name=f"visible pixels, {view}" + (f" ({k + 1}/{count})" if count > 1 else ""),
-            origin=f"metrics/visible_px/{view}",
-            contents=[f"$origin/{part}" for part in group],
-        )
+        time_series(panel)
         for view in views
-        for k, group in enumerate(groups)
+        for panel in part_panels(f"visible pixels, {view}", f"metrics/visible_px/{view}", part_names)
     ]
 
 

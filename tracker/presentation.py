@@ -34,6 +34,20 @@ class Panel:
 STAGES_PANEL = Panel("the estimate's stages (ms)", "metrics/timing/estimate")
 
 
+MOST_SERIES = 12  # a plot's series at most: more cannot be told apart
+
+
+def part_panels(title: str, origin: str, parts: Sequence[str]) -> list[Panel]:
+    """A plot of the series ``<origin>/<part>`` of every part, or where they are more than `MOST_SERIES`, as few
+    plots as hold them, titled ``<title> (k/n)``."""
+    if len(parts) <= MOST_SERIES:
+        return [Panel(title, origin)]
+    count = -(-len(parts) // MOST_SERIES)
+    size = -(-len(parts) // count)
+    groups = [tuple(parts[k : k + size]) for k in range(0, len(parts), size)]
+    return [Panel(f"{title} ({k + 1}/{count})", origin, group) for k, group in enumerate(groups)]
+
+
 def no_panels(part_names: Sequence[str]) -> tuple[Panel, ...]:
     return ()
 

@@ -30,7 +30,7 @@ from tracker.abis.settings import AbisSettings
 from tracker.geometry.cameras import Camera
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.dsq_arm import DSQArm
-from tracker.presentation import STAGES_PANEL, Panel, Presentation, paper_part_first
+from tracker.presentation import STAGES_PANEL, Panel, Presentation, paper_part_first, part_panels
 from tracker.protocol import Observation, Tracker
 from tracker.registry import TRACKERS, Fit
 from tracker.render.offscreen import SceneRenderer
@@ -44,7 +44,7 @@ ABIS_FITS = {
 ABIS_LOOK = Presentation(
     panels=lambda parts: [
         *(Panel(f"{part} pairs", f"metrics/correspondences/{part}") for part in paper_part_first(parts)),
-        Panel("cost (eq 8, px^2)", "metrics/cost"),
+        *part_panels("cost (eq 8, px^2)", "metrics/cost", parts),
         STAGES_PANEL,
     ],
     state_colors={
