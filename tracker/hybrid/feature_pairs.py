@@ -34,7 +34,8 @@ class FeaturePairSettings:
     and which features pair (at least ``margin_px`` inside the silhouette), their residuals Huber-robust beyond
     ``robust_px``."""
 
-    # On the benchmark split's validation clips (100 frames each, 3 cameras), 1 did better than 0 on each and than 4.
+    # On the benchmark split's validation clips (100 frames each), with 3 cameras 1 did better than 0 on each clip
+    # and than 4; with one camera 0 did better than 1 on 2 of 3 (experiment=hybrid_paper_scale sets 0).
     weight: NonNegative = 1.0
     robust_px: Positive = 2.0
     margin_px: NonNegative = 3.0
