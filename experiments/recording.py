@@ -6,8 +6,9 @@ Entity paths (timeline ``frame``): ``world/cameras/<view>`` (Transform3D + Pinho
 capture silhouettes) and the tracker's overlays ``.../image/<name>`` (its `StepResult.points`);
 ``world/truth/<part>`` and ``world/estimate/<part>`` (Mesh3D, and Transform3D, when they change); series
 ``metrics/params/<name>/{truth,estimate}`` (the model's `parameter_series`), ``metrics/error/...`` (the columns
-the model's evaluation names), ``metrics/visible_px/<view>/<part>``, ``metrics/timing/<stage>_ms`` and the
-tracker's own ``metrics/<name>`` (`StepResult.series`); ``capture/<view>/weights/<cost>`` (each registered cost's
+the model's evaluation names), ``metrics/visible_px/<view>/<part>``, ``metrics/timing/<stage>_ms`` (the tracker's own
+stages ``metrics/timing/estimate/<stage>_ms``) and the tracker's own ``metrics/<name>`` (`StepResult.series`), each
+with its colour (static ``SeriesLines``); ``capture/<view>/weights/<cost>`` (each registered cost's
 weight map d_P, float images, when asked for), ``metrics/silhouette_iou/<view>``; ``log`` (failed frames).
 
 Sized for keeping: rows are batched into large chunks (a few hundred per run instead of one per entity and frame,
