@@ -1,6 +1,7 @@
 """The recording's default layout (a Rerun blueprint), from the presentations the components registered
-(`tracker.presentation`): each view's image with its overlays, the 3-D scene, and the time series, the tracker's
-and the model's own panels first. Points without a colour of their own take the palette here.
+(`tracker.presentation`): each view's image with its overlays, the 3-D scene framed on the subject, and the time
+series (the estimate's errors and the run's timings first, then the components' own panels), each series a colour
+of its own in its plot. Points without a colour of their own take the palette here.
 """
 
 from __future__ import annotations
