@@ -9,15 +9,19 @@ STAMP  := $(VENV)/.installed
 ANNY   := anny==0.6.2
 SUDO   := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: setup system-deps reproduce test test-all ray lint format clean
+.PHONY: setup system-deps reproduce test test-all screenshots ray lint format clean
 
 setup: system-deps $(STAMP)
 
-# Off-screen OpenGL for pyrender; installed only when missing.
+# Off-screen OpenGL for pyrender, and software Vulkan for Rerun's headless viewer (the tests that open recordings in
+# it, `make screenshots`); each installed only when missing.
 system-deps:
-	@if ! ldconfig -p | grep -q libOSMesa.so; then \
-		echo "installing Debian's libosmesa6 (off-screen OpenGL)"; \
-		$(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libosmesa6; \
+	@missing=""; \
+	ldconfig -p | grep -q libOSMesa.so || missing="$$missing libosmesa6"; \
+	ls /usr/share/vulkan/icd.d/lvp_icd.*.json >/dev/null 2>&1 || missing="$$missing mesa-vulkan-drivers"; \
+	if [ -n "$$missing" ]; then \
+		echo "installing Debian's$$missing (off-screen OpenGL, software Vulkan)"; \
+		$(SUDO) apt-get update -qq && $(SUDO) DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; \
 	fi
 
 $(STAMP): pyproject.toml Makefile
@@ -39,6 +43,10 @@ reproduce: setup
 # Fast tests (slow ones are marked; `make test-all` runs them too).
 test: setup
 	$(PY) -m pytest -q
+
+# Pictures of each default layout of a recording, in Rerun's headless viewer, into docs/screenshots/.
+screenshots: setup
+	$(PY) -m experiments.screenshots
 
 # The Ray launcher (hydra/launcher=ray) is an extra: `make ray`; test-all installs it for its slow test.
 ray: setup

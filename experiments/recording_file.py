@@ -27,13 +27,18 @@ class RecordingLost(OSError):
 
 
 class RecordingFile:
-    """``path``'s stream (``stream``), with ``blueprint`` as its default; `close` flushes, closes and renames it."""
+    """``path``'s stream (``stream``), with ``blueprint`` as its layout; `close` flushes, closes and renames it.
+
+    The layout is made active, not only the default: the viewer keeps one active layout per application, so a run of
+    another model or rig opened after this one would otherwise show this one's views (empty, framed elsewhere).
+    """
 
     def __init__(self, path: Path, recording_id: str, blueprint: rr.BlueprintLike) -> None:
         self.path = path
         self._file: AtomicFile | None = AtomicFile(path)
         self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=recording_id, batcher_config=BATCHES)
-        self.stream.save(self._file.temporary, default_blueprint=blueprint)
+        self.stream.save(self._file.temporary)
+        self.stream.send_blueprint(blueprint, make_active=True, make_default=True)
 
     def close(self, last_writes: Callable[[], None] = lambda: None) -> None:
         """``last_writes``, then flush the stream (within `FLUSH_TIMEOUT_S`), close the file and give it its name

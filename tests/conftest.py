@@ -4,6 +4,7 @@ import subprocess
 import sys
 
 import pytest
+import yaml
 
 from experiments.components import Components, build, compose
 from tracker.data import data_dir
@@ -57,6 +58,12 @@ def run_cli(run_dir, *overrides, cwd):
         text=True,
         timeout=300,
     )
+
+
+def components_of(run_dir) -> Components:
+    """A run's components, built from the overrides it ran with."""
+    overrides = yaml.safe_load((run_dir / ".hydra" / "overrides.yaml").read_text())
+    return build(compose([o for o in overrides if not o.startswith("hydra.")]))
 
 
 def _cli_run(tmp_path_factory, name: str, *overrides: str):

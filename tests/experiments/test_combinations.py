@@ -8,13 +8,11 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
-import yaml
 from rerun.chunk import RrdReader
 
 from experiments.components import build, compose
 from experiments.presentation import EYE_HALF_ANGLE_DEG, run_blueprint, shows, subject_eye, views_of
-from experiments.schemas import RecordSettings
-from tests.conftest import SMALL_ARM_GRID, SMALL_GRID, TBF_RUN, run_cli
+from tests.conftest import SMALL_ARM_GRID, SMALL_GRID, TBF_RUN, components_of, run_cli
 from tracker.registry import TRACKERS
 
 RIGS_OF_MODEL = {"dsq_arm": ("mono", "orthogonal3"), "body_mesh": ("body_side", "body_multi")}
@@ -53,8 +51,8 @@ def test_every_allowed_combination_runs_two_frames(tracker, model, rig, tmp_path
     assert len(metrics["views"]) == VIEWS[rig]
     table = pd.read_parquet(out / "frames.parquet")
     assert sorted(table["frame"].unique()) == [0, 1]
-    components = build_from(out)
-    blueprint, entities = run_blueprint(components, RecordSettings()), logged_entities(out / "run.rrd")
+    components = components_of(out)
+    blueprint, entities = run_blueprint(components, components.settings.record), logged_entities(out / "run.rrd")
     empty = empty_views(blueprint, entities)
     assert not empty, f"views of the default layout that show nothing: {empty}"
     assert_every_plots_series_have_colours_of_their_own(blueprint, out / "run.rrd")
@@ -71,12 +69,6 @@ def assert_the_eye_frames_the_subject(components):
         points = np.concatenate([mesh.vertices for mesh in model.surface_meshes(scene.params(model, frame))])
         rays = (points - position) / np.linalg.norm(points - position, axis=1, keepdims=True)
         assert np.degrees(np.arccos(np.clip(rays @ axis, -1, 1))).max() <= EYE_HALF_ANGLE_DEG + 1e-6
-
-
-def build_from(run_dir):
-    """The run's components, from the overrides it ran with."""
-    overrides = yaml.safe_load((run_dir / ".hydra" / "overrides.yaml").read_text())
-    return build(compose([o for o in overrides if not o.startswith("hydra.")]))
 
 
 def logged_entities(path) -> set[str]:
