@@ -29,6 +29,7 @@ SERIES_PALETTE: tuple[RGB, ...] = (
     (31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189), (140, 86, 75),
     (227, 119, 194), (127, 127, 127), (188, 189, 34), (23, 190, 207), (255, 255, 255), (255, 215, 0),
 )  # fmt: skip
+SERIES_WIDTH_PX = 2.0  # a plot's lines: thin ones of near colours blur together on the viewer's dark background
 
 # States without a colour of their own take these, in order.
 PALETTE: tuple[RGB, ...] = ((0, 220, 0), (0, 160, 255), (255, 40, 40), (150, 150, 150), (255, 200, 0), (200, 0, 200))

@@ -30,7 +30,15 @@ import rerun as rr
 
 from eval.video import VideoEncoder
 from experiments.components import Components
-from experiments.presentation import PALETTE, POINTS, run_blueprint, series_colors, shown_looks, weight_map_costs
+from experiments.presentation import (
+    PALETTE,
+    POINTS,
+    SERIES_WIDTH_PX,
+    run_blueprint,
+    series_colors,
+    shown_looks,
+    weight_map_costs,
+)
 from experiments.recorded_meshes import MeshLog
 from experiments.recording_file import RecordingFile
 from experiments.schemas import RecordSettings
@@ -212,7 +220,7 @@ class RunRecording:
         colours = series_colors(self._blueprint, list(self._series), self._series_names)
         for entity, (frames, values) in self._series.items():
             if entity in colours:
-                self.stream.log(entity, rr.SeriesLines(colors=[colours[entity]]), static=True)
+                self.stream.log(entity, rr.SeriesLines(colors=[colours[entity]], widths=[SERIES_WIDTH_PX]), static=True)
             self.stream.send_columns(
                 entity, indexes=[rr.TimeColumn(TIMELINE, sequence=frames)], columns=rr.Scalars.columns(scalars=values)
             )
