@@ -166,11 +166,12 @@ def test_an_interrupted_run_says_so_and_leaves_readable_outputs(tmp_path, signal
     process = subprocess.Popen(command, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     # The recording's temporary file exists once the stop handler is installed and the components are built; a
     # stop asked from then on still finishes the frame under way. Its bytes arrive in large batches
-    # (recording_file.BATCHES), so its size says little of the frames done: a second of frames (~20 here) is enough.
+    # (recording_file.BATCHES), so its size says little of the frames done: three seconds hold frames enough, also on
+    # a loaded machine (with one second, no frame had finished there; later frames take ~70 ms).
     deadline = time.monotonic() + 120
     while not list(run_dir.glob(".run.rrd.*.tmp")) and time.monotonic() < deadline:
         time.sleep(0.1)
-    time.sleep(1.0)
+    time.sleep(3.0)
     process.send_signal(signal_number)  # Ctrl-C, or a scheduler's stop
     assert process.wait(timeout=120) != 0
     metrics = json.loads((run_dir / "metrics.json").read_text())
