@@ -4,7 +4,8 @@ package that says what it measures:
 ``render`` the off-screen renderer's passes; ``abis`` AbIS per frame, lm against sd; ``silhouettes`` sample-set
 build, silhouette capture and the costs' scoring; ``samples`` label rendering and the paper-scale set built cold;
 ``tbf`` the tree-based filter per frame, vectorised scoring against naive. ``python -m experiments.bench.sweeps``
-times and resumes sweeps on each launcher.
+times and resumes sweeps on each launcher. With ``--json`` each prints, as its last line, one JSON object of what
+it measured (``{"target", "machine", "figures"}``) for scripts and CI to read.
 """
 
 from __future__ import annotations
@@ -12,6 +13,8 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+
+from experiments.bench.common import json_line
 
 TARGETS = ("render", "abis", "silhouettes", "samples", "tbf")
 
@@ -26,10 +29,13 @@ def main() -> None:
     parser.add_argument("--experiment", default="tbf_table4c", help="tbf: the experiment preset")
     parser.add_argument("overrides", nargs="*", help="samples, tbf: config overrides on top of the experiment")
     parser.add_argument("--size", default="320x240", help="WIDTHxHEIGHT of every view (render, abis)")
+    parser.add_argument("--json", action="store_true", help="end with one JSON line of the figures")
     args = parser.parse_intermixed_args()  # overrides may come after options
     args.width, args.height = (int(v) for v in args.size.lower().split("x"))
     logging.basicConfig(level=logging.INFO, format="%(message)s")
-    importlib.import_module(f"experiments.bench.{args.target}").run(args)
+    figures = importlib.import_module(f"experiments.bench.{args.target}").run(args)
+    if args.json:
+        print(json_line(args.target, figures), flush=True)
 
 
 if __name__ == "__main__":

@@ -69,7 +69,8 @@ def report_abis(results: dict[str, dict[str, float]], frames: int, width: int, h
     log.info("  sd / lm time ratio: %.2f", results["sd"]["estimate_ms"] / results["lm"]["estimate_ms"])
 
 
-def run(args: argparse.Namespace) -> None:
+def run(args: argparse.Namespace) -> dict:
     results = bench_abis(args.frames, args.width, args.height)
     report_machine()  # after the run: loading the renderer sets the OpenGL platform
     report_abis(results, args.frames, args.width, args.height)
+    return results

@@ -1,8 +1,9 @@
-"""What every benchmark shares: the default scene built as a run builds it, this process's resident memory, and the
-machine a report names."""
+"""What every benchmark shares: the default scene built as a run builds it, this process's resident memory, the
+machine a report names, and the one JSON line a script reads (``--json``)."""
 
 from __future__ import annotations
 
+import json
 import logging
 import os
 import platform
@@ -25,10 +26,25 @@ def resident_mb() -> float:
 
 
 def report_machine() -> None:
+    about = machine()
     log.info(
         "machine: %s, %d cores, %s; OpenGL platform %s",
-        platform.processor() or platform.machine(),
-        os.cpu_count(),
-        platform.python_implementation() + " " + platform.python_version(),
+        about["processor"],
+        about["cores"],
+        about["python"],
         os.environ.get("PYOPENGL_PLATFORM"),
     )
+
+
+def machine() -> dict[str, object]:
+    return {
+        "processor": platform.processor() or platform.machine(),
+        "cores": os.cpu_count(),
+        "python": platform.python_implementation() + " " + platform.python_version(),
+    }
+
+
+def json_line(target: str, figures: dict) -> str:
+    """``figures`` of benchmark ``target`` with the machine, as one line of JSON (numpy scalars as numbers)."""
+    record = {"target": target, "machine": machine(), "figures": figures}
+    return json.dumps(record, default=lambda value: value.item() if hasattr(value, "item") else str(value))

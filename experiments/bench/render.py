@@ -45,7 +45,7 @@ def bench_render(frames: int, width: int, height: int) -> dict[str, float]:
     }
 
 
-def run(args: argparse.Namespace) -> None:
+def run(args: argparse.Namespace) -> dict:
     width, height = args.width, args.height
     result = bench_render(args.frames, width, height)
     report_machine()
@@ -64,3 +64,4 @@ def run(args: argparse.Namespace) -> None:
     log.info(
         "  resident memory    %+7.1f MB over the %d frames after warm-up", result["resident_growth_mb"], args.frames
     )
+    return result

@@ -151,11 +151,11 @@ def bench_build(overrides: list[str]) -> dict[str, float]:
     return times
 
 
-def run(args: argparse.Namespace) -> None:
+def run(args: argparse.Namespace) -> dict:
     overrides = args.overrides or ["experiment=tbf_paper_scale"]
     composed = build(compose(overrides))
     poses, _ = sample_poses(composed.tracker.settings.samples, composed.model)
-    _report_rendering(composed, poses, args.poses, overrides)
+    rendering = _report_rendering(composed, poses, args.poses, overrides)
     chosen = poses[np.linspace(0, len(poses) - 1, 4 * args.poses).astype(int)]
     images = bench_set_images(chosen, composed.model, composed.cameras[0])
     log.info(
@@ -168,12 +168,12 @@ def run(args: argparse.Namespace) -> None:
         images["before_ms"] / images["now_ms"],
         images["differing_px_80x60"],
     )
-    if args.build:
-        _report_build(overrides, len(poses))
+    build_times = _report_build(overrides, len(poses)) if args.build else {}
     report_machine()
+    return {"rendering": rendering, "set_images": images, "build": build_times}
 
 
-def _report_rendering(composed: Components, poses: np.ndarray, count: int, overrides: list[str]) -> None:
+def _report_rendering(composed: Components, poses: np.ndarray, count: int, overrides: list[str]) -> dict:
     """Label rendering of ``count`` of the ``poses``, per part as before and batched."""
     chosen = poses[np.linspace(0, len(poses) - 1, count).astype(int)]
     camera = composed.cameras[0]
@@ -204,9 +204,10 @@ def _report_rendering(composed: Components, poses: np.ndarray, count: int, overr
         figures["differing_px_mean"],
         figures["differing_px_max"],
     )
+    return figures
 
 
-def _report_build(overrides: list[str], poses: int) -> None:
+def _report_build(overrides: list[str], poses: int) -> dict:
     log.info("building the set cold (%d poses), then starting on the cached set ...", poses)
     times = bench_build(overrides)
     log.info(
@@ -222,3 +223,4 @@ def _report_build(overrides: list[str], poses: int) -> None:
         times["first_start_s"],
         times["second_start_s"],
     )
+    return times

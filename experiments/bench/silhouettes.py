@@ -94,7 +94,7 @@ def _padding(window, size):
     return ((v0, size[1] - v1), (u0, size[0] - u1))
 
 
-def run(args: argparse.Namespace) -> None:
+def run(args: argparse.Namespace) -> dict:
     figures = bench_silhouettes(args.samples)
     report_machine()
     log.info("paper 2 body, side-on camera:")
@@ -120,3 +120,4 @@ def run(args: argparse.Namespace) -> None:
             figures[f"{cost}_ms"],
             figures[f"{cost}_max_relative_difference"],
         )
+    return figures

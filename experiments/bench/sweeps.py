@@ -23,6 +23,8 @@ import sys
 import time
 from pathlib import Path
 
+from experiments.bench.common import json_line
+
 SWEEP = ("experiment=tbf_table4c", "cost=xor,wxor,nwxor", "motion=dm1,dm2")
 JOBS = 6
 
@@ -43,7 +45,7 @@ def metrics_files(sweep_dir: Path) -> dict[str, Path]:
     return {path.parent.name: path for path in sorted(sweep_dir.glob("*/metrics.json"))}
 
 
-def speed(out: Path, launchers: list[str]) -> None:
+def speed(out: Path, launchers: list[str]) -> dict:
     times, contents = {}, {}
     for launcher in launchers:
         sweep_dir = out / launcher
@@ -55,13 +57,15 @@ def speed(out: Path, launchers: list[str]) -> None:
         times[launcher] = time.perf_counter() - start
         contents[launcher] = {job: path.read_bytes() for job, path in metrics_files(sweep_dir).items()}
         print(f"{launcher:>7}: {times[launcher]:6.1f} s for {len(contents[launcher])} jobs", flush=True)
-    first = launchers[0]
+    first, identical = launchers[0], {}
     for launcher in launchers[1:]:
         same = contents[launcher] == contents[first] and len(contents[first]) == JOBS
         print(f"{first} / {launcher}: {times[first] / times[launcher]:.2f}x; metrics.json byte-identical: {same}")
+        identical[launcher] = same
+    return {"seconds": times, "jobs": JOBS, "metrics_identical_to_first": identical}
 
 
-def resume(out: Path, finished: int) -> None:
+def resume(out: Path, finished: int) -> dict:
     sweep_dir = out / "resume"
     subprocess.run(["rm", "-rf", str(sweep_dir)], check=True)
     process = subprocess.Popen(
@@ -86,10 +90,21 @@ def resume(out: Path, finished: int) -> None:
     after = metrics_files(sweep_dir)
     recomputed = sum(after[job].stat().st_mtime_ns != stamp for job, (stamp, _) in before.items() if job in after)
     lost = sum(job not in after for job in before)
+    left = len(list(sweep_dir.glob("*/.*.tmp")))
+    rerun_s = time.perf_counter() - start
     print(
-        f"re-run: {time.perf_counter() - start:.0f} s; {len(after)} of {JOBS} complete, {lost} lost, {recomputed} "
-        f"finished jobs recomputed, {len(list(sweep_dir.glob('*/.*.tmp')))} temporaries left"
+        f"re-run: {rerun_s:.0f} s; {len(after)} of {JOBS} complete, {lost} lost, {recomputed} "
+        f"finished jobs recomputed, {left} temporaries left"
     )
+    return {
+        "finished_before_kill": len(before),
+        "temporaries_after_kill": temporaries,
+        "rerun_s": rerun_s,
+        "complete": len(after),
+        "lost": lost,
+        "recomputed": recomputed,
+        "temporaries_left": left,
+    }
 
 
 def main() -> None:
@@ -98,11 +113,11 @@ def main() -> None:
     parser.add_argument("--launchers", nargs="+", default=["basic", "joblib"], help="speed: the first is the base")
     parser.add_argument("--finished", type=int, default=2, help="resume: kill once this many jobs finished")
     parser.add_argument("--out", type=Path, default=Path("multirun/bench_sweeps"))
+    parser.add_argument("--json", action="store_true", help="end with one JSON line of the figures")
     args = parser.parse_args()
-    if args.target == "speed":
-        speed(args.out, args.launchers)
-    else:
-        resume(args.out, args.finished)
+    figures = speed(args.out, args.launchers) if args.target == "speed" else resume(args.out, args.finished)
+    if args.json:
+        print(json_line(f"sweeps {args.target}", figures), flush=True)
 
 
 if __name__ == "__main__":

@@ -191,8 +191,8 @@ def _timed(function) -> float:
     return time.perf_counter() - start
 
 
-def run(args: argparse.Namespace) -> None:
-    """Bench the filter and log what it measured."""
+def run(args: argparse.Namespace) -> dict:
+    """Bench the filter, log what it measured and return it."""
     figures = bench_tbf(args.frames, args.experiment, args.overrides)
     log.info(
         "TBF, experiment=%s %s: %d samples, tree %s nodes per level, %d view(s)",
@@ -210,6 +210,7 @@ def run(args: argparse.Namespace) -> None:
     )
     _report_scoring(figures)
     report_machine()
+    return figures
 
 
 def _report_scoring(figures: dict) -> None:
