@@ -3,7 +3,8 @@ package that says what it measures:
 
 ``render`` the off-screen renderer's passes; ``abis`` AbIS per frame, lm against sd; ``silhouettes`` sample-set
 build, silhouette capture and the costs' scoring; ``samples`` label rendering and the paper-scale set built cold;
-``tbf`` the tree-based filter per frame, vectorised scoring against naive. ``python -m experiments.bench.sweeps``
+``tbf`` the tree-based filter per frame, vectorised scoring against naive; ``scale`` tree filtering's time, memory
+and disk against its dictionary's size. ``python -m experiments.bench.sweeps``
 times and resumes sweeps on each launcher. With ``--json`` each prints, as its last line, one JSON object of what
 it measured (``{"target", "machine", "figures"}``) for scripts and CI to read.
 """
@@ -16,7 +17,15 @@ import logging
 
 from experiments.bench.common import json_line
 
-TARGETS = ("render", "abis", "silhouettes", "samples", "tbf")
+TARGETS = ("render", "abis", "silhouettes", "samples", "tbf", "scale")
+
+
+def _ints(text: str) -> list[int]:
+    return [int(value) for value in text.split(",")]
+
+
+def _names(text: str) -> list[str]:
+    return text.split(",")
 
 
 def main() -> None:
@@ -27,7 +36,12 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=60)
     parser.add_argument("--samples", type=int, default=10_000, help="pose samples (silhouettes)")
     parser.add_argument("--experiment", default="tbf_table4c", help="tbf: the experiment preset")
-    parser.add_argument("overrides", nargs="*", help="samples, tbf: config overrides on top of the experiment")
+    parser.add_argument("--turns", type=_ints, default=[4, 8, 16, 32], help="scale: turns per dictionary (4,8,...)")
+    parser.add_argument(
+        "--experiments", type=_names, default=["tbf_paper_scale", "tbf_multi_view"], help="scale: presets (a,b)"
+    )
+    parser.add_argument("--cell", action="store_true", help=argparse.SUPPRESS)  # scale: one measuring process
+    parser.add_argument("overrides", nargs="*", help="samples, tbf, scale: config overrides on top of the experiment")
     parser.add_argument("--size", default="320x240", help="WIDTHxHEIGHT of every view (render, abis)")
     parser.add_argument("--json", action="store_true", help="end with one JSON line of the figures")
     args = parser.parse_intermixed_args()  # overrides may come after options

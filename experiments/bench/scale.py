@@ -1,0 +1,185 @@
+"""``python -m experiments.bench scale [--turns 4,8,16,32] [--experiments tbf_paper_scale,tbf_multi_view]
+[--frames N] [overrides]``: how tree filtering's cost grows with its dictionary.
+
+Each preset (one per rig: 1 and 3 cameras) with dictionaries of the same clips turned about the vertical by each of
+``--turns`` evenly spaced angles (the presets' own: 4, mirrored), so each is about twice the last. For each, in a
+fresh cache folder, two runs of the same measuring process (``--cell``): cold (the dictionary and tree built) and
+warm (loaded): the samples, the start's seconds (the build, then the load), the peak resident memory of the
+process and its build workers summed (sampled every `SAMPLE_S`), the cache's disk, and the filter's median ms per
+frame over the preset's first ``--frames`` frames (silhouettes extracted before, untimed). Then, per rig, the
+exponent of ms/frame against samples (least squares in log-log). Writes ``reports/scale.md``, ``scale.csv`` and
+``scale.png``; the cache folders are removed once measured.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import psutil
+
+from eval.runs import markdown
+from experiments.bench.tbf import observations
+from experiments.cli_runs import write_text
+from experiments.components import build, compose
+
+log = logging.getLogger(__name__)
+
+SAMPLE_S = 0.2  # how often the process tree's memory is read
+REPORTS = Path("reports")
+CACHE = Path(".cache")  # the cells' fresh cache folders go inside (the same disk as a user's cache)
+
+
+def turns_deg(count: int) -> list[float]:
+    """``count`` angles evenly spaced around the vertical, in (-180, 180] (4: 0, 90, 180, -90)."""
+    return [float(a - 360 if a > 180 else a) for a in (360.0 * k / count for k in range(count))]
+
+
+def measure_cell(experiment: str, frames: int, overrides: list[str]) -> dict[str, float]:
+    """In this process: the tracker started (its dictionary built or loaded) and stepped through ``frames``."""
+    run = build(compose([f"experiment={experiment}", *overrides]))
+    tracker, frames = run.tracker, min(frames, run.settings.frames)
+    start = time.perf_counter()
+    tracker.start(run.model, run.cameras, run.scene.params(run.model, 0), np.random.default_rng(0))
+    start_s = time.perf_counter() - start
+    per_frame = []
+    for observation in observations(run, frames):
+        step = time.perf_counter()
+        tracker.step(observation)
+        per_frame.append(1e3 * (time.perf_counter() - step))
+    samples, views = len(tracker.filter.samples), len(run.cameras)
+    return {"samples": samples, "views": views, "start_s": start_s, "ms_per_frame": statistics.median(per_frame)}
+
+
+class PeakMemory:
+    """The largest resident memory of a process and its descendants summed, sampled every `SAMPLE_S` while open."""
+
+    def __init__(self, pid: int) -> None:
+        self.peak_bytes, self._process, self._done = 0, psutil.Process(pid), threading.Event()
+        self._thread = threading.Thread(target=self._sample, daemon=True)
+        self._thread.start()
+
+    def _sample(self) -> None:
+        while not self._done.wait(SAMPLE_S):
+            try:
+                tree = [self._process, *self._process.children(recursive=True)]
+                total = sum(p.memory_info().rss for p in tree if p.is_running())
+            except psutil.Error:  # a worker ended between the listing and the reading
+                continue
+            self.peak_bytes = max(self.peak_bytes, total)
+
+    def close(self) -> float:
+        self._done.set()
+        self._thread.join()
+        return self.peak_bytes / 2**30
+
+
+def run_cell(experiment: str, frames: int, overrides: list[str]) -> dict[str, float]:
+    """`measure_cell` in a process of its own (a fresh interpreter), with its peak memory in GiB."""
+    command = [sys.executable, "-m", "experiments.bench", "scale", "--cell", f"--frames={frames}"]
+    process = subprocess.Popen(
+        [*command, f"--experiments={experiment}", *overrides], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL
+    )
+    memory = PeakMemory(process.pid)
+    output, _ = process.communicate()
+    peak_gib = memory.close()
+    if process.returncode != 0:
+        raise SystemExit(f"scale: experiment={experiment} {' '.join(overrides)} failed ({process.returncode})")
+    return {**json.loads(output.decode().strip().splitlines()[-1]), "peak_gib": peak_gib}
+
+
+def disk_gib(folder: Path) -> float:
+    return sum(path.stat().st_size for path in folder.rglob("*") if path.is_file()) / 2**30
+
+
+def scale_rows(experiments: list[str], turns: list[int], frames: int, overrides: list[str]) -> pd.DataFrame:
+    rows = []
+    for experiment in experiments:
+        for count in turns:
+            CACHE.mkdir(exist_ok=True)
+            with tempfile.TemporaryDirectory(prefix="scale_", dir=CACHE) as cache:
+                cell = [*overrides, f"tracker.samples.clip_turns_deg={turns_deg(count)}", f"tracker.cache_dir={cache}"]
+                cold = run_cell(experiment, frames, cell)
+                disk = disk_gib(Path(cache))
+                warm = run_cell(experiment, frames, cell)
+            rows.append(
+                {
+                    "experiment": experiment,
+                    "views": cold["views"],
+                    "turns": count,
+                    "samples": cold["samples"],
+                    "build_s": cold["start_s"],
+                    "build_peak_gib": cold["peak_gib"],
+                    "disk_gib": disk,
+                    "load_s": warm["start_s"],
+                    "run_peak_gib": warm["peak_gib"],
+                    "ms_per_frame": warm["ms_per_frame"],
+                }
+            )
+            log.info(
+                "  %s, %d turns: %d samples, built in %.0f s (peak %.2f GiB, %.3f GiB on disk); %.2f ms/frame "
+                "(run peak %.2f GiB)",
+                *(rows[-1][key] for key in ("experiment", "turns", "samples", "build_s", "build_peak_gib")),
+                *(rows[-1][key] for key in ("disk_gib", "ms_per_frame", "run_peak_gib")),
+            )
+    return pd.DataFrame(rows)
+
+
+def exponents(table: pd.DataFrame) -> dict[str, float]:
+    """Per preset, the slope of log(ms/frame) against log(samples) (NaN with fewer than two sizes)."""
+    slopes = {}
+    for experiment, rows in table.groupby("experiment", sort=False):
+        fit = len(rows) > 1 and rows["samples"].nunique() > 1
+        slopes[experiment] = (
+            float(np.polyfit(np.log(rows["samples"]), np.log(rows["ms_per_frame"]), 1)[0]) if fit else float("nan")
+        )
+    return slopes
+
+
+def plot(table: pd.DataFrame, slopes: dict[str, float], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, axes = plt.subplots(1, 2, figsize=(10, 4))
+    for experiment, rows in table.groupby("experiment", sort=False):
+        label = f"{experiment} ({rows['views'].iloc[0]} views): exponent {slopes[experiment]:.2f}"
+        axes[0].loglog(rows["samples"], rows["ms_per_frame"], "o-", label=label)
+        axes[1].loglog(rows["samples"], rows["build_peak_gib"], "o-", label=f"{experiment}: build")
+        axes[1].loglog(rows["samples"], rows["run_peak_gib"], "s--", label=f"{experiment}: run")
+    axes[0].set(xlabel="samples", ylabel="ms / frame (median)", title="tree filtering per frame")
+    axes[1].set(xlabel="samples", ylabel="peak resident memory (GiB)", title="memory")
+    for axis in axes:
+        axis.legend(fontsize=7)
+        axis.grid(True, which="both", alpha=0.3)
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
+
+
+def run(args: argparse.Namespace) -> dict:
+    if args.cell:  # the measuring process: its figures as its last line
+        print(json.dumps(measure_cell(args.experiments[0], args.frames, args.overrides)), flush=True)
+        return {}
+    table = scale_rows(args.experiments, args.turns, args.frames, args.overrides)
+    slopes = exponents(table)
+    REPORTS.mkdir(exist_ok=True)
+    table.to_csv(REPORTS / "scale.csv", index=False)
+    plot(table, slopes, REPORTS / "scale.png")
+    summary = "\n".join(f"- {name}: ms/frame grows as samples^{slope:.2f}" for name, slope in slopes.items())
+    write_text(
+        REPORTS / "scale.md", f"# Tree filtering against its dictionary's size\n\n{markdown(table)}\n\n{summary}\n"
+    )
+    log.info("%s\n%s\nwrote %s", table.to_string(index=False), summary, REPORTS / "scale.md")
+    return {"rows": table.to_dict("records"), "exponents": slopes}
