@@ -83,7 +83,7 @@ def _scoring(cost: str, observed: np.ndarray, stack: SilhouetteStack) -> dict[st
         times.append(1e3 * (time.perf_counter() - start))
     reference = [
         silhouette_distance(cost, observed, np.pad(mask, _padding(stack.window, (80, 60))), stack.window)
-        for mask in stack.images[:100] != 0
+        for mask in stack.masks(np.arange(min(100, len(stack))))
     ]
     relative = np.abs(scores[:100] - reference) / np.maximum(np.abs(reference), TINY)
     return {f"{cost}_ms": statistics.median(times), f"{cost}_max_relative_difference": float(relative.max())}

@@ -115,9 +115,9 @@ class TreeFilter:
         ]
         top = tree.levels[0].representatives
         self.level_runs[0] = tuple(
-            RunBoundaries(stack.images[top])
+            RunBoundaries(stack.masks(top))
             if spot_pixels is None
-            else ShiftedRunBoundaries(stack.images[top], np.rint(spot_pixels[0][top, view]))
+            else ShiftedRunBoundaries(stack.masks(top), np.rint(spot_pixels[0][top, view]))
             for view, stack in enumerate(self._stacks[0])
         )
         self._occluded = samples.occluded(motion.occlusion_area_px)

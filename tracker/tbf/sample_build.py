@@ -6,8 +6,9 @@
    was cut by the image).
 2. Shards of ``shard_size`` poses are rendered by `tracker.render.labels.LabelRenderer` (many poses per draw call)
    on joblib's processes (``backend="loky"``) or on Ray (``backend="ray"``), each shard's labels reduced to every
-   resolution, its areas counted and its runs found. The parent writes each finished shard into the set's arrays
-   (memory-mapped files in ``<cache_dir>/.<key>.building/``) and then marks it done.
+   resolution, its areas counted and its runs found; only the areas and the runs come back (the images stay in
+   the worker). The parent writes each finished shard into the set's areas (a memory-mapped file in
+   ``<cache_dir>/.<key>.building/``) and its runs beside them, and then marks it done.
 3. When every shard is done, the runs are joined, ``meta.json`` written, and the folder renamed to ``<key>``.
 A build that was killed leaves its ``.building`` folder: the next build of the same key renders only the shards
 not marked done.
@@ -39,9 +40,9 @@ from tracker.tbf.samples import (
     Posable,
     PoseSampleSet,
     cache_key,
-    labels_name,
     reduce_labels,
     resolution_factor,
+    resolution_name,
 )
 from tracker.tbf.scoring import SilhouetteRuns
 from tracker.tol import MIN_DEPTH_M
@@ -113,10 +114,6 @@ def build_set(
     windows = {
         res: tuple(side // factor for side in layout.window) for res, factor in zip(resolutions, factors, strict=True)
     }
-    labels = {
-        res: _array(building, labels_name(res), (len(poses), w[3] - w[1], w[2] - w[0]), np.uint8)
-        for res, w in windows.items()
-    }
     areas = _array(building, "areas", (len(poses), len(body.part_names)), np.int64)
     todo = [k for k in range(len(shards)) if not (building / f"shard{k}.done").exists()]
     if len(todo) < len(shards):
@@ -126,32 +123,42 @@ def build_set(
     for shard in tqdm(
         run_tasks(tasks, settings), total=len(todo), desc="rendering pose samples", disable=not show, unit="shard"
     ):
-        _store_shard(building, shard, shards[shard["shard"]], labels, areas)
+        _store_shard(building, shard, shards[shard["shard"]], areas)
     _finish(building, folder, poses, shards, resolutions, windows)
 
 
-def _store_shard(building: Path, shard: dict, rows: slice, labels: dict, areas: np.ndarray) -> None:
-    """A rendered shard into the set's memory-mapped arrays (``labels`` per resolution, ``areas``) at ``rows``,
-    its runs beside them, and marked done: a killed build resumes after it."""
-    for res, images in labels.items():
-        images[rows] = shard["labels"][res]
+def _store_shard(building: Path, shard: dict, rows: slice, areas: np.ndarray) -> None:
+    """A rendered shard's ``areas`` into the set's memory-mapped array at ``rows``, its runs beside it, and marked
+    done: a killed build resumes after it."""
     areas[rows] = shard["areas"]
     runs = shard["runs"]
     with atomic_path(building / f"shard{shard['shard']}.runs.npz") as temporary, open(temporary, "wb") as file:
         np.savez(
             file,
-            **{f"{r[0]}x{r[1]}_{part}": runs[r][part] for r in labels for part in ("starts", "ends", "counts")},
+            **{f"{resolution_name(r)}_{part}": runs[r][part] for r in runs for part in ("starts", "ends", "counts")},
         )
-    for array in (*labels.values(), areas):
-        array.flush()
+    areas.flush()
     (building / f"shard{shard['shard']}.done").touch()
 
 
 def render_shard(
     body: Posable, camera: Camera, poses: np.ndarray, layout: Layout, factors: list[int], shard: int = 0
 ) -> dict:
-    """One shard's label images cropped to the window at every resolution (finest first, by ``factors``), each
-    part's area at the finest, and the runs of inside pixels at every resolution."""
+    """One shard's part areas at the finest resolution and its silhouettes' runs of inside pixels at every
+    resolution (`shard_labels`), what the set keeps of it."""
+    labels, areas = shard_labels(body, camera, poses, layout, factors)
+    runs = {}
+    for resolution, images in labels.items():
+        found = SilhouetteRuns.from_masks(images)
+        runs[resolution] = {"starts": found.starts, "ends": found.ends, "counts": np.diff(found.ptr)}
+    return {"shard": shard, "areas": areas, "runs": runs}
+
+
+def shard_labels(
+    body: Posable, camera: Camera, poses: np.ndarray, layout: Layout, factors: list[int]
+) -> tuple[dict[tuple[int, int], np.ndarray], np.ndarray]:
+    """``poses``' part-label images cropped to the window at every resolution (finest first, by ``factors``; 0
+    background, part k + 1), and each part's area at the finest."""
     t0, s0, t1, s1 = layout.tile
     u0, v0, u1, v1 = layout.window
     renderer = _renderer(body, t1 - t0, s1 - s0)
@@ -162,13 +169,11 @@ def render_shard(
         crops.append(images)
         areas.append(label_areas(images, len(body.part_names)))
     finest = np.concatenate(crops)
-    labels, runs = {}, {}
-    for factor in factors:
-        resolution = (camera.width // factor, camera.height // factor)
-        labels[resolution] = reduce_labels(finest, factor, len(body.part_names))
-        found = SilhouetteRuns.from_masks(labels[resolution])
-        runs[resolution] = {"starts": found.starts, "ends": found.ends, "counts": np.diff(found.ptr)}
-    return {"shard": shard, "labels": labels, "areas": np.concatenate(areas), "runs": runs}
+    labels = {
+        (camera.width // factor, camera.height // factor): reduce_labels(finest, factor, len(body.part_names))
+        for factor in factors
+    }
+    return labels, np.concatenate(areas)
 
 
 def project(camera: Camera, vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -232,7 +237,7 @@ def _array(building: Path, name: str, shape: tuple[int, ...], dtype) -> np.memma
 def _finish(building: Path, folder: Path, poses: np.ndarray, shards: list[slice], resolutions, windows: dict) -> None:
     """Join the shards' runs, write the poses and ``meta.json``, and make the set visible under its key."""
     for res in resolutions:
-        name = f"{res[0]}x{res[1]}"
+        name = resolution_name(res)
         parts = [np.load(building / f"shard{k}.runs.npz") for k in range(len(shards))]
         counts = np.concatenate([part[f"{name}_counts"] for part in parts])
         np.save(

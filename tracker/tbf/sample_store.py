@@ -1,13 +1,13 @@
 """A sample set on disk: ``<cache_dir>/<key>/`` with ``meta.json`` and one ``.npy`` per array.
 
-Arrays: ``poses``, ``areas``, ``labels_<w>x<h>`` per resolution (memory-mapped when loaded: a run reads the pixels it
-needs, not the set), and per resolution the runs of inside pixels (``runs_<w>x<h>_{starts,ends,ptr}``, what the
-filter scores from). ``meta.json`` holds the key, the format, the windows and, per array, its shape, its size in
-bytes, a SHA-256 of all of it and a sampled digest (`sampled_digest`: its first and last 64 KiB and 62 blocks
-spread evenly between). Loading checks the key, the format, every size and shape and every sampled digest
-(``check="sampled"``: a truncated, swapped or damaged-at-the-ends file is caught in milliseconds), or every byte
-(``check="full"``: the SHA-256 of each array). Anything that fails is reported with a `ValueError` and rebuilt by
-`tracker.tbf.sample_build.load_or_build`, never used.
+Arrays: ``poses``, ``areas``, and per resolution the silhouettes' runs of inside pixels
+(``runs_<w>x<h>_{starts,ends,ptr}``, what the tree and the filter read; `tracker.tbf.samples`). ``meta.json``
+holds the key, the format, the windows and, per array, its shape, its size in bytes, a SHA-256 of all of it and a
+sampled digest (`sampled_digest`: its first and last 64 KiB and 62 blocks spread evenly between). Loading checks
+the key, the format, every size and shape and every sampled digest (``check="sampled"``: a truncated, swapped or
+damaged-at-the-ends file is caught in milliseconds), or every byte (``check="full"``: the SHA-256 of each array).
+Anything that fails is reported with a `ValueError` and rebuilt by `tracker.tbf.sample_build.load_or_build`, never
+used.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from typing import Literal
 
 import numpy as np
 
-from tracker.tbf.samples import FORMAT_VERSION, PoseSampleSet, labels_name
+from tracker.tbf.samples import FORMAT_VERSION, PoseSampleSet, resolution_name
 from tracker.tbf.scoring import SilhouetteRuns
 
 BLOCK = 1 << 16
@@ -28,13 +28,13 @@ RUN_PARTS = ("starts", "ends", "ptr")
 
 
 def runs_name(resolution: tuple[int, int], part: str) -> str:
-    return f"runs_{resolution[0]}x{resolution[1]}_{part}"
+    return f"runs_{resolution_name(resolution)}_{part}"
 
 
 def array_names(resolutions) -> list[str]:
     names = ["poses", "areas"]
     for resolution in resolutions:
-        names += [labels_name(resolution), *(runs_name(resolution, part) for part in RUN_PARTS)]
+        names += [runs_name(resolution, part) for part in RUN_PARTS]
     return names
 
 
@@ -76,7 +76,7 @@ def write_meta(folder: Path, key: str, resolutions, windows: dict[tuple[int, int
         "key": key,
         "format": FORMAT_VERSION,
         "samples": arrays["poses"]["shape"][0],
-        "windows": {labels_name(r): list(map(int, windows[r])) for r in resolutions},
+        "windows": {resolution_name(r): list(map(int, windows[r])) for r in resolutions},
         "arrays": arrays,
     }
     (folder / "meta.json").write_text(json.dumps(meta, indent=2))
@@ -104,8 +104,7 @@ def load(folder: Path, key: str, resolutions, check: Literal["sampled", "full"] 
         runs[tuple(resolution)] = SilhouetteRuns(starts, ends, ptr, owner)
     return PoseSampleSet(
         poses=np.asarray(arrays["poses"]),
-        labels={tuple(r): arrays[labels_name(r)] for r in resolutions},
-        windows={tuple(r): tuple(meta["windows"][labels_name(r)]) for r in resolutions},
+        windows={tuple(r): tuple(meta["windows"][resolution_name(r)]) for r in resolutions},
         runs=runs,
         areas=np.asarray(arrays["areas"]),
         key=key,

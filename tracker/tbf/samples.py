@@ -1,4 +1,4 @@
-"""Pose sample sets (paper 2, 3.1): body poses with their part-label images at the tree's resolutions, cached.
+"""Pose sample sets (paper 2, 3.1): body poses with their silhouettes at the tree's resolutions, cached.
 
 A sample set is built from pose vectors (`tracker.models.body_skeleton`), near-duplicates already removed
 (`tracker.tbf.pose_sets.remove_near_duplicates`): every pose is rendered as a part-label image (0 background, part
@@ -8,7 +8,9 @@ k+1) at the finest of the tree's resolutions (`LEVEL_RESOLUTIONS`) and reduced t
 of it). Images are cropped to the window W: the rectangle holding every pose's projection (the bounding box of all
 posed vertices, 1 px margin, widened to whole coarsest pixels), which is also the window of the silhouette
 distances (`tracker.tbf.costs`). Each part's projected area A_j (eq 3) is counted at the finest resolution, and
-each silhouette's runs of inside pixels (`tracker.tbf.scoring.SilhouetteRuns`) are kept at every resolution.
+each silhouette's runs of inside pixels (`tracker.tbf.scoring.SilhouetteRuns`) are kept at every resolution: all
+that the tree and the filter read (the images themselves, tens of kB a sample, are not kept: their runs give them
+back, `SilhouetteStack.masks`).
 
 Several cameras see the same poses as several sets, one per view (`SampleViews`): the tree and the filter work on
 the views together.
@@ -57,7 +59,7 @@ class Posable(Protocol):
 
 LEVEL_RESOLUTIONS = ((80, 60), (160, 120), (320, 240))  # (width, height) of the tree's levels, top to bottom
 RESOLUTIONS = LEVEL_RESOLUTIONS[::-1]  # as rendered: the finest first, the others reduced from it
-FORMAT_VERSION = 3
+FORMAT_VERSION = 4  # 4: silhouettes kept as runs only (3 kept the label images too)
 
 
 def values_digest(values: dict[str, float]) -> str:
@@ -86,7 +88,6 @@ def read_derived(path: Path) -> dict[str, float]:
 @dataclass(frozen=True, eq=False)
 class PoseSampleSet:
     poses: np.ndarray  # (n, POSE_SIZE)
-    labels: dict[tuple[int, int], np.ndarray]  # (width, height) -> (n, v1 - v0, u1 - u0) uint8, cropped to W
     windows: dict[tuple[int, int], Window]  # (width, height) -> W in that resolution's pixels
     runs: dict[tuple[int, int], SilhouetteRuns]  # (width, height) -> every sample's runs of inside pixels in W
     areas: np.ndarray  # (n, parts) pixels of each part at the finest resolution
@@ -97,8 +98,8 @@ class PoseSampleSet:
         return len(self.poses)
 
     def silhouettes(self, resolution: tuple[int, int]) -> SilhouetteStack:
-        """The silhouettes at ``resolution``: the label images themselves (not a copy) and their runs."""
-        return SilhouetteStack(self.labels[resolution], self.windows[resolution], self.runs[resolution])
+        """The silhouettes at ``resolution``, cropped to its window."""
+        return SilhouetteStack(self.windows[resolution], self.runs[resolution])
 
     def occluded(self, area_threshold_px: float) -> np.ndarray:
         """``(n, parts)`` bool: eq 3's occlusion flags, part area below ``area_threshold_px``."""
@@ -230,5 +231,5 @@ def resolution_factor(finest: tuple[int, int], resolution: tuple[int, int]) -> i
     return factor
 
 
-def labels_name(resolution: tuple[int, int]) -> str:
-    return f"labels_{resolution[0]}x{resolution[1]}"
+def resolution_name(resolution: tuple[int, int]) -> str:
+    return f"{resolution[0]}x{resolution[1]}"

@@ -99,6 +99,17 @@ class SilhouetteRuns:
         pieces[~inside] = 0.0
         return np.bincount(owner, weights=pieces, minlength=len(rows))
 
+    def masks(self, shape: tuple[int, int], rows: np.ndarray | None = None) -> np.ndarray:
+        """Silhouettes ``rows`` (all by default) as ``(len(rows), h, w)`` bool images of ``shape`` ``(h, w)``: the
+        inverse of `from_masks`."""
+        rows = np.arange(len(self)) if rows is None else np.asarray(rows, dtype=np.int64).reshape(-1)
+        pixels = shape[0] * shape[1]
+        index, owner = self.runs_of(rows)
+        edges = np.zeros(len(rows) * pixels + 1, np.int32)  # +1 where a run starts, -1 one past where it ends
+        np.add.at(edges, owner * pixels + self.starts[index], 1)
+        np.add.at(edges, owner * pixels + self.ends[index], -1)
+        return (np.cumsum(edges[:-1], dtype=np.int32) > 0).reshape(len(rows), *shape)
+
     def subset(self, rows: np.ndarray) -> SilhouetteRuns:
         """The runs of silhouettes ``rows``, in that order (e.g. a tree level's representatives by node)."""
         index, owner = self.runs_of(rows)
@@ -205,28 +216,39 @@ class ShiftedRunBoundaries:
 
 @dataclass(frozen=True, eq=False)
 class SilhouetteStack:
-    """Many model silhouettes of one resolution, cropped to a window: ``images`` ``(n, v1 - v0, u1 - u0)``, a
-    pixel inside where nonzero (bool masks, or part-label images), and their ``runs`` of inside pixels."""
+    """Many model silhouettes of one resolution, cropped to a window ``(u0, v0, u1, v1)``, kept as their ``runs`` of
+    inside pixels (what scoring reads; a few kB each where an image took tens): `mask` and `masks` give them back as
+    ``(v1 - v0, u1 - u0)`` bool images."""
 
-    images: np.ndarray
     window: Window
     runs: SilhouetteRuns
 
     @classmethod
     def of(cls, images: np.ndarray, window: Window) -> SilhouetteStack:
-        return cls(images, window, SilhouetteRuns.from_masks(images))
+        """From ``(n, v1 - v0, u1 - u0)`` silhouettes (bool, or labels: inside where nonzero)."""
+        return cls(window, SilhouetteRuns.from_masks(images))
 
     @classmethod
     def crop(cls, silhouettes: np.ndarray, window: Window) -> SilhouetteStack:
         u0, v0, u1, v1 = window
-        return cls.of(np.ascontiguousarray(np.asarray(silhouettes, bool)[:, v0:v1, u0:u1]), window)
+        return cls.of(np.asarray(silhouettes, bool)[:, v0:v1, u0:u1], window)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(h, w)`` of every silhouette: the window's."""
+        u0, v0, u1, v1 = self.window
+        return v1 - v0, u1 - u0
 
     def __len__(self) -> int:
-        return len(self.images)
+        return len(self.runs)
 
     def mask(self, index: int) -> np.ndarray:
         """Silhouette ``index`` as ``(v1 - v0, u1 - u0)`` bool."""
-        return np.asarray(self.images[index]) != 0
+        return self.runs.masks(self.shape, np.array([index]))[0]
+
+    def masks(self, rows: np.ndarray | None = None) -> np.ndarray:
+        """Silhouettes ``rows`` (all by default) as ``(len(rows), v1 - v0, u1 - u0)`` bool."""
+        return self.runs.masks(self.shape, rows)
 
 
 class ObservationScorer:

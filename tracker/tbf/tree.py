@@ -29,6 +29,7 @@ import numpy as np
 from tracker.atomic import atomic_path, exclusive
 from tracker.memo import DAMAGED_NPZ
 from tracker.tbf.samples import LEVEL_RESOLUTIONS, PoseSampleSet, SampleViews
+from tracker.tbf.scoring import SilhouetteStack
 
 log = logging.getLogger(__name__)
 
@@ -138,8 +139,8 @@ def _build_level(
     """The level below the nodes ``node_of_sample``: each node split at T_l = ``threshold`` (steps 1-4)."""
     poses = np.asarray(samples.poses)
     stacks = samples.silhouettes(resolution)
-    pixels = [int(np.prod(stack.images.shape[1:])) for stack in stacks]
-    masks = [_packed_bits(stack.images) for stack in stacks]
+    pixels = [int(np.prod(stack.shape)) for stack in stacks]
+    masks = [_packed_bits(stack) for stack in stacks]
     representatives, seeds, parents = [], [], []
     assignment = np.empty(len(poses), dtype=np.int64)
     for parent in range(node_of_sample.max() + 1):
@@ -217,13 +218,13 @@ def _split(poses, masks, pixels, threshold) -> tuple[np.ndarray, np.ndarray, np.
     return reps_array, seeds, nearest_rep
 
 
-def _packed_bits(masks: np.ndarray, block: int = 4096) -> np.ndarray:
-    """``(n, ...)`` silhouettes (inside where nonzero) as ``(n, words)`` uint64 bit rows (zero-padded), for XOR
-    by popcount; packed ``block`` at a time."""
-    pixels = int(np.prod(masks.shape[1:]))
-    padded = np.zeros((len(masks), -(-pixels // 64) * 8), np.uint8)
-    for first in range(0, len(masks), block):
-        flat = np.asarray(masks[first : first + block]).reshape(-1, pixels) != 0
+def _packed_bits(stack: SilhouetteStack, block: int = 4096) -> np.ndarray:
+    """The stack's silhouettes as ``(n, words)`` uint64 bit rows (zero-padded), for XOR by popcount; decoded and
+    packed ``block`` at a time."""
+    pixels = int(np.prod(stack.shape))
+    padded = np.zeros((len(stack), -(-pixels // 64) * 8), np.uint8)
+    for first in range(0, len(stack), block):
+        flat = stack.masks(np.arange(first, min(first + block, len(stack)))).reshape(-1, pixels)
         padded[first : first + len(flat), : -(-pixels // 8)] = np.packbits(flat, axis=1)
     return padded.view(np.uint64)
 

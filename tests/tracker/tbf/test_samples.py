@@ -6,6 +6,7 @@ import pytest
 from tracker.geometry.rigs import mono
 from tracker.models.body_skeleton import joint_angle_differences
 from tracker.motion.body_swing import BodySwing
+from tracker.tbf import sample_store
 from tracker.tbf.build_workers import BuildSettings
 from tracker.tbf.pose_sets import remove_near_duplicates
 from tracker.tbf.sample_build import load_or_build
@@ -46,32 +47,32 @@ def test_a_sample_set_is_rendered_cached_and_reloaded(body, swing_poses, tmp_pat
     poses = swing_poses[::10]
     built = load_or_build(body, CAMERA, poses, tmp_path, progress=False)
     assert len(built) == 10
-    full = built.labels[RESOLUTIONS[0]]
-    np.testing.assert_array_equal(built.areas, [np.bincount(image.ravel(), minlength=16)[1:] for image in full])
+    full = built.silhouettes(RESOLUTIONS[0]).masks()
+    np.testing.assert_array_equal(built.areas.sum(axis=1), full.sum(axis=(1, 2)))  # the parts' areas fill it
     u0, v0, u1, v1 = built.windows[(80, 60)]
-    assert built.labels[(80, 60)].shape == (10, v1 - v0, u1 - u0)
-    coarse_area = (built.labels[(80, 60)] > 0).sum(axis=(1, 2)) * 16
-    np.testing.assert_allclose(coarse_area, (full > 0).sum(axis=(1, 2)), rtol=0.12)  # same body, 1/16 the pixels
+    coarse = built.silhouettes((80, 60)).masks()
+    assert coarse.shape == (10, v1 - v0, u1 - u0)
+    np.testing.assert_allclose(coarse.sum(axis=(1, 2)) * 16, full.sum(axis=(1, 2)), rtol=0.12)  # 1/16 the pixels
     right_arm = list(body.part_names).index("right_upper_arm")
     assert built.occluded(50)[0, right_arm]  # arm down: behind the torso, side-on
     assert not built.occluded(50)[3, right_arm]  # swung 60 degrees forward: in view
     again = load_or_build(body, CAMERA, poses, tmp_path, progress=False)
     assert again.key == built.key
-    np.testing.assert_array_equal(again.labels[(160, 120)], built.labels[(160, 120)])
+    np.testing.assert_array_equal(again.silhouettes((160, 120)).masks(), built.silhouettes((160, 120)).masks())
 
 
 def test_a_corrupt_cache_is_rebuilt_not_used(body, swing_poses, tmp_path, caplog):
     poses = swing_poses[:3]
     built = load_or_build(body, CAMERA, poses, tmp_path, progress=False)
-    original = np.array(built.labels[(160, 120)])  # a copy: the loaded arrays map the files
-    array = tmp_path / built.key / "labels_160x120.npy"
+    original = built.silhouettes((160, 120)).masks()  # decoded: a copy of what the loaded arrays map
+    array = tmp_path / built.key / "runs_160x120_starts.npy"
     data = bytearray(array.read_bytes())
     data[-1] ^= 0xFF  # one flipped byte
     array.write_bytes(bytes(data))
     with caplog.at_level(logging.WARNING):
         again = load_or_build(body, CAMERA, poses, tmp_path, progress=False)
     assert "does not match its checksum" in caplog.text and "rebuilding" in caplog.text
-    np.testing.assert_array_equal(again.labels[(160, 120)], original)
+    np.testing.assert_array_equal(again.silhouettes((160, 120)).masks(), original)
     (tmp_path / built.key / "areas.npy").write_bytes(b"truncated")
     assert load_or_build(body, CAMERA, poses, tmp_path, progress=False).areas.shape == (3, 15)
 
@@ -127,8 +128,20 @@ def varied_poses(body):
     return poses[rng.choice(len(poses), 300, replace=False)]
 
 
+def build_labels(body, poses, tmp_path):
+    """The build's part-label images of ``poses`` at every resolution (`sample_build.shard_labels`), on the layout
+    a build of them computes, and their part areas."""
+    from tracker.tbf import sample_build
+
+    shards = [slice(0, len(poses))]
+    layout = sample_build._layout(tmp_path, body, CAMERA, poses, shards, 4, BuildSettings(jobs=1))
+    return sample_build.shard_labels(body, CAMERA, poses, layout, [1, 2, 4])
+
+
 def test_batched_label_images_equal_the_per_part_render_at_every_level(body, varied_poses, renderer, tmp_path):
     built = load_or_build(body, CAMERA, varied_poses, tmp_path, progress=False)
+    labels, areas = build_labels(body, varied_poses, tmp_path / "layout")
+    np.testing.assert_array_equal(areas, built.areas)
     u0, v0, u1, v1 = built.windows[RESOLUTIONS[0]]
     reference = np.array(
         [renderer.render_depth_labels([CAMERA], body.surface_meshes(pose))["main"].labels for pose in varied_poses]
@@ -136,7 +149,7 @@ def test_batched_label_images_equal_the_per_part_render_at_every_level(body, var
     for factor, resolution in zip((1, 2, 4), RESOLUTIONS, strict=True):
         expected = reduce_labels(reference, factor, 15)
         for part in range(1, 16):
-            ours, theirs = built.labels[resolution] == part, expected == part
+            ours, theirs = labels[resolution] == part, expected == part
             union = (ours | theirs).sum()
             if union:
                 assert (ours & theirs).sum() / union >= 0.99, (resolution, part)
@@ -149,7 +162,7 @@ def test_a_sharded_parallel_build_equals_a_serial_one(body, varied_poses, tmp_pa
         body, CAMERA, poses, tmp_path / "sharded", progress=False, build=BuildSettings(jobs=2, shard_size=25)
     )
     for resolution in RESOLUTIONS:
-        np.testing.assert_array_equal(sharded.labels[resolution], serial.labels[resolution])
+        np.testing.assert_array_equal(sharded.silhouettes(resolution).masks(), serial.silhouettes(resolution).masks())
         for part in ("starts", "ends", "ptr"):
             np.testing.assert_array_equal(
                 getattr(sharded.runs[resolution], part), getattr(serial.runs[resolution], part)
@@ -157,15 +170,11 @@ def test_a_sharded_parallel_build_equals_a_serial_one(body, varied_poses, tmp_pa
     np.testing.assert_array_equal(sharded.areas, serial.areas)
 
 
-def test_the_stored_runs_are_those_of_the_stored_images(body, varied_poses, tmp_path):
-    from tracker.tbf.scoring import SilhouetteRuns
-
+def test_the_stored_silhouettes_are_those_of_the_rendered_labels(body, varied_poses, tmp_path):
     built = load_or_build(body, CAMERA, varied_poses[:40], tmp_path, progress=False)
+    labels, _ = build_labels(body, varied_poses[:40], tmp_path / "layout")
     for resolution in RESOLUTIONS:
-        found = SilhouetteRuns.from_masks(built.labels[resolution])
-        np.testing.assert_array_equal(built.runs[resolution].ptr, found.ptr)
-        np.testing.assert_array_equal(built.runs[resolution].starts, found.starts)
-        np.testing.assert_array_equal(built.runs[resolution].owner, found.owner)
+        np.testing.assert_array_equal(built.silhouettes(resolution).masks(), labels[resolution] > 0)
 
 
 def test_a_killed_build_resumes_with_the_shards_it_finished(body, varied_poses, tmp_path, caplog):
@@ -205,22 +214,26 @@ def test_a_killed_build_resumes_with_the_shards_it_finished(body, varied_poses, 
     assert f"{done} of 10 shards done" in caplog.text
     clean = load_or_build(body, CAMERA, poses, tmp_path / "clean", progress=False)
     for resolution in RESOLUTIONS:
-        np.testing.assert_array_equal(resumed.labels[resolution], clean.labels[resolution])
+        np.testing.assert_array_equal(resumed.silhouettes(resolution).masks(), clean.silhouettes(resolution).masks())
     assert not list((tmp_path / "c").glob(".*.building"))
 
 
-def test_a_full_check_reads_every_byte_a_sampled_one_the_sizes_and_ends(body, swing_poses, tmp_path, caplog):
+def test_a_full_check_reads_every_byte_a_sampled_one_the_sizes_and_ends(
+    body, swing_poses, tmp_path, caplog, monkeypatch
+):
+    monkeypatch.setattr(sample_store, "BLOCK", 256)  # so that a small array is read in part, as a large one is
+    monkeypatch.setattr(sample_store, "SAMPLED_BLOCKS", 4)
     poses = swing_poses[:60]
     built = load_or_build(body, CAMERA, poses, tmp_path, progress=False)
-    array = tmp_path / built.key / "labels_320x240.npy"
+    array = tmp_path / built.key / "runs_320x240_starts.npy"
     data = bytearray(array.read_bytes())
-    middle = len(data) // 2 + 12345
+    middle = len(data) // 2
     data[middle] ^= 0xFF  # inside no sampled block: only a full check sees it
     array.write_bytes(bytes(data))
     assert load_or_build(body, CAMERA, poses, tmp_path, progress=False).key == built.key  # sampled: trusted
     with caplog.at_level(logging.WARNING):
         load_or_build(body, CAMERA, poses, tmp_path, progress=False, check="full")
-    assert "labels_320x240.npy does not match its checksum" in caplog.text
+    assert "runs_320x240_starts.npy does not match its checksum" in caplog.text
 
 
 def _naive_reduction(labels, factor, n_parts):

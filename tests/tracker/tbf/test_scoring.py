@@ -33,6 +33,10 @@ def test_runs_hold_exactly_the_inside_pixels():
         for r in range(runs.ptr[index], runs.ptr[index + 1]):
             rebuilt[index, runs.starts[r] : runs.ends[r]] = True
     np.testing.assert_array_equal(rebuilt, masks.reshape(7, -1))
+    np.testing.assert_array_equal(runs.masks((5, 6)), masks)  # decoded back: the inverse of from_masks
+    np.testing.assert_array_equal(runs.masks((5, 6), np.array([4, 2, 4])), masks[[4, 2, 4]])
+    stack = SilhouetteStack((10, 20, 16, 25), runs)  # a window of 6 x 5 pixels
+    assert stack.shape == (5, 6) and len(stack) == 7 and np.array_equal(stack.mask(4), masks[4])
     values = rng.normal(size=30)
     np.testing.assert_allclose(runs.sums(values), masks.reshape(7, -1) @ values, atol=1e-12)
     rows = np.array([4, 2, 0, 4])

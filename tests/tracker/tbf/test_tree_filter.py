@@ -29,7 +29,7 @@ def tree(samples):
 
 
 def xor(samples, resolution, a, b):
-    masks = np.asarray(samples.silhouettes(resolution).images) != 0
+    masks = samples.silhouettes(resolution).masks()
     return np.count_nonzero(masks[a] ^ masks[b]) / masks[a].size
 
 

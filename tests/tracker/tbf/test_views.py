@@ -37,7 +37,7 @@ def full_image(stack, index, resolution):
 def mean_xor(views, resolution, a, b):
     distances = []
     for stack in views.silhouettes(resolution):
-        masks = np.asarray(stack.images) != 0
+        masks = stack.masks()
         distances.append(np.count_nonzero(masks[a] ^ masks[b]) / masks[a].size)
     return np.mean(distances)
 
