@@ -5,10 +5,10 @@ Each preset (one per rig: 1 and 3 cameras) with dictionaries of the same clips t
 ``--turns`` evenly spaced angles (the presets' own: 4, mirrored), so each is about twice the last. For each, in a
 fresh cache folder, two runs of the same measuring process (``--cell``): cold (the dictionary and tree built) and
 warm (loaded): the samples, the start's seconds (the build, then the load), the peak resident memory of the
-process and its build workers summed (sampled every `SAMPLE_S`), the cache's disk, and the filter's median ms per
-frame over the preset's first ``--frames`` frames (silhouettes extracted before, untimed). Then, per rig, the
-exponent of ms/frame against samples (least squares in log-log). Writes ``reports/scale.md``, ``scale.csv`` and
-``scale.png``; the cache folders are removed once measured.
+process and its build workers summed (sampled every `SAMPLE_S`) and its anonymous part (without the pages of
+mapped files), the cache's disk, and the filter's median ms per frame over the preset's first ``--frames`` frames
+(silhouettes extracted before, untimed). Then, per rig, the exponent of ms/frame against samples (least squares in
+log-log). Writes ``reports/scale.md``, ``scale.csv`` and ``scale.png``; the cache folders are removed once measured.
 """
 
 from __future__ import annotations
@@ -62,10 +62,13 @@ def measure_cell(experiment: str, frames: int, overrides: list[str]) -> dict[str
 
 
 class PeakMemory:
-    """The largest resident memory of a process and its descendants summed, sampled every `SAMPLE_S` while open."""
+    """The largest resident memory of a process and its descendants summed, sampled every `SAMPLE_S` while open: all
+    of it, and its anonymous part (without the pages of mapped files, such as a memory-mapped sample set, which the
+    kernel drops when memory is short)."""
 
     def __init__(self, pid: int) -> None:
-        self.peak_bytes, self._process, self._done = 0, psutil.Process(pid), threading.Event()
+        self.peak_bytes, self.peak_anonymous_bytes = 0, 0
+        self._process, self._done = psutil.Process(pid), threading.Event()
         self._thread = threading.Thread(target=self._sample, daemon=True)
         self._thread.start()
 
@@ -73,15 +76,17 @@ class PeakMemory:
         while not self._done.wait(SAMPLE_S):
             try:
                 tree = [self._process, *self._process.children(recursive=True)]
-                total = sum(p.memory_info().rss for p in tree if p.is_running())
+                memory = [p.memory_info() for p in tree if p.is_running()]
             except psutil.Error:  # a worker ended between the listing and the reading
                 continue
-            self.peak_bytes = max(self.peak_bytes, total)
+            self.peak_bytes = max(self.peak_bytes, sum(m.rss for m in memory))
+            self.peak_anonymous_bytes = max(self.peak_anonymous_bytes, sum(m.rss - m.shared for m in memory))
 
-    def close(self) -> float:
+    def close(self) -> tuple[float, float]:
+        """The peaks in GiB: resident, anonymous."""
         self._done.set()
         self._thread.join()
-        return self.peak_bytes / 2**30
+        return self.peak_bytes / 2**30, self.peak_anonymous_bytes / 2**30
 
 
 def run_cell(experiment: str, frames: int, overrides: list[str]) -> dict[str, float]:
@@ -92,10 +97,14 @@ def run_cell(experiment: str, frames: int, overrides: list[str]) -> dict[str, fl
     )
     memory = PeakMemory(process.pid)
     output, _ = process.communicate()
-    peak_gib = memory.close()
+    peak_gib, anonymous_gib = memory.close()
     if process.returncode != 0:
         raise SystemExit(f"scale: experiment={experiment} {' '.join(overrides)} failed ({process.returncode})")
-    return {**json.loads(output.decode().strip().splitlines()[-1]), "peak_gib": peak_gib}
+    return {
+        **json.loads(output.decode().strip().splitlines()[-1]),
+        "peak_gib": peak_gib,
+        "anonymous_gib": anonymous_gib,
+    }
 
 
 def disk_gib(folder: Path) -> float:
@@ -120,9 +129,11 @@ def scale_rows(experiments: list[str], turns: list[int], frames: int, overrides:
                     "samples": cold["samples"],
                     "build_s": cold["start_s"],
                     "build_peak_gib": cold["peak_gib"],
+                    "build_anonymous_gib": cold["anonymous_gib"],
                     "disk_gib": disk,
                     "load_s": warm["start_s"],
                     "run_peak_gib": warm["peak_gib"],
+                    "run_anonymous_gib": warm["anonymous_gib"],
                     "ms_per_frame": warm["ms_per_frame"],
                 }
             )
