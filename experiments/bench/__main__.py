@@ -36,7 +36,7 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=60)
     parser.add_argument("--samples", type=int, default=10_000, help="pose samples (silhouettes)")
     parser.add_argument("--experiment", default="tbf_table4c", help="tbf: the experiment preset")
-    parser.add_argument("--turns", type=_ints, default=[4, 8, 16, 32], help="scale: turns per dictionary (4,8,...)")
+    parser.add_argument("--turns", type=_ints, default=[1, 2, 4, 8], help="scale: turns per dictionary (1,2,...)")
     parser.add_argument(
         "--experiments", type=_names, default=["tbf_paper_scale", "tbf_multi_view"], help="scale: presets (a,b)"
     )

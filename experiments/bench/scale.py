@@ -1,8 +1,9 @@
-"""``python -m experiments.bench scale [--turns 4,8,16,32] [--experiments tbf_paper_scale,tbf_multi_view]
+"""``python -m experiments.bench scale [--turns 1,2,4,8] [--experiments tbf_paper_scale,tbf_multi_view]
 [--frames N] [overrides]``: how tree filtering's cost grows with its dictionary.
 
-Each preset (one per rig: 1 and 3 cameras) with dictionaries of the same clips turned about the vertical by each of
-``--turns`` evenly spaced angles (the presets' own: 4, mirrored), so each is about twice the last. For each, in a
+Each preset (one per rig: 1 and 3 cameras) with dictionaries of the same clips, mirrored, turned about the vertical
+by each of ``--turns`` evenly spaced angles (the presets' own: 4, ~52k samples), so each is about twice the last:
+~13k, 26k, 52k and 104k samples. For each, in a
 fresh cache folder, two runs of the same measuring process (``--cell``): cold (the dictionary and tree built) and
 warm (loaded): the samples, the start's seconds (the build, then the load), the peak resident memory of the
 process and its build workers summed (sampled every `SAMPLE_S`) and its anonymous part (without the pages of
