@@ -33,6 +33,8 @@ def main() -> None:
     parser.add_argument("target", choices=TARGETS)
     parser.add_argument("--poses", type=int, default=300, help="samples: poses rendered both ways")
     parser.add_argument("--build", action="store_true", help="samples: also build the whole set and tree cold")
+    parser.add_argument("--ray", action="store_true", help="samples: also build on Ray, 1 and 2 workers (make ray)")
+    parser.add_argument("--ray-address", default=None, help="samples --ray: a Ray cluster's address (else local)")
     parser.add_argument("--frames", type=int, default=60)
     parser.add_argument("--samples", type=int, default=10_000, help="pose samples (silhouettes)")
     parser.add_argument("--experiment", default="tbf_table4c", help="tbf: the experiment preset")

@@ -1,4 +1,4 @@
-"""Benchmark of pose sample sets: ``python -m experiments.bench samples [--poses N] [--build] [overrides]``.
+"""Benchmark of pose sample sets: ``python -m experiments.bench samples [--poses N] [--build] [--ray] [overrides]``.
 
 On the poses of ``experiment=tbf_paper_scale`` (or the overrides' set), in one run:
 
@@ -11,7 +11,9 @@ On the poses of ``experiment=tbf_paper_scale`` (or the overrides' set), in one r
   (`tracker.tbf.sample_build.build_set`: the batched pass, sorted-block reduction, in shards over every core),
   wall-clock ms per pose each and their ratio;
 - with ``--build``: the whole set built cold into a fresh cache (sharded over the machine's cores), the tree built,
-  and then the tracker started again on the cached set, each timed.
+  and then the tracker started again on the cached set, each timed;
+- with ``--ray`` (``make ray``; ``--ray-address`` a cluster's, else a local Ray): the set of the same poses built on
+  Ray with 1 and 2 workers, and on joblib's processes with 2, and the ratio of Ray's 1 to 2 workers.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ from experiments.components import Components, build, compose
 from tracker.render.labels import LabelRenderer
 from tracker.render.mesh import SurfaceMesh
 from tracker.render.offscreen import SceneRenderer
-from tracker.tbf import sample_build
+from tracker.tbf import sample_build, sample_store
 from tracker.tbf.build_workers import BuildSettings
 from tracker.tbf.sample_spec import sample_poses
 
@@ -111,8 +113,10 @@ def bench_set_images(poses: np.ndarray, body, camera) -> dict[str, float]:
         folder = Path(cache) / "set"
         sample_build.build_set(body, camera, poses, folder, sample_build.RESOLUTIONS, BuildSettings())
         now_ms = 1e3 * (time.perf_counter() - start) / len(poses)
-        coarse = np.load(folder / "labels_80x60.npy")
-        u0, v0, u1, v1 = json.loads((folder / "meta.json").read_text())["windows"]["labels_320x240"]
+        meta = json.loads((folder / "meta.json").read_text())
+        built = sample_store.load(folder, meta["key"], sample_build.RESOLUTIONS)
+        coarse = built.silhouettes((80, 60)).masks()
+        u0, v0, u1, v1 = built.windows[(320, 240)]
     start = time.perf_counter()
     before = {factor: [] for factor in (1, 2, 4)}
     with SceneRenderer(camera.width, camera.height) as renderer:
@@ -122,7 +126,8 @@ def bench_set_images(poses: np.ndarray, body, camera) -> dict[str, float]:
             for factor in before:
                 before[factor].append(reduce_by_counting(image[v0:v1, u0:u1], factor, len(body.part_names)))
     before_ms = 1e3 * (time.perf_counter() - start) / len(poses)
-    return {"before_ms": before_ms, "now_ms": now_ms, "differing_px_80x60": int((coarse != np.array(before[4])).sum())}
+    differing = int((coarse != (np.array(before[4]) > 0)).sum())
+    return {"before_ms": before_ms, "now_ms": now_ms, "differing_silhouette_px_80x60": differing}
 
 
 def bench_build(overrides: list[str]) -> dict[str, float]:
@@ -151,6 +156,25 @@ def bench_build(overrides: list[str]) -> dict[str, float]:
     return times
 
 
+def bench_ray_build(poses: np.ndarray, body, camera, address: str | None, shard_size: int = 64) -> dict[str, float]:
+    """The set of ``poses`` built cold on Ray with 1 and then 2 workers (Ray started first, not timed), and on
+    joblib's processes with 2 for reference: seconds each, and the ratio of 1 to 2 workers on Ray."""
+    from tracker.tbf.build_workers import start_ray
+
+    start_ray(address)
+    seconds = {}
+    for name, settings in (
+        ("ray_1_worker_s", BuildSettings(jobs=1, backend="ray", shard_size=shard_size, ray_address=address)),
+        ("ray_2_workers_s", BuildSettings(jobs=2, backend="ray", shard_size=shard_size, ray_address=address)),
+        ("loky_2_workers_s", BuildSettings(jobs=2, backend="loky", shard_size=shard_size)),
+    ):
+        with tempfile.TemporaryDirectory() as cache:
+            start = time.perf_counter()
+            sample_build.build_set(body, camera, poses, Path(cache) / "set", sample_build.RESOLUTIONS, settings)
+            seconds[name] = time.perf_counter() - start
+    return {**seconds, "ray_1_over_2_workers": seconds["ray_1_worker_s"] / seconds["ray_2_workers_s"]}
+
+
 def run(args: argparse.Namespace) -> dict:
     overrides = args.overrides or ["experiment=tbf_paper_scale"]
     composed = build(compose(overrides))
@@ -160,17 +184,33 @@ def run(args: argparse.Namespace) -> dict:
     images = bench_set_images(chosen, composed.model, composed.cameras[0])
     log.info(
         "a set's images (3 resolutions, areas) of %d poses: before %.2f ms/pose (one process), now %.2f "
-        "ms/pose (%s): %.1fx; pixels differing at 80x60 in all: %d",
+        "ms/pose (%s): %.1fx; silhouette pixels differing at 80x60 in all: %d",
         len(chosen),
         images["before_ms"],
         images["now_ms"],
         f"shards over {os.cpu_count()} cores",
         images["before_ms"] / images["now_ms"],
-        images["differing_px_80x60"],
+        images["differing_silhouette_px_80x60"],
     )
     build_times = _report_build(overrides, len(poses)) if args.build else {}
+    on_ray = _report_ray(chosen, composed, args.ray_address) if args.ray else {}
     report_machine()
-    return {"rendering": rendering, "set_images": images, "build": build_times}
+    return {"rendering": rendering, "set_images": images, "build": build_times, "ray": on_ray}
+
+
+def _report_ray(poses: np.ndarray, composed: Components, address: str | None) -> dict:
+    figures = bench_ray_build(poses, composed.model, composed.cameras[0], address)
+    log.info(
+        "the same %d poses' set built on Ray (%s): 1 worker %.1f s, 2 workers %.1f s: %.2fx; joblib's 2 processes "
+        "%.1f s",
+        len(poses),
+        address or "a local Ray",
+        figures["ray_1_worker_s"],
+        figures["ray_2_workers_s"],
+        figures["ray_1_over_2_workers"],
+        figures["loky_2_workers_s"],
+    )
+    return figures
 
 
 def _report_rendering(composed: Components, poses: np.ndarray, count: int, overrides: list[str]) -> dict:

@@ -170,6 +170,19 @@ def test_a_sharded_parallel_build_equals_a_serial_one(body, varied_poses, tmp_pa
     np.testing.assert_array_equal(sharded.areas, serial.areas)
 
 
+@pytest.mark.slow
+def test_a_build_on_ray_equals_one_on_joblibs_processes(body, varied_poses, tmp_path):
+    pytest.importorskip("ray", reason="the Ray extra is not installed (make ray)")
+    poses = varied_poses[:60]
+    local = load_or_build(body, CAMERA, poses, tmp_path / "loky", progress=False, build=BuildSettings(jobs=2))
+    on_ray = load_or_build(
+        body, CAMERA, poses, tmp_path / "ray", progress=False, build=BuildSettings(jobs=2, backend="ray", shard_size=16)
+    )
+    for resolution in RESOLUTIONS:
+        np.testing.assert_array_equal(on_ray.silhouettes(resolution).masks(), local.silhouettes(resolution).masks())
+    np.testing.assert_array_equal(on_ray.areas, local.areas)
+
+
 def test_the_stored_silhouettes_are_those_of_the_rendered_labels(body, varied_poses, tmp_path):
     built = load_or_build(body, CAMERA, varied_poses[:40], tmp_path, progress=False)
     labels, _ = build_labels(body, varied_poses[:40], tmp_path / "layout")
