@@ -105,10 +105,12 @@ class SilhouetteRuns:
         rows = np.arange(len(self)) if rows is None else np.asarray(rows, dtype=np.int64).reshape(-1)
         pixels = shape[0] * shape[1]
         index, owner = self.runs_of(rows)
-        edges = np.zeros(len(rows) * pixels + 1, np.int32)  # +1 where a run starts, -1 one past where it ends
-        np.add.at(edges, owner * pixels + self.starts[index], 1)
-        np.add.at(edges, owner * pixels + self.ends[index], -1)
-        return (np.cumsum(edges[:-1], dtype=np.int32) > 0).reshape(len(rows), *shape)
+        # +1 where a run starts, -1 one past where it ends, a spare column a row: a silhouette's runs never touch, so
+        # no two marks share a place and each is a plain store
+        edges = np.zeros((len(rows), pixels + 1), np.int8)
+        edges.reshape(-1)[owner * (pixels + 1) + self.starts[index]] = 1
+        edges.reshape(-1)[owner * (pixels + 1) + self.ends[index]] = -1
+        return np.cumsum(edges[:, :pixels], axis=1, dtype=np.int8).view(bool).reshape(len(rows), *shape)
 
     def subset(self, rows: np.ndarray) -> SilhouetteRuns:
         """The runs of silhouettes ``rows``, in that order (e.g. a tree level's representatives by node)."""
