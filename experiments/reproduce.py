@@ -4,9 +4,9 @@ numbers, its figures and recordings, the machine and the commit.
 
 The steps (`STEPS`; each says what it runs and writes): paper 1's figures and its seeds table
 (`experiments.paper_1`), paper 2's experiment A with its control and its realism sweep (`experiments.experiment_a`);
-with ``--scale paper`` also experiment B on real held-out motion (`experiments.real_motion`) and the plug-board's
-comparison of every tracker on every model (`experiments.combinations`). The real-motion benchmark is its own
-command (`experiments.benchmark`).
+with ``--scale paper`` also experiment B on real held-out motion (`experiments.real_motion`), the plug-board's
+comparison of every tracker on every model (`experiments.combinations`) and the real-motion benchmark
+(`experiments.benchmark`).
 
 ``--readme`` copies the steps table of the last ``reports/report.md`` into the README (its timings taken from a
 report, not typed by hand).
@@ -23,13 +23,13 @@ from pathlib import Path
 import pandas as pd
 
 from eval.runs import machine, markdown
-from experiments import combinations, experiment_a, paper_1, real_motion
+from experiments import benchmark, combinations, experiment_a, paper_1, real_motion
 from experiments.cli_runs import write_text
 from experiments.generated import README, markers, write_block
 from experiments.steps import Section, Step
 
 REPORTS = Path("reports")
-STEPS: tuple[Step, ...] = (*paper_1.STEPS, *experiment_a.STEPS, real_motion.STEP, combinations.STEP)
+STEPS: tuple[Step, ...] = (*paper_1.STEPS, *experiment_a.STEPS, real_motion.STEP, combinations.STEP, benchmark.STEP)
 README_COMMAND = "python -m experiments.reproduce --readme"
 STEPS_BLOCK = "steps"  # report.md's steps table, between these markers
 
