@@ -128,19 +128,28 @@ def build_tree(
     node_of_sample = np.zeros(len(samples), dtype=np.int64)  # level 0: one node
     levels = []
     for threshold, resolution in zip(thresholds, resolutions, strict=True):
-        levels.append(_build_level(samples, node_of_sample, threshold, resolution))
+        levels.append(_build_level(samples, _level_bits(samples, resolution), node_of_sample, threshold, resolution))
         node_of_sample = levels[-1].node_of_sample
     return PoseTree(tuple(levels), key)
 
 
-def _build_level(
-    samples: SampleViews, node_of_sample: np.ndarray, threshold: float, resolution: tuple[int, int]
-) -> TreeLevel:
-    """The level below the nodes ``node_of_sample``: each node split at T_l = ``threshold`` (steps 1-4)."""
-    poses = np.asarray(samples.poses)
+def _level_bits(samples: SampleViews, resolution: tuple[int, int]) -> tuple[list[np.ndarray], list[int]]:
+    """Per view, every sample's silhouette at ``resolution`` as packed bit rows (`_packed_bits`), and its pixels."""
     stacks = samples.silhouettes(resolution)
-    pixels = [int(np.prod(stack.shape)) for stack in stacks]
-    masks = [_packed_bits(stack) for stack in stacks]
+    return [_packed_bits(stack) for stack in stacks], [int(np.prod(stack.shape)) for stack in stacks]
+
+
+def _build_level(
+    samples: SampleViews,
+    bits: tuple[list[np.ndarray], list[int]],
+    node_of_sample: np.ndarray,
+    threshold: float,
+    resolution: tuple[int, int],
+) -> TreeLevel:
+    """The level below the nodes ``node_of_sample``: each node split at T_l = ``threshold`` (steps 1-4), the
+    silhouettes' distances from ``bits`` (`_level_bits` of ``resolution``)."""
+    poses = np.asarray(samples.poses)
+    masks, pixels = bits
     representatives, seeds, parents = [], [], []
     assignment = np.empty(len(poses), dtype=np.int64)
     for parent in range(node_of_sample.max() + 1):
@@ -170,17 +179,18 @@ def thresholds_for_shares(
     node_of_sample = np.zeros(len(samples), dtype=np.int64)
     for share, resolution in zip(shares, resolutions, strict=True):
         name = f"tree_threshold share={list(shares)} level={len(chosen) + 1}"
+        bits = _level_bits(samples, resolution)  # decoded once for the bisection's every try
 
-        def bisect(parents=node_of_sample, share=share, resolution=resolution) -> float:
+        def bisect(parents=node_of_sample, share=share, resolution=resolution, bits=bits) -> float:
             low, high = np.log(_THRESHOLD_BRACKET[0]), np.log(_THRESHOLD_BRACKET[1])
             for _ in range(SHARE_BISECTIONS):
                 middle = (low + high) / 2
-                nodes = len(_build_level(samples, parents, float(np.exp(middle)), resolution))
+                nodes = len(_build_level(samples, bits, parents, float(np.exp(middle)), resolution))
                 low, high = (middle, high) if nodes > share * len(samples) else (low, middle)
             return float(np.exp(high))
 
         chosen.append(samples.derived(name, bisect))
-        node_of_sample = _build_level(samples, node_of_sample, chosen[-1], resolution).node_of_sample
+        node_of_sample = _build_level(samples, bits, node_of_sample, chosen[-1], resolution).node_of_sample
     return tuple(chosen)
 
 
