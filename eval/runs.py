@@ -66,5 +66,15 @@ def markdown(table: pd.DataFrame) -> str:
     return "\n".join([header, rule, *lines])
 
 
+def machine_facts() -> dict[str, object]:
+    """This machine as a report names it: processor, cores, Python."""
+    return {
+        "processor": platform.processor() or platform.machine(),
+        "cores": os.cpu_count(),
+        "python": platform.python_implementation() + " " + platform.python_version(),
+    }
+
+
 def machine() -> str:
-    return f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}"
+    facts = machine_facts()
+    return f"{facts['processor']}, {facts['cores']} cores, Python {platform.python_version()}"

@@ -6,9 +6,9 @@ from __future__ import annotations
 import json
 import logging
 import os
-import platform
 from pathlib import Path
 
+from eval.runs import machine_facts
 from experiments.components import Components, build, compose
 
 log = logging.getLogger(__name__)
@@ -26,7 +26,7 @@ def resident_mb() -> float:
 
 
 def report_machine() -> None:
-    about = machine()
+    about = machine_facts()
     log.info(
         "machine: %s, %d cores, %s; OpenGL platform %s",
         about["processor"],
@@ -36,15 +36,7 @@ def report_machine() -> None:
     )
 
 
-def machine() -> dict[str, object]:
-    return {
-        "processor": platform.processor() or platform.machine(),
-        "cores": os.cpu_count(),
-        "python": platform.python_implementation() + " " + platform.python_version(),
-    }
-
-
 def json_line(target: str, figures: dict) -> str:
     """``figures`` of benchmark ``target`` with the machine, as one line of JSON (numpy scalars as numbers)."""
-    record = {"target": target, "machine": machine(), "figures": figures}
+    record = {"target": target, "machine": machine_facts(), "figures": figures}
     return json.dumps(record, default=lambda value: value.item() if hasattr(value, "item") else str(value))
