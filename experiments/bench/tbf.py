@@ -107,7 +107,7 @@ def _level1_ways(filter_, top_runs: list[SilhouetteRuns], silhouettes: tuple[np.
         stack = filter_.samples.sets[view].silhouettes(filter_.tree.levels[0].resolution)
         scorer = ObservationScorer(filter_.cost, filter_.observation_at(0, silhouette), stack.window)
         scores = []
-        for way, runs in enumerate((top_runs[view], filter_.level_runs[0][view])):
+        for way, runs in enumerate((top_runs[view], filter_.top_boundaries[view])):
             start = time.perf_counter()
             if filter_.spot_pixels is None:
                 scores.append(scorer.scores_of_runs(runs))
@@ -145,11 +145,14 @@ def _compare_view_scoring(
     start = time.perf_counter()
     scorer = ObservationScorer(filter_.cost, observed, stack.window)
     weights_s = time.perf_counter() - start
-    runs = filter_.level_runs[level][view]
     start = time.perf_counter()
-    scores = filter_.scores_from(scorer, level, view, None if len(nodes) == len(runs) else nodes)
+    scores = filter_.scores_from(scorer, level, view, None if len(nodes) == len(tree_level) else nodes)
     vectorised_s = time.perf_counter() - start
-    read = _bytes_read(runs, nodes) + 8 * (window_pixels(stack.window) + 1)  # and the weights' prefix sums
+    read = (
+        _bytes_read(filter_.top_boundaries[view], nodes)
+        if level == 0
+        else _bytes_read(stack.runs, tree_level.representatives[nodes])
+    ) + 8 * (window_pixels(stack.window) + 1)  # and the weights' prefix sums
     u0, v0, u1, v1 = stack.window
     weights, inside = scorer.weights, observed[v0:v1, u0:u1]
     representatives = tree_level.representatives[nodes]
@@ -164,16 +167,16 @@ def _compare_view_scoring(
     return np.array([weights_s, vectorised_s, naive_s, read]), difference
 
 
-def _bytes_read(runs: SilhouetteRuns | RunBoundaries | ShiftedRunBoundaries, nodes: np.ndarray) -> int:
-    """The bytes of ``nodes``' runs that scoring reads: each run's start, end and owner, or its two boundaries'
-    columns and signs."""
+def _bytes_read(runs: SilhouetteRuns | RunBoundaries | ShiftedRunBoundaries, rows: np.ndarray) -> int:
+    """The bytes of ``rows``' runs that scoring reads: each run's start and end and the two int64 indices that
+    gather them (the run's and its row's), or its two boundaries' columns and signs."""
     if isinstance(runs, RunBoundaries | ShiftedRunBoundaries):
         matrix = runs.matrix
-        return int((matrix.indptr[nodes + 1] - matrix.indptr[nodes]).sum()) * (
+        return int((matrix.indptr[rows + 1] - matrix.indptr[rows]).sum()) * (
             matrix.indices.itemsize + matrix.data.itemsize
         )
-    return int((runs.ptr[nodes + 1] - runs.ptr[nodes]).sum()) * (
-        runs.starts.itemsize + runs.ends.itemsize + runs.owner.itemsize
+    return int((runs.ptr[rows + 1] - runs.ptr[rows]).sum()) * (
+        runs.starts.itemsize + runs.ends.itemsize + 2 * np.dtype(np.int64).itemsize
     )
 
 

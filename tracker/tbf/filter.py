@@ -106,15 +106,11 @@ class TreeFilter:
         self.space, self.spot_pixels = space, spot_pixels
         self._prior = PosePrior(samples.poses, motion, transitions=transitions, space=space)
         self._stacks = [samples.silhouettes(level.resolution) for level in tree.levels]
-        # Per level and view, the representatives' runs in node order (a level scored whole reads them straight
-        # through); the top level's, scored whole at frame 0 and, with a jump share, at every frame, as run
-        # boundaries (the coarsest resolution: its matrix is small), each moved back by its spot pixel if any.
-        self.level_runs = [
-            tuple(stack.runs.subset(level.representatives) for stack in stacks)
-            for stacks, level in zip(self._stacks, tree.levels, strict=True)
-        ]
+        # The top level, scored whole at frame 0 and, with a jump share, at every frame: its representatives as run
+        # boundaries per view (the coarsest resolution: the matrix is small), each moved back by its spot pixel if
+        # any. The levels below score a few children of the survivors each frame, from the set's own runs.
         top = tree.levels[0].representatives
-        self.level_runs[0] = tuple(
+        self.top_boundaries = tuple(
             RunBoundaries(stack.masks(top))
             if spot_pixels is None
             else ShiftedRunBoundaries(stack.masks(top), np.rint(spot_pixels[0][top, view]))
@@ -258,15 +254,18 @@ class TreeFilter:
     ) -> np.ndarray:
         """`score_view` with the observation's scorer made; with spot pixels, each representative moved from its
         spot to the reference's (`shifts`)."""
-        runs = self.level_runs[level][view]
-        if self.spot_pixels is None:
-            return scorer.scores_of_runs(runs, nodes)
+        if level == 0 and self.spot_pixels is None:
+            return scorer.scores_of_runs(self.top_boundaries[view], nodes)
         if level == 0:  # every node at once (ShiftedRunBoundaries)
-            scores = scorer.scores_of_placed(runs, np.rint(self.spot_pixels[0][self._reference, view]))
+            reference = np.rint(self.spot_pixels[0][self._reference, view])
+            scores = scorer.scores_of_placed(self.top_boundaries[view], reference)
             return scores if nodes is None else scores[nodes]
-        nodes = np.arange(len(runs)) if nodes is None else nodes
-        samples = self.tree.levels[level].representatives[nodes]
-        return scorer.scores_of_shifted(runs, nodes, self.shifts(level, view, samples, self._reference))
+        representatives = self.tree.levels[level].representatives
+        samples = representatives if nodes is None else representatives[nodes]
+        runs = self._stacks[level][view].runs
+        if self.spot_pixels is None:
+            return scorer.scores_of_runs(runs, samples)
+        return scorer.scores_of_shifted(runs, samples, self.shifts(level, view, samples, self._reference))
 
     def shifts(self, level: int, view: int, samples: np.ndarray, reference: int) -> np.ndarray:
         """``(len(samples), 2)`` the whole pixels ``(du, dv)`` by which ``samples`` are moved at ``level`` in view

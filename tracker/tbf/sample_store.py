@@ -97,11 +97,10 @@ def load(folder: Path, key: str, resolutions, check: Literal["sampled", "full"] 
         arrays[name] = np.load(path, mmap_mode="r")
         if list(arrays[name].shape) != expected["shape"]:
             raise ValueError(f"{path.name} has shape {arrays[name].shape}, expected {expected['shape']}")
-    runs = {}
-    for resolution in resolutions:
-        starts, ends, ptr = (np.asarray(arrays[runs_name(resolution, part)]) for part in RUN_PARTS)
-        owner = np.repeat(np.arange(len(ptr) - 1, dtype=np.int32), np.diff(ptr))
-        runs[tuple(resolution)] = SilhouetteRuns(starts, ends, ptr, owner)
+    runs = {
+        tuple(resolution): SilhouetteRuns(*(np.asarray(arrays[runs_name(resolution, part)]) for part in RUN_PARTS))
+        for resolution in resolutions
+    }
     return PoseSampleSet(
         poses=np.asarray(arrays["poses"]),
         windows={tuple(r): tuple(meta["windows"][resolution_name(r)]) for r in resolutions},

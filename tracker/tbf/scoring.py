@@ -16,6 +16,7 @@ same runs, moved (`SilhouetteRuns.shifted_sums`, `ShiftedRunBoundaries`).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any
 
@@ -33,7 +34,12 @@ class SilhouetteRuns:
     starts: np.ndarray  # (runs,) int32
     ends: np.ndarray  # (runs,) int32, exclusive
     ptr: np.ndarray  # (n + 1,) int64
-    owner: np.ndarray  # (runs,) int32: the silhouette of each run
+
+    @functools.cached_property
+    def owner(self) -> np.ndarray:
+        """``(runs,)`` int32: the silhouette of each run (made when first asked: scoring every silhouette at once
+        needs it, a few silhouettes' scoring gathers its own)."""
+        return np.repeat(np.arange(len(self), dtype=np.int32), np.diff(self.ptr))
 
     @classmethod
     def from_masks(cls, masks: np.ndarray, block: int = 1024) -> SilhouetteRuns:
@@ -52,9 +58,8 @@ class SilhouetteRuns:
             counts.append(np.bincount(rows[rising], minlength=len(chunk)))
         counts = np.concatenate(counts) if counts else np.zeros(0, np.int64)
         ptr = np.r_[0, np.cumsum(counts)].astype(np.int64)
-        owner = np.repeat(np.arange(len(counts), dtype=np.int32), counts)
         empty = np.zeros(0, np.int32)
-        return cls(np.concatenate(starts) if starts else empty, np.concatenate(ends) if ends else empty, ptr, owner)
+        return cls(np.concatenate(starts) if starts else empty, np.concatenate(ends) if ends else empty, ptr)
 
     def __len__(self) -> int:
         return len(self.ptr) - 1
@@ -116,8 +121,7 @@ class SilhouetteRuns:
         """The runs of silhouettes ``rows``, in that order (e.g. a tree level's representatives by node)."""
         index, owner = self.runs_of(rows)
         counts = np.bincount(owner, minlength=len(rows))
-        ptr = np.r_[0, np.cumsum(counts)].astype(np.int64)
-        return SilhouetteRuns(self.starts[index], self.ends[index], ptr, owner.astype(np.int32))
+        return SilhouetteRuns(self.starts[index], self.ends[index], np.r_[0, np.cumsum(counts)].astype(np.int64))
 
     def runs_of(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The run indices of silhouettes ``rows``, and for each the position in ``rows`` it belongs to."""
