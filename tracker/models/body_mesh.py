@@ -19,6 +19,7 @@ from tracker.models.textures import block_noise_texture
 from tracker.render.mesh import SurfaceMesh, vertex_normals
 from tracker.tol import ZERO_LENGTH
 
+POSES_AT_ONCE = 4096  # poses whose joints `BodyMesh.joint_positions` computes together
 SKIN_RGB = (214, 168, 140)  # the plain skin, and the tint of the textured one
 
 
@@ -107,8 +108,14 @@ class BodyMesh:
         return (rotations[0], heads[0]) if poses.ndim == 1 else (rotations, heads)
 
     def joint_positions(self, pose: np.ndarray) -> np.ndarray:
-        """``(J, 3)`` posed joint positions (``(n, J, 3)`` for ``n`` poses)."""
-        return self.bone_transforms(pose)[1]
+        """``(J, 3)`` posed joint positions (``(n, J, 3)`` for ``n`` poses, `POSES_AT_ONCE` at a time: a sample
+        set's 50,000 poses' bone rotations at once would take most of a gigabyte)."""
+        pose = np.asarray(pose, dtype=np.float64)
+        if pose.ndim == 1 or len(pose) <= POSES_AT_ONCE:
+            return self.bone_transforms(pose)[1]
+        return np.concatenate(
+            [self.bone_transforms(pose[k : k + POSES_AT_ONCE])[1] for k in range(0, len(pose), POSES_AT_ONCE)]
+        )
 
     def posed_vertices(
         self,
