@@ -5,8 +5,8 @@ numbers, its figures and recordings, the machine and the commit.
 The steps (`STEPS`; each says what it runs and writes): paper 1's figures and its seeds table
 (`experiments.paper_1`), paper 2's experiment A with its control and its realism sweep (`experiments.experiment_a`);
 with ``--scale paper`` also experiment B on real held-out motion (`experiments.real_motion`), the plug-board's
-comparison of every tracker on every model (`experiments.combinations`) and the real-motion benchmark
-(`experiments.benchmark`).
+comparison of every tracker on every model (`experiments.combinations`), tree filtering's cost against its
+dictionary's size (`experiments.bench.scale`) and the real-motion benchmark (`experiments.benchmark`).
 
 ``--readme`` copies the steps table of the last ``reports/report.md`` into the README (its timings taken from a
 report, not typed by hand).
@@ -24,12 +24,20 @@ import pandas as pd
 
 from eval.runs import machine, markdown
 from experiments import benchmark, combinations, experiment_a, paper_1, real_motion
+from experiments.bench import scale
 from experiments.cli_runs import write_text
 from experiments.generated import README, markers, write_block
 from experiments.steps import Section, Step
 
 REPORTS = Path("reports")
-STEPS: tuple[Step, ...] = (*paper_1.STEPS, *experiment_a.STEPS, real_motion.STEP, combinations.STEP, benchmark.STEP)
+STEPS: tuple[Step, ...] = (
+    *paper_1.STEPS,
+    *experiment_a.STEPS,
+    real_motion.STEP,
+    combinations.STEP,
+    scale.STEP,
+    benchmark.STEP,
+)
 README_COMMAND = "python -m experiments.reproduce --readme"
 STEPS_BLOCK = "steps"  # report.md's steps table, between these markers
 
@@ -45,17 +53,20 @@ def run_steps(scale: str) -> list[tuple[Step, Section, float]]:
     return done
 
 
-def steps_table(done: list[tuple[Step, Section, float]]) -> str:
+def steps_table(done: list[tuple[Step, Section, float | None]]) -> str:
     rows = [
         {
             "step": step.title,
             "presets": ", ".join(f"`{preset}`" for preset in step.presets),
             "writes (in reports/)": ", ".join(f"`{output}`" for output in step.outputs),
-            "minutes": f"{minutes:.1f}",
+            "minutes": NOT_IN_REPORT if minutes is None else f"{minutes:.1f}",
         }
         for step, _, minutes in done
     ]
     return markdown(pd.DataFrame(rows))
+
+
+NOT_IN_REPORT = "not in that report"  # the minutes of a step the report was made without (added since)
 
 
 def commit() -> str:
@@ -89,7 +100,9 @@ def readme_from_report(report: Path = REPORTS / "report.md", readme: Path = READ
     if begin not in text:
         raise SystemExit(f"{report} has no steps table: run make reproduce first")
     table = text.split(begin, 1)[1].split(end, 1)[0].strip()
-    write_block(readme, "reproduce", README_COMMAND, table)
+    minutes = {row.split(" | ")[0].lstrip("| "): row.rstrip(" |").rsplit(" | ", 1)[1] for row in table.splitlines()[2:]}
+    known = [(step, Section("", ""), float(minutes[step.title]) if step.title in minutes else None) for step in STEPS]
+    write_block(readme, "reproduce", README_COMMAND, steps_table(known))
     print(f"wrote the steps table of {report} into {readme}")
 
 

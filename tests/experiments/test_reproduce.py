@@ -3,7 +3,7 @@
 import shutil
 
 from experiments.generated import README, markers
-from experiments.reproduce import README_COMMAND, STEPS, readme_from_report, steps_table
+from experiments.reproduce import NOT_IN_REPORT, README_COMMAND, STEPS, readme_from_report, steps_table
 from experiments.schemas import CONFIG_DIR
 from experiments.steps import Section
 
@@ -16,8 +16,8 @@ def test_every_step_runs_presets_that_exist_and_says_what_it_writes():
             assert (CONFIG_DIR / "experiment" / f"{preset}.yaml").exists(), preset
 
 
-def test_the_readme_takes_its_steps_table_from_a_report(tmp_path):
-    done = [(step, Section("", ""), 1.5 + k) for k, step in enumerate(STEPS)]
+def readme_rows_from(done, tmp_path) -> list[tuple[str, str]]:
+    """The README's (step, minutes) rows after copying a report of ``done`` into it."""
     begin, end = markers("steps", "make reproduce")
     report = tmp_path / "report.md"
     report.write_text(f"# Reproduction report\n\n{begin}\n{steps_table(done)}\n{end}\n")
@@ -25,9 +25,20 @@ def test_the_readme_takes_its_steps_table_from_a_report(tmp_path):
     readme_from_report(report, readme)
     text = readme.read_text()
     block = text.split(markers("reproduce", README_COMMAND)[0], 1)[1].split(markers("reproduce", README_COMMAND)[1])[0]
-    rows = [line for line in block.strip().splitlines()[2:]]
-    assert [row.split(" | ")[0].lstrip("| ") for row in rows] == [step.title for step in STEPS]
-    assert [row.rstrip(" |").rsplit(" | ", 1)[1] for row in rows] == [f"{1.5 + k:.1f}" for k in range(len(STEPS))]
+    rows = block.strip().splitlines()[2:]
+    return [(row.split(" | ")[0].lstrip("| "), row.rstrip(" |").rsplit(" | ", 1)[1]) for row in rows]
+
+
+def test_the_readme_takes_its_steps_table_from_a_report(tmp_path):
+    done = [(step, Section("", ""), 1.5 + k) for k, step in enumerate(STEPS)]
+    assert readme_rows_from(done, tmp_path) == [(step.title, f"{1.5 + k:.1f}") for k, step in enumerate(STEPS)]
+
+
+def test_a_step_the_report_was_made_without_is_listed_without_minutes(tmp_path):
+    done = [(step, Section("", ""), 2.0) for step in STEPS[:-2] + STEPS[-1:]]
+    rows = readme_rows_from(done, tmp_path)
+    assert [title for title, _ in rows] == [step.title for step in STEPS]
+    assert [minutes for _, minutes in rows] == ["2.0"] * (len(STEPS) - 2) + [NOT_IN_REPORT, "2.0"]
 
 
 def test_the_readme_lists_every_step_of_make_reproduce():
