@@ -143,7 +143,7 @@ def bench_build(overrides: list[str]) -> dict[str, float]:
         started = time.perf_counter()
         samples = sample_build.load_or_build(run.model, run.cameras[0], poses, f"{cache}/samples", build=settings.build)
         times["samples_s"], started = time.perf_counter() - started, time.perf_counter()
-        load_or_build_tree(samples, settings.thresholds, f"{cache}/trees")
+        load_or_build_tree(samples, settings.thresholds)
         times["tree_s"] = time.perf_counter() - started
         for name in ("first", "second"):
             again = build(compose([*overrides, f"tracker.cache_dir={cache}"]))

@@ -1,10 +1,11 @@
-"""A sample set on disk: ``<cache_dir>/<key>/`` with ``meta.json`` and one ``.npy`` per array.
+"""A sample set on disk: ``<cache_dir>/<key>/`` with its manifest ``meta.json`` and one ``.npy`` per array.
 
 Arrays: ``poses``, ``areas``, and per resolution the silhouettes' runs of inside pixels
-(``runs_<w>x<h>_{starts,ends,ptr}``, what the tree and the filter read; `tracker.tbf.samples`). ``meta.json``
-holds the key, the format, the windows and, per array, its shape, its size in bytes, a SHA-256 of all of it and a
-sampled digest (`sampled_digest`: its first and last 64 KiB and 62 blocks spread evenly between). Loading checks
-the key, the format, every size and shape and every sampled digest (``check="sampled"``: a truncated, swapped or
+(``runs_<w>x<h>_{starts,ends,ptr}``, what the tree and the filter read; `tracker.tbf.samples`). The manifest
+(`tracker.tbf.cache_manifest`, which also vouches for what is added later: derived values, trees) holds the key,
+the format, the windows and, per array, its shape, its size in bytes, a SHA-256 of all of it and a sampled digest
+(`sampled_digest`: its first and last 64 KiB and 62 blocks spread evenly between). Loading checks the key, the
+format, every size and shape and every sampled digest (``check="sampled"``: a truncated, swapped or
 damaged-at-the-ends file is caught in milliseconds), or every byte (``check="full"``: the SHA-256 of each array).
 Anything that fails is reported with a `ValueError` and rebuilt by `tracker.tbf.sample_build.load_or_build`, never
 used.
@@ -13,12 +14,12 @@ used.
 from __future__ import annotations
 
 import hashlib
-import json
 from pathlib import Path
 from typing import Literal
 
 import numpy as np
 
+from tracker.tbf import cache_manifest
 from tracker.tbf.samples import FORMAT_VERSION, PoseSampleSet, resolution_name
 from tracker.tbf.scoring import SilhouetteRuns
 
@@ -53,16 +54,8 @@ def sampled_digest(path: Path) -> str:
     return digest.hexdigest()
 
 
-def full_digest(path: Path) -> str:
-    digest = hashlib.sha256()
-    with path.open("rb") as file:
-        for block in iter(lambda: file.read(1 << 22), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
 def write_meta(folder: Path, key: str, resolutions, windows: dict[tuple[int, int], tuple[int, ...]]) -> None:
-    """``meta.json`` for the arrays already in ``folder`` (written last: a folder without it is incomplete)."""
+    """The manifest of the arrays already in ``folder`` (written last: a folder without it is incomplete)."""
     arrays = {}
     for name in array_names(resolutions):
         path = folder / f"{name}.npy"
@@ -70,7 +63,7 @@ def write_meta(folder: Path, key: str, resolutions, windows: dict[tuple[int, int
             "shape": list(np.load(path, mmap_mode="r").shape),
             "bytes": path.stat().st_size,
             "sampled": sampled_digest(path),
-            "sha256": full_digest(path),
+            "sha256": cache_manifest.full_digest(path),
         }
     meta = {
         "key": key,
@@ -79,11 +72,11 @@ def write_meta(folder: Path, key: str, resolutions, windows: dict[tuple[int, int
         "windows": {resolution_name(r): list(map(int, windows[r])) for r in resolutions},
         "arrays": arrays,
     }
-    (folder / "meta.json").write_text(json.dumps(meta, indent=2))
+    cache_manifest.write(folder, meta)
 
 
 def load(folder: Path, key: str, resolutions, check: Literal["sampled", "full"] = "sampled") -> PoseSampleSet:
-    meta = json.loads((folder / "meta.json").read_text())
+    meta = cache_manifest.read(folder)
     if meta.get("key") != key or meta.get("format") != FORMAT_VERSION:
         raise ValueError("its key or format does not match")
     arrays = {}
@@ -91,7 +84,7 @@ def load(folder: Path, key: str, resolutions, check: Literal["sampled", "full"] 
         expected, path = meta["arrays"][name], folder / f"{name}.npy"
         if path.stat().st_size != expected["bytes"]:
             raise ValueError(f"{path.name} has {path.stat().st_size} bytes, expected {expected['bytes']}")
-        found = full_digest(path) if check == "full" else sampled_digest(path)
+        found = cache_manifest.full_digest(path) if check == "full" else sampled_digest(path)
         if found != expected["sha256" if check == "full" else "sampled"]:
             raise ValueError(f"{path.name} does not match its checksum")
         arrays[name] = np.load(path, mmap_mode="r")

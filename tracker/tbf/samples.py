@@ -24,8 +24,6 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import json
-import logging
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,12 +31,11 @@ from typing import Protocol
 
 import numpy as np
 
-from tracker.atomic import exclusive, write_json
+from tracker.atomic import exclusive
 from tracker.geometry.cameras import Camera
+from tracker.tbf import cache_manifest
 from tracker.tbf.costs import Window
 from tracker.tbf.scoring import SilhouetteRuns, SilhouetteStack
-
-log = logging.getLogger(__name__)
 
 
 class Posable(Protocol):
@@ -62,29 +59,6 @@ RESOLUTIONS = LEVEL_RESOLUTIONS[::-1]  # as rendered: the finest first, the othe
 FORMAT_VERSION = 4  # 4: silhouettes kept as runs only (3 kept the label images too)
 
 
-def values_digest(values: dict[str, float]) -> str:
-    return hashlib.sha256(json.dumps(values, sort_keys=True).encode()).hexdigest()
-
-
-def read_derived(path: Path) -> dict[str, float]:
-    """The values kept in a set's ``derived.json``; none (all computed again, with a warning) when the file cannot be
-    read or its values do not match the digest written with them: damaged, cut short, or edited by hand."""
-    if not path.exists():
-        return {}
-    try:
-        stored = json.loads(path.read_text())
-        if "sha256" not in stored:
-            problem = "its values carry no digest: written by an older version"
-        elif values_digest(stored["values"]) == stored["sha256"]:
-            return stored["values"]
-        else:
-            problem = "its values do not match their digest"
-    except (OSError, ValueError, KeyError, TypeError) as error:
-        problem = f"it cannot be read ({type(error).__name__})"
-    log.warning("%s is damaged (%s): computing its values again", path, problem)
-    return {}
-
-
 @dataclass(frozen=True, eq=False)
 class PoseSampleSet:
     poses: np.ndarray  # (n, POSE_SIZE)
@@ -92,7 +66,7 @@ class PoseSampleSet:
     runs: dict[tuple[int, int], SilhouetteRuns]  # (width, height) -> every sample's runs of inside pixels in W
     areas: np.ndarray  # (n, parts) pixels of each part at the finest resolution
     key: str
-    folder: Path | None = None  # where it is cached (derived values are kept there too)
+    folder: Path | None = None  # where it is cached (derived values and trees are kept there too)
 
     def __len__(self) -> int:
         return len(self.poses)
@@ -106,15 +80,15 @@ class PoseSampleSet:
         return occlusion_flags(self.areas, area_threshold_px)
 
     def derived(self, name: str, compute: Callable[[], float]) -> float:
-        """A number derived from the set alone (e.g. a cost's calibration), computed once and kept with the set."""
+        """A number derived from the set alone (e.g. a cost's calibration), computed once and kept in the set's
+        manifest (`tracker.tbf.cache_manifest`)."""
         if self.folder is None:
             return compute()
-        path = self.folder / "derived.json"
-        with exclusive(self.folder.parent / f".{self.key}.derived.lock"):
-            known = read_derived(path)
+        with exclusive(self.folder.parent / f".{self.key}.derived.lock"):  # parallel jobs compute it once
+            known = cache_manifest.derived_values(self.folder)
             if name not in known:
                 known[name] = float(compute())
-                write_json(path, {"values": known, "sha256": values_digest(known)})
+                cache_manifest.add_derived(self.folder, name, known[name])
         return known[name]
 
 

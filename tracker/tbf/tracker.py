@@ -187,7 +187,7 @@ class TbfTracker(Tracker):
         self.thresholds = settings.thresholds
         if settings.node_shares is not None:
             self.thresholds = thresholds_for_shares(self.samples, settings.node_shares)
-        self.tree = load_or_build_tree(self.samples, self.thresholds, cache_dir / "trees")
+        self.tree = load_or_build_tree(self.samples, self.thresholds)
 
     @property
     def _placed_by_views(self) -> bool:

@@ -28,6 +28,7 @@ import numpy as np
 
 from tracker.atomic import atomic_path, exclusive
 from tracker.memo import DAMAGED_NPZ
+from tracker.tbf import cache_manifest
 from tracker.tbf.samples import LEVEL_RESOLUTIONS, PoseSampleSet, SampleViews
 from tracker.tbf.scoring import SilhouetteStack
 
@@ -85,39 +86,39 @@ def tree_key(samples: PoseSampleSet | SampleViews, thresholds: tuple[float, ...]
 
 
 def load_or_build_tree(
-    samples: PoseSampleSet | SampleViews,
-    thresholds: tuple[float, ...],
-    cache_dir: str | Path | None = None,
-    resolutions=LEVEL_RESOLUTIONS,
+    samples: PoseSampleSet | SampleViews, thresholds: tuple[float, ...], resolutions=LEVEL_RESOLUTIONS
 ) -> PoseTree:
-    """The tree of ``samples`` with T_l = ``thresholds`` (one per level), from ``cache_dir`` when cached intact."""
+    """The tree of ``samples`` with T_l = ``thresholds`` (one per level): from the folder of the (first view's)
+    cached set when its manifest vouches for it (`tracker.tbf.cache_manifest`), else built and kept there."""
     if len(thresholds) != len(resolutions):
         raise ValueError(f"{len(thresholds)} thresholds for {len(resolutions)} levels")
     key = tree_key(samples, thresholds, resolutions)
-    if cache_dir is None:
-        return _build_logged(samples, thresholds, resolutions, key, None)
-    path = Path(cache_dir) / f"tree-{key}.npz"
-    with exclusive(Path(cache_dir) / f".tree-{key}.lock"):  # parallel jobs of a sweep build it once
-        if path.exists():
-            try:
+    folder = SampleViews.of(samples).sets[0].folder
+    if folder is None:  # a set kept in memory only
+        return _build_logged(samples, thresholds, resolutions, key)
+    file_name = f"tree-{key}.npz"
+    with exclusive(folder.parent / f".{folder.name}.{file_name}.lock"):  # parallel jobs of a sweep build it once
+        try:
+            path = cache_manifest.checked_file(folder, file_name)
+            if path is not None:
                 return _load(path, key, len(samples), thresholds, resolutions)
-            except DAMAGED_NPZ as problem:
-                log.warning("tree cache %s is damaged (%s): rebuilding it", path, problem)
-        return _build_logged(samples, thresholds, resolutions, key, path)
-
-
-def _build_logged(samples: PoseSampleSet, thresholds, resolutions, key: str, path: Path | None) -> PoseTree:
-    start = time.perf_counter()
-    tree = build_tree(samples, thresholds, resolutions, key)
-    log.info("built a pose tree of %s nodes per level in %.1f s", tree.node_counts, time.perf_counter() - start)
-    if path is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_path(path) as temporary, open(temporary, "wb") as file:
+        except DAMAGED_NPZ as problem:
+            log.warning("tree cache %s is damaged (%s): rebuilding it", folder / file_name, problem)
+        tree = _build_logged(samples, thresholds, resolutions, key)
+        with atomic_path(folder / file_name) as temporary, open(temporary, "wb") as file:
             np.savez(
                 file,
                 key=key,
                 **{f"{name}_{k}": getattr(level, name) for k, level in enumerate(tree.levels) for name in _ARRAYS},
             )
+        cache_manifest.add_file(folder, file_name)
+        return tree
+
+
+def _build_logged(samples: PoseSampleSet, thresholds, resolutions, key: str) -> PoseTree:
+    start = time.perf_counter()
+    tree = build_tree(samples, thresholds, resolutions, key)
+    log.info("built a pose tree of %s nodes per level in %.1f s", tree.node_counts, time.perf_counter() - start)
     return tree
 
 
