@@ -1,6 +1,7 @@
 """``python -m experiments.bench abis [--frames N] [--size WxH]``: AbIS estimation per frame with ``lm`` and with
 ``sd`` on the same rendered frames (the rendering of the synthetic input excluded, the tracker's visibility z-buffer
-included), with their ratio measured in the same run."""
+included), with their ratio measured in the same run; and the evaluation's point-to-surface distances of each
+``lm`` estimate (every part, both ways: `tracker.evaluation.arm.surface_distance_mm`)."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ import time
 import numpy as np
 
 from experiments.bench.common import default_scene, report_machine
+from tracker.evaluation.arm import surface_distance_mm
 from tracker.models.dsq import PARAM_INDEX
 from tracker.render.offscreen import SceneRenderer
 from tracker.sequence import simulate
@@ -46,6 +48,7 @@ def bench_abis(frames: int, width: int, height: int) -> dict[str, dict[str, floa
         b1, r2 = PARAM_INDEX["b1"], PARAM_INDEX["r2"]
         results[optimizer] = {
             "estimate_ms": statistics.median(per_frame),
+            **({"point_to_surface_ms": point_to_surface_ms(arm, truths, estimates)} if optimizer == "lm" else {}),
             **{f"{stage}_ms": statistics.median(values) for stage, values in stages.items()},
             "part2_b1_rms_pct": 100
             * float(np.sqrt(np.mean((estimates[:, 1, b1] - truths[:, 1, b1]) ** 2)) / np.ptp(truths[:, 1, b1])),
@@ -54,10 +57,32 @@ def bench_abis(frames: int, width: int, height: int) -> dict[str, dict[str, floa
     return results
 
 
+def point_to_surface_ms(arm, truths: np.ndarray, estimates: np.ndarray) -> float:
+    """Median ms per frame of the evaluation's point-to-surface distances (every part, both ways)."""
+    per_frame = []
+    for truth, estimate in zip(truths[1:], estimates[1:], strict=True):
+        start = time.perf_counter()
+        surfaces = zip(
+            arm.sample_points(estimate),
+            arm.sample_points(truth),
+            arm.surface_vertices(estimate),
+            arm.surface_vertices(truth),
+            strict=True,
+        )
+        for points in surfaces:
+            surface_distance_mm(*points, arm.topology.faces)
+        per_frame.append(1e3 * (time.perf_counter() - start))
+    return statistics.median(per_frame)
+
+
 def report_abis(results: dict[str, dict[str, float]], frames: int, width: int, height: int) -> None:
     log.info("AbIS estimation, paper-1 arm, 3 views at %dx%d, median over frames 1..%d:", width, height, frames - 1)
     for optimizer, figures in results.items():
-        stages = ", ".join(f"{k[:-3]} {v:.1f}" for k, v in figures.items() if k.endswith("_ms") and k != "estimate_ms")
+        stages = ", ".join(
+            f"{k[:-3]} {v:.1f}"
+            for k, v in figures.items()
+            if k.endswith("_ms") and k not in ("estimate_ms", "point_to_surface_ms")
+        )
         log.info(
             "  %s  %6.1f ms/frame  (%s)  part2 b1 RMS %.1f%% of range, r2 RMS %.2f deg",
             optimizer,
@@ -67,6 +92,10 @@ def report_abis(results: dict[str, dict[str, float]], frames: int, width: int, h
             figures["part2_r2_rms_deg"],
         )
     log.info("  sd / lm time ratio: %.2f", results["sd"]["estimate_ms"] / results["lm"]["estimate_ms"])
+    log.info(
+        "evaluation: point-to-surface distances of the lm estimates, every part both ways: %.1f ms/frame",
+        results["lm"]["point_to_surface_ms"],
+    )
 
 
 def run(args: argparse.Namespace) -> dict:

@@ -1,25 +1,20 @@
 """Distances from points to a triangle mesh: the nearest point on the surface, not the nearest vertex.
 
 `point_triangle_distance` is Ericson's closest point on a triangle (Real-Time Collision Detection, 5.1.5), for many
-point-triangle pairs at once. `point_mesh_distance` is exact, with far fewer pairs than every point against every
-triangle: each point is first tried against the `CANDIDATES` triangles whose centroids are nearest to it, which
-bounds its distance from above (``best``); then against every other triangle that could be nearer. No point of a
-triangle is farther from its centroid than its farthest corner (its radius ``r``), so only a triangle whose
-centroid lies within ``best + r`` of the point can be nearer. The triangles are grouped by radius, each group's
-radii within a factor of `RADIUS_STEP`, and each group's centroids are searched (a KD-tree) within ``best`` plus its
-largest radius: slivers and fans do not widen the search for the rest.
+point-triangle pairs at once. `point_mesh_distance` is exact: libigl's AABB tree over the triangles finds each
+point's nearest triangle; the distance is then Ericson's to that triangle and to every triangle sharing a corner
+with it, the smallest kept. A point nearest to an edge or a corner is as near to the triangles around it (a tie in
+exact arithmetic whose rounding differs from triangle to triangle): whichever of them the tree returns, the same
+bits come out as from trying every triangle.
 """
 
 from __future__ import annotations
 
-import itertools
+import functools
 
+import igl
 import numpy as np
-from scipy.spatial import cKDTree
-
-CANDIDATES = 4  # triangles tried first per point, by centroid distance: the distance's first upper bound
-RADIUS_STEP = 2.0  # a group of triangles spans radii within this factor
-SPHERE_SLACK_M = 1e-9  # a triangle counts as possibly nearer within this: rounding never drops the nearest
+from scipy import sparse
 
 
 def point_triangle_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -57,35 +52,50 @@ def _dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 def point_mesh_distance(points: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """``(n,)`` distance from each point ``(n, 3)`` to the nearest point of the mesh's surface (exact; see the
     module)."""
-    points = np.asarray(points, dtype=np.float64)
-    corners = np.asarray(vertices, dtype=np.float64)[np.asarray(faces)]  # (m, 3, 3)
-    centroids = corners.mean(axis=1)
-    radii = np.linalg.norm(corners - centroids[:, None], axis=2).max(axis=1)
-    k = min(CANDIDATES, len(corners))
-    _, nearest = cKDTree(centroids).query(points, k=k)
-    nearest = np.asarray(nearest).reshape(len(points), k)
-    best = _pairs(points, corners, np.repeat(np.arange(len(points)), k), nearest.ravel()).reshape(-1, k).min(axis=1)
-    for group in _radius_groups(radii):
-        lists = cKDTree(centroids[group]).query_ball_point(points, best + radii[group].max() + SPHERE_SLACK_M)
-        point = np.repeat(np.arange(len(points)), [len(found) for found in lists])
-        triangle = group[np.fromiter(itertools.chain.from_iterable(lists), np.int64, len(point))]
-        near = (
-            np.linalg.norm(points[point] - centroids[triangle], axis=1) - radii[triangle]
-            <= best[point] + SPHERE_SLACK_M
-        )
-        point, triangle = point[near], triangle[near]
-        if len(point):
-            np.minimum.at(best, point, _pairs(points, corners, point, triangle))
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    vertices = np.ascontiguousarray(vertices, dtype=np.float64)
+    faces = np.ascontiguousarray(faces, dtype=np.int64)
+    _, nearest, closest = igl.point_mesh_squared_distance(points, vertices, faces)
+    nearest = np.asarray(nearest, dtype=np.int64).reshape(-1)
+    a, b, c = (vertices[faces[nearest, j]] for j in range(3))
+    # Inside its triangle, a point's nearest point is nearer than any other triangle's; on an edge or at a corner
+    # (or on a sliver, whose coordinates are NaN), the triangles around it tie and are tried too.
+    on_edge = ~(barycentric(closest, a, b, c).min(axis=1) > ON_EDGE)
+    ptr, around = _corner_neighbours(faces.tobytes(), len(vertices))
+    counts = np.where(on_edge, ptr[nearest + 1] - ptr[nearest], 1)
+    first = np.where(on_edge, ptr[nearest], -1)
+    point = np.repeat(np.arange(len(points)), counts)
+    offsets = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    triangle = np.where(np.repeat(on_edge, counts), around[np.repeat(first, counts) + offsets], nearest[point])
+    corners = vertices[faces[triangle]]
+    best = np.full(len(points), np.inf)
+    np.minimum.at(best, point, point_triangle_distance(points[point], corners[:, 0], corners[:, 1], corners[:, 2]))
     return best
 
 
-def _radius_groups(radii: np.ndarray) -> list[np.ndarray]:
-    """The triangles' indices in groups of radii within a factor of `RADIUS_STEP` (degenerate ones with the
-    smallest)."""
-    smallest = max(float(radii[radii > 0].min()) if np.any(radii > 0) else 1.0, 1e-300)
-    level = np.floor(np.log(np.maximum(radii, smallest) / smallest) / np.log(RADIUS_STEP)).astype(np.int64)
-    return [np.flatnonzero(level == value) for value in np.unique(level)]
+ON_EDGE = 1e-6  # a barycentric coordinate this small puts the nearest point on the triangle's edge
 
 
-def _pairs(points: np.ndarray, corners: np.ndarray, point_index: np.ndarray, triangle_index: np.ndarray) -> np.ndarray:
-    return point_triangle_distance(points[point_index], *(corners[triangle_index, j] for j in range(3)))
+def barycentric(points: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """``(n, 3)`` barycentric coordinates of each point (in its triangle's plane) in its triangle ``(a, b, c)``."""
+    ab, ac, ap = b - a, c - a, points - a
+    d00, d01, d11 = _dot(ab, ab), _dot(ab, ac), _dot(ac, ac)
+    d20, d21 = _dot(ap, ab), _dot(ap, ac)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        denominator = d00 * d11 - d01 * d01
+        v, w = (d11 * d20 - d01 * d21) / denominator, (d00 * d21 - d01 * d20) / denominator
+    return np.stack([1.0 - v - w, v, w], axis=1)
+
+
+@functools.lru_cache(maxsize=16)
+def _corner_neighbours(face_bytes: bytes, vertex_count: int) -> tuple[np.ndarray, np.ndarray]:
+    """For a mesh's faces (their bytes, int64 ``(m, 3)``): every face's own index and those of the faces sharing a
+    corner with it, as ``around[ptr[f]:ptr[f + 1]]``."""
+    faces = np.frombuffer(face_bytes, dtype=np.int64).reshape(-1, 3)
+    incidence = sparse.csr_matrix(
+        (np.ones(faces.size, np.int8), (np.repeat(np.arange(len(faces)), 3), faces.ravel())),
+        shape=(len(faces), vertex_count),
+    )
+    shares = (incidence @ incidence.T).tocsr()  # faces sharing at least one corner (and each face itself)
+    shares.sort_indices()
+    return shares.indptr.astype(np.int64), shares.indices.astype(np.int64)
