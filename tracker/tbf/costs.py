@@ -82,7 +82,18 @@ def inside_distance(silhouette: np.ndarray) -> np.ndarray:
 def _inside_distance_in_box(boxed: np.ndarray) -> np.ndarray:
     """`inside_distance` of a silhouette cropped to its bounding box, on the crop: framed by one pixel outside, as
     a pixel's nearest outside pixel lies in that frame or nearer."""
-    return euclidean_distance(np.pad(boxed, 1))[1:-1, 1:-1]
+    return _inside_distance_framed(_framed(boxed))
+
+
+def _framed(boxed: np.ndarray) -> np.ndarray:
+    """The crop framed by one pixel outside (as ``np.pad(boxed, 1)``, without its cost on small images)."""
+    framed = np.zeros((boxed.shape[0] + 2, boxed.shape[1] + 2), bool)
+    framed[1:-1, 1:-1] = boxed
+    return framed
+
+
+def _inside_distance_framed(framed: np.ndarray) -> np.ndarray:
+    return euclidean_distance(framed)[1:-1, 1:-1]
 
 
 def outside_distance(silhouette: np.ndarray) -> np.ndarray:
@@ -104,10 +115,16 @@ def medial_axis_distance(silhouette: np.ndarray) -> np.ndarray:
 def _medial_axis_distance_in_box(boxed: np.ndarray) -> np.ndarray:
     """`medial_axis_distance` of a silhouette cropped to its bounding box, on the crop: thinned and measured framed
     by one pixel outside, as thinning sees only a pixel's neighbours and the centre line lies inside."""
-    axis = skeletonize(np.pad(boxed, 1))
+    return _medial_axis_distance_framed(_framed(boxed))
+
+
+def _medial_axis_distance_framed(framed: np.ndarray) -> np.ndarray:
+    axis = skeletonize(framed)
     if not axis.any():
         raise EmptySilhouette("the silhouette is empty: it has no medial axis")
-    return np.where(boxed, euclidean_distance(~axis)[1:-1, 1:-1], 0.0)
+    distance = euclidean_distance(~axis)[1:-1, 1:-1]
+    distance[~framed[1:-1, 1:-1]] = 0.0
+    return distance
 
 
 @COSTS.register("xor")
@@ -136,8 +153,8 @@ def nwxor(inside: np.ndarray) -> np.ndarray:
     """Eq 9: XOR weighted by the inside distance normalised by the local thickness, outside scaled to the same
     maximum (w' makes the two terms' maxima equal)."""
     box = bounding_box(inside)
-    boxed = inside[box]
-    core, to_axis = _inside_distance_in_box(boxed), _medial_axis_distance_in_box(boxed)
+    boxed, framed = inside[box], _framed(inside[box])
+    core, to_axis = _inside_distance_framed(framed), _medial_axis_distance_framed(framed)
     outer = outside_distance(inside)
     inner = np.divide(core, core + to_axis, out=np.zeros_like(core), where=boxed)
     farthest = outer.max()
