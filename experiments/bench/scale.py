@@ -167,13 +167,16 @@ def plot(table: pd.DataFrame, slopes: dict[str, float], path: Path) -> None:
 
     figure, axes = plt.subplots(1, 2, figsize=(10, 4))
     for experiment, rows in table.groupby("experiment", sort=False):
-        label = f"{experiment} ({rows['views'].iloc[0]} views): exponent {slopes[experiment]:.2f}"
+        label = f"{experiment} ({rows['views'].iloc[0]} view(s)): exponent {slopes[experiment]:.2f}"
         axes[0].loglog(rows["samples"], rows["ms_per_frame"], "o-", label=label)
         axes[1].loglog(rows["samples"], rows["build_peak_gib"], "o-", label=f"{experiment}: build")
         axes[1].loglog(rows["samples"], rows["run_peak_gib"], "s--", label=f"{experiment}: run")
     axes[0].set(xlabel="samples", ylabel="ms / frame (median)", title="tree filtering per frame")
     axes[1].set(xlabel="samples", ylabel="peak resident memory (GiB)", title="memory")
+    ticks = sorted(table["samples"].unique())
     for axis in axes:
+        axis.set_xticks(ticks, [f"{count / 1000:.0f}k" for count in ticks], minor=False)
+        axis.set_xticks([], minor=True)
         axis.legend(fontsize=7)
         axis.grid(True, which="both", alpha=0.3)
     figure.tight_layout()
