@@ -131,6 +131,7 @@ class GroundPlacement:
         self.stack = samples.silhouettes(LEVEL_RESOLUTIONS[-1])
         self.pixel = camera.width / LEVEL_RESOLUTIONS[-1][0]  # camera pixels per pixel of the finest level
         self._feet: dict[int, tuple[tuple[float, float], np.ndarray | None]] = {}
+        self._centroids: dict[int, tuple[float, float] | None] = {}
 
     def feet(self, sample: int) -> tuple[tuple[float, float], np.ndarray | None]:
         """A sample's feet: their pixel ``(u, v)`` at the finest level and where they meet the ground (None: above
@@ -141,6 +142,13 @@ class GroundPlacement:
             pixel = (u + u0, v + v0)
             self._feet[sample] = pixel, ground_point(self.camera, *(self.pixel * np.asarray(pixel)))
         return self._feet[sample]
+
+    def centroid(self, sample: int) -> tuple[float, float] | None:
+        """A sample's silhouette centroid ``(u, v)`` in its window's pixels at the finest level (None: empty)."""
+        if sample not in self._centroids:
+            rows, columns = np.nonzero(self.stack.mask(sample))
+            self._centroids[sample] = (columns.mean(), rows.mean()) if len(columns) else None
+        return self._centroids[sample]
 
     def place(self, observed: np.ndarray) -> Placement | None:
         """The observed silhouette (finest level) scaled and moved onto the reference sample's feet (None: nobody
@@ -162,13 +170,13 @@ class GroundPlacement:
         self.reference = sample
         pose = np.asarray(self.samples.poses[sample], dtype=np.float64).copy()
         u0, v0 = self.stack.window[:2]
-        sample_v, sample_u = np.nonzero(self.stack.mask(sample))
+        centroid = self.centroid(sample)
         placed_v, placed_u = np.nonzero(placement.silhouette)
-        if not len(sample_u) or not len(placed_u):
+        if centroid is None or not len(placed_u):
             return pose
         # The sample's silhouette moved onto the placed one's centroid: where its root then is, seen back in the
         # observed image, on the ray through that pixel at the depth the placement's scale says.
-        shift = np.array([placed_u.mean() - sample_u.mean() - u0, placed_v.mean() - sample_v.mean() - v0])
+        shift = np.array([placed_u.mean() - centroid[0] - u0, placed_v.mean() - centroid[1] - v0])
         root_pixel, root_depth = self.camera.project(pose[None, :3])
         seen = self.pixel * placement.to_observed(root_pixel[0] / self.pixel + shift)
         ray = np.array([(seen[0] - self.camera.cx) / self.camera.fx, (seen[1] - self.camera.cy) / self.camera.fy, 1.0])

@@ -162,11 +162,10 @@ class TreeFilter:
         leaves, leaf_likelihood, evaluated, kept = self._descend(prior, observed, timings)
         start = time.perf_counter()
         members = self.tree.leaf_members(leaves)
+        likelihood_of_leaf = np.empty(len(self.tree.levels[-1]))
+        likelihood_of_leaf[leaves] = leaf_likelihood
         leaf_of = self.tree.levels[-1].node_of_sample[members]
-        likelihood_of_leaf = dict(zip(leaves.tolist(), leaf_likelihood.tolist(), strict=True))
-        log_posterior = np.array([likelihood_of_leaf[leaf] for leaf in leaf_of.tolist()]) + np.log(
-            np.maximum(prior[members], TINY)
-        )
+        log_posterior = likelihood_of_leaf[leaf_of] + np.log(np.maximum(prior[members], TINY))
         weights = np.exp(log_posterior - log_posterior.max())
         weights[prior[members] <= 0] = 0.0
         posterior = np.zeros(len(prior))
