@@ -74,25 +74,24 @@ def inside_distance(silhouette: np.ndarray) -> np.ndarray:
     """D_P: per pixel of the silhouette, the Euclidean distance to the nearest pixel outside it (0 outside).
     The image border counts as outside."""
     distance = np.zeros(silhouette.shape)
-    box = bounding_box(silhouette)
-    distance[box] = _inside_distance_in_box(silhouette[box])
+    box, framed = _framed_box(silhouette)
+    distance[box] = _inside_distance_in_frame(framed)
     return distance
 
 
-def _inside_distance_in_box(boxed: np.ndarray) -> np.ndarray:
-    """`inside_distance` of a silhouette cropped to its bounding box, on the crop: framed by one pixel outside, as
-    a pixel's nearest outside pixel lies in that frame or nearer."""
-    return _inside_distance_framed(_framed(boxed))
+def _framed_box(silhouette: np.ndarray) -> tuple[tuple[slice, slice], np.ndarray]:
+    """The silhouette's `bounding_box`, and its crop framed by one pixel outside (as ``np.pad(crop, 1)``, without
+    its cost on small images): the inner terms are measured on it, as a pixel's nearest outside pixel lies in that
+    frame or nearer and thinning sees only a pixel's neighbours."""
+    box = bounding_box(silhouette)
+    crop = silhouette[box]
+    framed = np.zeros((crop.shape[0] + 2, crop.shape[1] + 2), bool)
+    framed[1:-1, 1:-1] = crop
+    return box, framed
 
 
-def _framed(boxed: np.ndarray) -> np.ndarray:
-    """The crop framed by one pixel outside (as ``np.pad(boxed, 1)``, without its cost on small images)."""
-    framed = np.zeros((boxed.shape[0] + 2, boxed.shape[1] + 2), bool)
-    framed[1:-1, 1:-1] = boxed
-    return framed
-
-
-def _inside_distance_framed(framed: np.ndarray) -> np.ndarray:
+def _inside_distance_in_frame(framed: np.ndarray) -> np.ndarray:
+    """`inside_distance` on a `_framed_box` crop, the frame left out."""
     return euclidean_distance(framed)[1:-1, 1:-1]
 
 
@@ -106,19 +105,14 @@ def outside_distance(silhouette: np.ndarray) -> np.ndarray:
 def medial_axis_distance(silhouette: np.ndarray) -> np.ndarray:
     """D_Pmed: per pixel of the silhouette, the Euclidean distance to its thinned centre line (skeleton); 0
     outside it."""
-    box = bounding_box(silhouette)
     distance = np.zeros(silhouette.shape)
-    distance[box] = _medial_axis_distance_in_box(silhouette[box])
+    box, framed = _framed_box(silhouette)
+    distance[box] = _medial_axis_distance_in_frame(framed)
     return distance
 
 
-def _medial_axis_distance_in_box(boxed: np.ndarray) -> np.ndarray:
-    """`medial_axis_distance` of a silhouette cropped to its bounding box, on the crop: thinned and measured framed
-    by one pixel outside, as thinning sees only a pixel's neighbours and the centre line lies inside."""
-    return _medial_axis_distance_framed(_framed(boxed))
-
-
-def _medial_axis_distance_framed(framed: np.ndarray) -> np.ndarray:
+def _medial_axis_distance_in_frame(framed: np.ndarray) -> np.ndarray:
+    """`medial_axis_distance` on a `_framed_box` crop, the frame left out."""
     axis = skeletonize(framed)
     if not axis.any():
         raise EmptySilhouette("the silhouette is empty: it has no medial axis")
@@ -140,8 +134,8 @@ def xor(inside: np.ndarray) -> np.ndarray:
 @COSTS.register("wxor")
 def wxor(inside: np.ndarray, *, w: NonNegative = 1.0) -> np.ndarray:
     """Eq 7-8: XOR weighted by the distance to the observed silhouette's contour, inside + w outside."""
-    box = bounding_box(inside)
-    core = _inside_distance_in_box(inside[box])
+    box, framed = _framed_box(inside)
+    core = _inside_distance_in_frame(framed)
     outer = outside_distance(inside)
     weights = np.multiply(outer, w, out=outer)
     weights[box] += core
@@ -152,11 +146,10 @@ def wxor(inside: np.ndarray, *, w: NonNegative = 1.0) -> np.ndarray:
 def nwxor(inside: np.ndarray) -> np.ndarray:
     """Eq 9: XOR weighted by the inside distance normalised by the local thickness, outside scaled to the same
     maximum (w' makes the two terms' maxima equal)."""
-    box = bounding_box(inside)
-    boxed, framed = inside[box], _framed(inside[box])
-    core, to_axis = _inside_distance_framed(framed), _medial_axis_distance_framed(framed)
+    box, framed = _framed_box(inside)
+    core, to_axis = _inside_distance_in_frame(framed), _medial_axis_distance_in_frame(framed)
     outer = outside_distance(inside)
-    inner = np.divide(core, core + to_axis, out=np.zeros_like(core), where=boxed)
+    inner = np.divide(core, core + to_axis, out=np.zeros_like(core), where=framed[1:-1, 1:-1])
     farthest = outer.max()
     weights = np.multiply(outer, inner.max() / farthest if farthest > 0 else 0.0, out=outer)
     weights[box] += inner
