@@ -56,12 +56,18 @@ def update(folder: Path, change: Callable[[dict[str, Any]], None]) -> None:
         write(folder, manifest)
 
 
+def _trusted_values(manifest: dict[str, Any]) -> dict[str, float] | None:
+    """The manifest's derived values, or None when they do not match their digest."""
+    section = manifest.get("derived", {})
+    values = section.get("values", {})
+    return values if not values or values_digest(values) == section.get("sha256") else None
+
+
 def derived_values(folder: Path) -> dict[str, float]:
     """The derived values the manifest holds; none (all computed again, with a warning) when they do not match
     their digest: edited by hand, or written by another version."""
-    section = read(folder).get("derived", {"values": {}})
-    values = section.get("values", {})
-    if values and values_digest(values) != section.get("sha256"):
+    values = _trusted_values(read(folder))
+    if values is None:
         log.warning(
             "the derived values in %s are damaged (they do not match their digest): computing them again", folder
         )
@@ -71,9 +77,7 @@ def derived_values(folder: Path) -> dict[str, float]:
 
 def add_derived(folder: Path, name: str, value: float) -> None:
     def change(manifest: dict[str, Any]) -> None:
-        values = manifest.get("derived", {}).get("values", {})
-        if values_digest(values) != manifest.get("derived", {}).get("sha256"):
-            values = {}  # damaged ones are not carried over
+        values = _trusted_values(manifest) or {}  # damaged ones are not carried over
         values[name] = value
         manifest["derived"] = {"values": values, "sha256": values_digest(values)}
 
