@@ -335,7 +335,8 @@ def test_a_damaged_cache_is_rebuilt_not_used(tmp_path):
     again, run_dir = _run(tmp_path, *arguments)
     assert again.returncode == 0, again.stderr
     log = (run_dir / "run.log").read_text()
-    assert "does not match its checksum): rebuilding" in log and "do not match their digest" in log, log
+    assert "tree cache" in log and "does not match its checksum): rebuilding" in log, log
+    assert log.count("is damaged") == 1 and log.count("are damaged (they do not match their digest)") == 1, log
     assert (run_dir / "metrics.json").read_bytes() == expected
     for manifest in manifests:
         manifest.write_text(manifest.read_text()[: len(manifest.read_text()) // 2])  # cut short
