@@ -62,11 +62,11 @@ def point_mesh_distance(points: np.ndarray, vertices: np.ndarray, faces: np.ndar
     # (or on a sliver, whose coordinates are NaN), the triangles around it tie and are tried too.
     on_edge = ~(barycentric(closest, a, b, c).min(axis=1) > ON_EDGE)
     ptr, around = _corner_neighbours(faces.tobytes(), len(vertices))
-    counts = np.where(on_edge, ptr[nearest + 1] - ptr[nearest], 1)
-    first = np.where(on_edge, ptr[nearest], -1)
-    point = np.repeat(np.arange(len(points)), counts)
-    offsets = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-    triangle = np.where(np.repeat(on_edge, counts), around[np.repeat(first, counts) + offsets], nearest[point])
+    edge = np.flatnonzero(on_edge)
+    first, counts = ptr[nearest[edge]], ptr[nearest[edge] + 1] - ptr[nearest[edge]]
+    gathered = np.arange(counts.sum()) + np.repeat(first - (np.cumsum(counts) - counts), counts)
+    point = np.r_[np.flatnonzero(~on_edge), np.repeat(edge, counts)]
+    triangle = np.r_[nearest[~on_edge], around[gathered]]
     corners = vertices[faces[triangle]]
     best = np.full(len(points), np.inf)
     np.minimum.at(best, point, point_triangle_distance(points[point], corners[:, 0], corners[:, 1], corners[:, 2]))
