@@ -38,10 +38,8 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=60)
     parser.add_argument("--samples", type=int, default=10_000, help="pose samples (silhouettes)")
     parser.add_argument("--experiment", default="tbf_table4c", help="tbf: the experiment preset")
-    parser.add_argument("--turns", type=_ints, default=[1, 2, 4, 8], help="scale: turns per dictionary (1,2,...)")
-    parser.add_argument(
-        "--experiments", type=_names, default=["tbf_paper_scale", "tbf_multi_view"], help="scale: presets (a,b)"
-    )
+    parser.add_argument("--turns", type=_ints, help="scale: turns per dictionary (1,2,...; the reproduce step's)")
+    parser.add_argument("--experiments", type=_names, help="scale: presets (a,b; the reproduce step's)")
     parser.add_argument("--cell", action="store_true", help=argparse.SUPPRESS)  # scale: one measuring process
     parser.add_argument("overrides", nargs="*", help="samples, tbf, scale: config overrides on top of the experiment")
     parser.add_argument("--size", default="320x240", help="WIDTHxHEIGHT of every view (render, abis)")

@@ -200,7 +200,8 @@ def run(args: argparse.Namespace) -> dict:
     if args.cell:  # the measuring process: its figures as its last line
         print(json.dumps(measure_cell(args.experiments[0], args.frames, args.overrides)), flush=True)
         return {}
-    table = scale_rows(args.experiments, args.turns, args.frames, args.overrides)
+    experiments, turns = args.experiments or list(STEP.presets), args.turns or STEP_TURNS
+    table = scale_rows(experiments, turns, args.frames, args.overrides)
     slopes, text = write_reports(table, REPORTS)
     log.info("%s\nwrote %s", text, REPORTS / "scale.md")
     return {"rows": table.to_dict("records"), "exponents": slopes}
