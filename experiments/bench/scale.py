@@ -30,7 +30,7 @@ import pandas as pd
 import psutil
 
 from eval.runs import markdown
-from experiments.bench.tbf import observations
+from experiments.bench.tbf import observations, start_tracker, stepped_ms
 from experiments.cli_runs import write_text
 from experiments.components import build, compose
 from experiments.steps import Section, Step
@@ -52,13 +52,9 @@ def measure_cell(experiment: str, frames: int, overrides: list[str]) -> dict[str
     run = build(compose([f"experiment={experiment}", *overrides]))
     tracker, frames = run.tracker, min(frames, run.settings.frames)
     start = time.perf_counter()
-    tracker.start(run.model, run.cameras, run.scene.params(run.model, 0), np.random.default_rng(0))
+    start_tracker(run)
     start_s = time.perf_counter() - start
-    per_frame = []
-    for observation in observations(run, frames):
-        step = time.perf_counter()
-        tracker.step(observation)
-        per_frame.append(1e3 * (time.perf_counter() - step))
+    per_frame = [stepped_ms(tracker, observation) for observation in observations(run, frames)]
     samples, views = len(tracker.filter.samples), len(run.cameras)
     return {"samples": samples, "views": views, "start_s": start_s, "ms_per_frame": statistics.median(per_frame)}
 

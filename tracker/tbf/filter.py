@@ -5,8 +5,9 @@ product of its views' likelihoods, its log-likelihood the sum of theirs, each vi
     prior     eq 14 at every sample from the previous posterior (`PosePrior`, sparse), occlusion flags of the
               previous estimate widening the occluded parts' sigmas (DM2);
     levels    from the top: the nodes under the surviving nodes of the level above are scored by their
-              representative's silhouette distance at the level's resolution (the observation's weight map is
-              computed once per level, and each representative is scored from its runs of inside pixels,
+              representative's silhouette distance at the level's resolution (the observation's weight maps,
+              one per level and view, are computed at the frame's start on the worker threads while the prior
+              is made, and each representative is scored from its runs of inside pixels,
               `tracker.tbf.scoring.ObservationScorer`); a node's posterior
               is ``exp(-d^2 / 2 sigma_l^2)`` (eq 10-11, vol(S) constant) times its members' prior mass; nodes
               below ``prune_fraction`` of the level's best are pruned;
@@ -21,6 +22,7 @@ Eq 10's sigma_l is ``likelihood_sigma`` times the cost's typical step between ne
 from __future__ import annotations
 
 import time
+from concurrent.futures import Future
 from dataclasses import dataclass
 from typing import Annotated
 
@@ -35,6 +37,7 @@ from tracker.tbf.motion import BODY_SPACE, PosePrior, PoseSpace, RandomWalk
 from tracker.tbf.samples import PoseSampleSet, SampleViews
 from tracker.tbf.scoring import ObservationScorer, RunBoundaries, ShiftedRunBoundaries
 from tracker.tbf.tree import PoseTree
+from tracker.threads import worker_pool
 from tracker.timing import elapsed_ms
 from tracker.tol import NEGLIGIBLE_PRIOR, TINY
 
@@ -150,6 +153,7 @@ class TreeFilter:
             raise ValueError("a filter with spot pixels scores from a reference sample's spot, and only such a filter")
         self._reference = reference
         timings: dict[str, float] = {}
+        scorers = self._scorers(observed)  # made on the worker threads while the prior is computed here
         start = time.perf_counter()
         if self._first:  # frame 0's prior is the initial Gaussian itself
             prior, terms = self._posterior.copy(), 0
@@ -159,7 +163,7 @@ class TreeFilter:
             if self.settings.jump_share > 0:
                 prior = (1 - self.settings.jump_share) * prior / prior.sum() + self.settings.jump_share / len(prior)
         timings["prior"] = elapsed_ms(start)
-        leaves, leaf_likelihood, evaluated, kept = self._descend(prior, observed, timings)
+        leaves, leaf_likelihood, evaluated, kept = self._descend(prior, scorers, timings)
         start = time.perf_counter()
         members = self.tree.leaf_members(leaves)
         likelihood_of_leaf = np.empty(len(self.tree.levels[-1]))
@@ -199,10 +203,11 @@ class TreeFilter:
         self._previous_flags = self._occluded[sample]
 
     def _descend(
-        self, prior: np.ndarray, observed: tuple[np.ndarray, ...], timings: dict[str, float]
+        self, prior: np.ndarray, scorers: list[list[Future]], timings: dict[str, float]
     ) -> tuple[np.ndarray, np.ndarray, list[int], list[int]]:
-        """Level by level from the top, the nodes under the survivors scored and pruned: the surviving leaves, their
-        log-likelihoods, and per level the nodes evaluated and kept."""
+        """Level by level from the top, the nodes under the survivors scored (``scorers``: per level, each view's
+        `ObservationScorer` to come) and pruned: the surviving leaves, their log-likelihoods, and per level the nodes
+        evaluated and kept."""
         survivors, node_likelihood = np.array([0]), np.zeros(0)
         evaluated, kept = [], []
         self.last_evaluated = []
@@ -213,8 +218,9 @@ class TreeFilter:
             nodes, mass = nodes[mass > 0], mass[mass > 0]
             if len(nodes) == 0:
                 raise RuntimeError("the prior gives no sample any weight")
-            observations = tuple(self.observation_at(k, view) for view in observed)
-            distances = self.score_level(k, observations, None if len(nodes) == len(level) else nodes)
+            level_scorers = [scorer.result() for scorer in scorers[k]]  # a view's failure raises here, in order
+            scored = None if len(nodes) == len(level) else nodes
+            distances = [self.scores_from(scorer, k, view, scored) for view, scorer in enumerate(level_scorers)]
             self.last_evaluated.append(nodes)
             log_likelihood = self.log_likelihood(k, distances)
             log_posterior = log_likelihood + np.log(mass)
@@ -242,11 +248,26 @@ class TreeFilter:
         ``nodes`` of ``level`` (all of them for None)."""
         return [self.score_view(level, view, observation, nodes) for view, observation in enumerate(observations)]
 
+    def _scorers(self, observed: tuple[np.ndarray, ...]) -> list[list[Future]]:
+        """Per level, each view's `ObservationScorer` of the observation at the level's resolution, made on the
+        worker threads (`tracker.threads`): the top level's first, as it is needed first, then the finest's, the
+        largest."""
+        top, *below = range(len(self.tree.levels))
+        pool = worker_pool()
+        made = {
+            (level, view): pool.submit(self._scorer, level, view, observation)
+            for level in (top, *reversed(below))
+            for view, observation in enumerate(observed)
+        }
+        return [[made[level, view] for view in range(len(observed))] for level in range(len(self.tree.levels))]
+
+    def _scorer(self, level: int, view: int, observed: np.ndarray) -> ObservationScorer:
+        """View ``view``'s observation's scorer at ``level`` (``observed`` at any level's resolution)."""
+        return ObservationScorer(self.cost, self.observation_at(level, observed), self._stacks[level][view].window)
+
     def score_view(self, level: int, view: int, observation: np.ndarray, nodes: np.ndarray | None = None) -> np.ndarray:
         """View ``view``'s `score_level`."""
-        return self.scores_from(
-            ObservationScorer(self.cost, observation, self._stacks[level][view].window), level, view, nodes
-        )
+        return self.scores_from(self._scorer(level, view, observation), level, view, nodes)
 
     def scores_from(
         self, scorer: ObservationScorer, level: int, view: int, nodes: np.ndarray | None = None
