@@ -1,10 +1,14 @@
-"""The worker pool: work submitted runs on other threads, and a forked child gets a pool of its own (the parent's
-threads do not exist in it; reusing its pool would wait forever)."""
+"""Jobs shared between the caller and the worker threads: each done once, by whoever reaches it first, its result
+or its exception handed to the caller; and a forked child gets workers of its own (the parent's threads do not
+exist in it; reusing its pool would wait forever)."""
 
 import multiprocessing
 import threading
+import time
 
-from tracker.threads import worker_pool
+import pytest
+
+from tracker.threads import TwoEndedJobs, worker_pool
 
 
 def _thread_name() -> str:
@@ -15,8 +19,31 @@ def _pool_answers_in_child(queue) -> None:
     queue.put(worker_pool().submit(_thread_name).result(timeout=10))
 
 
-def test_work_runs_on_the_worker_threads():
-    assert worker_pool().submit(_thread_name).result(timeout=10).startswith("worker")
+def test_every_job_is_done_once_and_its_result_handed_back():
+    done, lock = [], threading.Lock()
+
+    def job(index: int):
+        time.sleep(0.001)  # long enough for the workers to take some
+        with lock:
+            done.append((index, _thread_name()))
+        return index * index
+
+    jobs = TwoEndedJobs([lambda index=index: job(index) for index in range(40)])
+    assert [jobs.result(index) for index in range(40)] == [index * index for index in range(40)]
+    assert sorted(index for index, _ in done) == list(range(40))  # none twice
+    by_worker = [index for index, name in done if name.startswith("worker")]
+    assert by_worker and max(by_worker) == 39  # the workers start from the back
+
+
+def test_a_failed_job_raises_when_its_result_is_asked_for():
+    def fails():
+        raise ValueError("no silhouette")
+
+    jobs = TwoEndedJobs([lambda: 1, fails, lambda: 3])
+    assert jobs.result(0) == 1
+    with pytest.raises(ValueError, match="no silhouette"):
+        jobs.result(1)
+    assert jobs.result(2) == 3
 
 
 def test_a_forked_child_makes_its_own_pool():

@@ -6,8 +6,9 @@ product of its views' likelihoods, its log-likelihood the sum of theirs, each vi
               previous estimate widening the occluded parts' sigmas (DM2);
     levels    from the top: the nodes under the surviving nodes of the level above are scored by their
               representative's silhouette distance at the level's resolution (the observation's weight maps,
-              one per level and view, are computed at the frame's start on the worker threads while the prior
-              is made, and each representative is scored from its runs of inside pixels,
+              one per level and view, each made when the descent reaches it unless a worker thread, started
+              from the finest level's while the prior is made, has made it; each representative scored from its
+              runs of inside pixels,
               `tracker.tbf.scoring.ObservationScorer`); a node's posterior
               is ``exp(-d^2 / 2 sigma_l^2)`` (eq 10-11, vol(S) constant) times its members' prior mass; nodes
               below ``prune_fraction`` of the level's best are pruned;
@@ -21,8 +22,9 @@ Eq 10's sigma_l is ``likelihood_sigma`` times the cost's typical step between ne
 
 from __future__ import annotations
 
+import functools
 import time
-from concurrent.futures import Future
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Annotated
 
@@ -37,7 +39,7 @@ from tracker.tbf.motion import BODY_SPACE, PosePrior, PoseSpace, RandomWalk
 from tracker.tbf.samples import PoseSampleSet, SampleViews
 from tracker.tbf.scoring import ObservationScorer, RunBoundaries, ShiftedRunBoundaries
 from tracker.tbf.tree import PoseTree
-from tracker.threads import worker_pool
+from tracker.threads import TwoEndedJobs
 from tracker.timing import elapsed_ms
 from tracker.tol import NEGLIGIBLE_PRIOR, TINY
 
@@ -153,7 +155,7 @@ class TreeFilter:
             raise ValueError("a filter with spot pixels scores from a reference sample's spot, and only such a filter")
         self._reference = reference
         timings: dict[str, float] = {}
-        scorers = self._scorers(observed)  # made on the worker threads while the prior is computed here
+        scorers = self._scorers(observed)  # the worker threads start on them while the prior is made here
         start = time.perf_counter()
         if self._first:  # frame 0's prior is the initial Gaussian itself
             prior, terms = self._posterior.copy(), 0
@@ -203,7 +205,7 @@ class TreeFilter:
         self._previous_flags = self._occluded[sample]
 
     def _descend(
-        self, prior: np.ndarray, scorers: list[list[Future]], timings: dict[str, float]
+        self, prior: np.ndarray, scorers: list[list[Callable[[], ObservationScorer]]], timings: dict[str, float]
     ) -> tuple[np.ndarray, np.ndarray, list[int], list[int]]:
         """Level by level from the top, the nodes under the survivors scored (``scorers``: per level, each view's
         `ObservationScorer` to come) and pruned: the surviving leaves, their log-likelihoods, and per level the nodes
@@ -218,7 +220,7 @@ class TreeFilter:
             nodes, mass = nodes[mass > 0], mass[mass > 0]
             if len(nodes) == 0:
                 raise RuntimeError("the prior gives no sample any weight")
-            level_scorers = [scorer.result() for scorer in scorers[k]]  # a view's failure raises here, in order
+            level_scorers = [scorer() for scorer in scorers[k]]  # a view's failure raises here, in order
             scored = None if len(nodes) == len(level) else nodes
             distances = [self.scores_from(scorer, k, view, scored) for view, scorer in enumerate(level_scorers)]
             self.last_evaluated.append(nodes)
@@ -248,18 +250,21 @@ class TreeFilter:
         ``nodes`` of ``level`` (all of them for None)."""
         return [self.score_view(level, view, observation, nodes) for view, observation in enumerate(observations)]
 
-    def _scorers(self, observed: tuple[np.ndarray, ...]) -> list[list[Future]]:
-        """Per level, each view's `ObservationScorer` of the observation at the level's resolution, made on the
-        worker threads (`tracker.threads`): the top level's first, as it is needed first, then the finest's, the
-        largest."""
-        top, *below = range(len(self.tree.levels))
-        pool = worker_pool()
-        made = {
-            (level, view): pool.submit(self._scorer, level, view, observation)
-            for level in (top, *reversed(below))
-            for view, observation in enumerate(observed)
-        }
-        return [[made[level, view] for view in range(len(observed))] for level in range(len(self.tree.levels))]
+    def _scorers(self, observed: tuple[np.ndarray, ...]) -> list[list[Callable[[], ObservationScorer]]]:
+        """Per level, each view's `ObservationScorer` of the observation at the level's resolution, to ask for when
+        the descent reaches it: made then, unless a worker thread, starting from the finest level's, has made it
+        already (`tracker.threads.TwoEndedJobs`)."""
+        levels, views = len(self.tree.levels), len(observed)
+        jobs = TwoEndedJobs(
+            [
+                functools.partial(self._scorer, level, view, observed[view])
+                for level in range(levels)
+                for view in range(views)
+            ]
+        )
+        return [
+            [functools.partial(jobs.result, level * views + view) for view in range(views)] for level in range(levels)
+        ]
 
     def _scorer(self, level: int, view: int, observed: np.ndarray) -> ObservationScorer:
         """View ``view``'s observation's scorer at ``level`` (``observed`` at any level's resolution)."""
