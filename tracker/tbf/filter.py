@@ -23,6 +23,7 @@ Eq 10's sigma_l is ``likelihood_sigma`` times the cost's typical step between ne
 from __future__ import annotations
 
 import functools
+import operator
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -60,14 +61,6 @@ class FilterSettings:
 
     def __post_init__(self) -> None:
         validate(self)
-
-
-def summed(terms) -> np.ndarray:
-    """The views' terms added up, in the views' order (one view: its term as it is)."""
-    total = None
-    for term in terms:
-        total = term if total is None else total + term
-    return total
 
 
 @dataclass(frozen=True, eq=False)
@@ -243,42 +236,23 @@ class TreeFilter:
         resolution = tuple(self.tree.levels[level].resolution)
         return observed if observed.shape[::-1] == resolution else resize_silhouette(observed, *resolution)
 
-    def score_level(
-        self, level: int, observations: tuple[np.ndarray, ...], nodes: np.ndarray | None = None
-    ) -> list[np.ndarray]:
-        """Per view, the distances of its observation (at ``level``'s resolution) to the representatives of
-        ``nodes`` of ``level`` (all of them for None)."""
-        return [self.score_view(level, view, observation, nodes) for view, observation in enumerate(observations)]
-
     def _scorers(self, observed: tuple[np.ndarray, ...]) -> list[list[Callable[[], ObservationScorer]]]:
         """Per level, each view's `ObservationScorer` of the observation at the level's resolution, to ask for when
         the descent reaches it: made then, unless a worker thread, starting from the finest level's, has made it
         already (`tracker.threads.TwoEndedJobs`)."""
-        levels, views = len(self.tree.levels), len(observed)
-        jobs = TwoEndedJobs(
-            [
-                functools.partial(self._scorer, level, view, observed[view])
-                for level in range(levels)
-                for view in range(views)
-            ]
-        )
-        return [
-            [functools.partial(jobs.result, level * views + view) for view in range(views)] for level in range(levels)
-        ]
+        levels, views = range(len(self.tree.levels)), range(len(observed))
+        jobs = TwoEndedJobs([functools.partial(self._scorer, k, v, observed[v]) for k in levels for v in views])
+        return [[functools.partial(jobs.result, k * len(views) + v) for v in views] for k in levels]
 
     def _scorer(self, level: int, view: int, observed: np.ndarray) -> ObservationScorer:
         """View ``view``'s observation's scorer at ``level`` (``observed`` at any level's resolution)."""
         return ObservationScorer(self.cost, self.observation_at(level, observed), self._stacks[level][view].window)
 
-    def score_view(self, level: int, view: int, observation: np.ndarray, nodes: np.ndarray | None = None) -> np.ndarray:
-        """View ``view``'s `score_level`."""
-        return self.scores_from(self._scorer(level, view, observation), level, view, nodes)
-
     def scores_from(
         self, scorer: ObservationScorer, level: int, view: int, nodes: np.ndarray | None = None
     ) -> np.ndarray:
-        """`score_view` with the observation's scorer made; with spot pixels, each representative moved from its
-        spot to the reference's (`shifts`)."""
+        """View ``view``'s distances of ``scorer``'s observation to the representatives of ``nodes`` of ``level``
+        (all of them for None); with spot pixels, each moved from its spot to the reference's (`shifts`)."""
         if level == 0 and self.spot_pixels is None:
             return scorer.scores_of_runs(self.top_boundaries[view], nodes)
         if level == 0:  # every node at once (ShiftedRunBoundaries)
@@ -308,7 +282,7 @@ class TreeFilter:
         pixels, each moved from its spot to that of sample ``reference`` (the observation's)."""
         scores = []
         for view, (observation, stack) in enumerate(zip(observations, self._stacks[level], strict=True)):
-            scorer = ObservationScorer(self.cost, observation, stack.window)
+            scorer = self._scorer(level, view, observation)
             scores.append(
                 scorer.scores_of_runs(stack.runs, samples)
                 if self.spot_pixels is None
@@ -319,4 +293,5 @@ class TreeFilter:
     def log_likelihood(self, level: int, distances: list[np.ndarray]) -> np.ndarray:
         """Eq 10 at ``level`` from each view's distances: the sum over views of ``-d^2 / 2 sigma^2``, the log of the
         product of the views' likelihoods."""
-        return summed(-0.5 * (d / sigma) ** 2 for d, sigma in zip(distances, self.level_sigmas[level], strict=True))
+        terms = (-0.5 * (d / sigma) ** 2 for d, sigma in zip(distances, self.level_sigmas[level], strict=True))
+        return functools.reduce(operator.add, terms)  # in the views' order

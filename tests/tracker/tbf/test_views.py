@@ -70,7 +70,7 @@ def test_the_likelihood_of_several_views_is_the_product_of_each_views(views):
         observations = tuple(
             np.roll(full_image(stack, held, level.resolution), view, axis=1) for view, stack in enumerate(stacks)
         )
-        distances = filter_.score_level(k, observations)
+        distances = filter_.score_samples(k, observations, level.representatives)
         expected_log_likelihood = np.zeros(len(level))
         for view, (stack, observation) in enumerate(zip(stacks, observations, strict=True)):
             by_pixel = np.array(
