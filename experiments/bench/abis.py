@@ -1,7 +1,7 @@
 """``python -m experiments.bench abis [--frames N] [--size WxH]``: AbIS estimation per frame with ``lm`` and with
 ``sd`` on the same rendered frames (the rendering of the synthetic input excluded, the tracker's visibility z-buffer
 included), with their ratio measured in the same run; and the evaluation's point-to-surface distances of each
-``lm`` estimate (every part, both ways: `tracker.evaluation.arm.surface_distance_mm`)."""
+``lm`` estimate (every part, both ways: `tracker.evaluation.arm.part_surface_distances_mm`)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import time
 import numpy as np
 
 from experiments.bench.common import default_scene, report_machine
-from tracker.evaluation.arm import surface_distance_mm
+from tracker.evaluation.arm import part_surface_distances_mm
 from tracker.models.dsq import PARAM_INDEX
 from tracker.render.offscreen import SceneRenderer
 from tracker.sequence import simulate
@@ -62,15 +62,7 @@ def point_to_surface_ms(arm, truths: np.ndarray, estimates: np.ndarray) -> float
     per_frame = []
     for truth, estimate in zip(truths[1:], estimates[1:], strict=True):
         start = time.perf_counter()
-        surfaces = zip(
-            arm.sample_points(estimate),
-            arm.sample_points(truth),
-            arm.surface_vertices(estimate),
-            arm.surface_vertices(truth),
-            strict=True,
-        )
-        for points in surfaces:
-            surface_distance_mm(*points, arm.topology.faces)
+        part_surface_distances_mm(arm, estimate, truth, arm.sample_points(estimate), arm.sample_points(truth))
         per_frame.append(1e3 * (time.perf_counter() - start))
     return statistics.median(per_frame)
 

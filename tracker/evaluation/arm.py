@@ -51,6 +51,17 @@ def surface_distance_mm(
     )
 
 
+def part_surface_distances_mm(
+    arm: Any, estimate: np.ndarray, truth: np.ndarray, estimated_points: list, true_points: list
+) -> np.ndarray:
+    """Per part, `surface_distance_mm` of ``estimate`` against ``truth`` (``(parts, params)``), given their model
+    samples (``arm.sample_points`` of each: the caller has them)."""
+    surfaces = zip(
+        estimated_points, true_points, arm.surface_vertices(estimate), arm.surface_vertices(truth), strict=True
+    )
+    return np.array([surface_distance_mm(*surface, arm.topology.faces) for surface in surfaces])
+
+
 @dataclass(frozen=True)
 class ArmEvaluation:
     series: tuple[str, ...] = ("rotation_error_deg", "surface_error_mm", "surface_distance_mm")  # plotted
@@ -62,13 +73,7 @@ class ArmEvaluation:
             estimated_points, true_points = arm.sample_points(estimate), arm.sample_points(truth)
             pairs = zip(estimated_points, true_points, strict=True)
             part["surface_error_mm"] = np.array([1e3 * float(np.linalg.norm(e - t, axis=1).mean()) for e, t in pairs])
-            faces = arm.topology.faces
-            surfaces = zip(
-                estimated_points, true_points, arm.surface_vertices(estimate), arm.surface_vertices(truth), strict=True
-            )
-            part["surface_distance_mm"] = np.array(
-                [surface_distance_mm(e, t, estimated, true, faces) for e, t, estimated, true in surfaces]
-            )
+            part["surface_distance_mm"] = part_surface_distances_mm(arm, estimate, truth, estimated_points, true_points)
             part["rotation_error_deg"] = np.array(
                 [
                     rotation_angle_deg(euler_to_matrix(true[_R]), euler_to_matrix(estimated[_R]))
