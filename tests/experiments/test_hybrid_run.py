@@ -3,9 +3,12 @@ columns and series, and a refined estimate that explains the views at least as w
 
 import json
 
+import numpy as np
 import pandas as pd
 import pytest
 
+from experiments.bench.tbf import observations, start_tracker
+from experiments.components import build, compose
 from tests.conftest import _cli_run
 from tests.experiments.test_run import frames_by_entity
 
@@ -16,11 +19,19 @@ SMALL_DICTIONARY = (
 )
 
 
+@pytest.fixture(scope="module")
+def hybrid_cache(tmp_path_factory):
+    return tmp_path_factory.mktemp("hybrid_cache")
+
+
+def small_run(cache, *overrides: str) -> tuple[str, ...]:
+    return ("scene.path=mocap/69_20.bvh", f"tracker.cache_dir={cache}", *SMALL_DICTIONARY, *overrides)
+
+
 @pytest.fixture(scope="module", params=["hybrid_paper_scale", "hybrid_multi_view"])
-def hybrid_run(request, tmp_path_factory):
-    cache = tmp_path_factory.mktemp("hybrid_cache")
-    overrides = ("frames=2", "scene.path=mocap/69_20.bvh", f"tracker.cache_dir={cache}", *SMALL_DICTIONARY)
-    return _cli_run(tmp_path_factory, request.param, f"experiment={request.param}", *overrides)
+def hybrid_run(request, tmp_path_factory, hybrid_cache):
+    overrides = small_run(hybrid_cache, f"experiment={request.param}", "frames=2")
+    return _cli_run(tmp_path_factory, request.param, *overrides)
 
 
 def test_a_hybrid_run_refines_the_dictionarys_proposal(hybrid_run):
@@ -41,3 +52,21 @@ def test_a_hybrid_run_refines_the_dictionarys_proposal(hybrid_run):
     )
     frames = frames_by_entity(hybrid_run / "run.rrd")
     assert frames["/metrics/hybrid/fit_cost"] == [0, 1] and frames["/metrics/tree/entropy"] == [0, 1]
+
+
+def test_the_fed_posterior_reaches_the_next_prior_as_if_fed_at_once(hybrid_cache):
+    """A worker thread searches the sample nearest each refined pose between the frames; the next step moves the
+    posterior onto it before its prior, so every frame's posterior is the same as when the feed is made within the
+    step (a feed lost, or made after the prior, would change the next one)."""
+    run = build(compose(list(small_run(hybrid_cache, "experiment=hybrid_paper_scale", "frames=3"))))
+    observed = observations(run, 3)
+    posteriors: dict[bool, list] = {False: [], True: []}
+    for at_once in posteriors:
+        start_tracker(run)
+        for observation in observed:
+            run.tracker.step(observation)
+            posteriors[at_once].append(run.tracker.filter.posterior.copy())
+            if at_once:
+                run.tracker._feed()
+    assert not np.array_equal(run.tracker.filter.posterior, posteriors[True][-1])  # the feed moves it
+    assert np.array_equal(posteriors[False], posteriors[True])

@@ -7,8 +7,9 @@ refined for ``screen_iterations`` by the continuous fit of the tracker's own bod
 (`tracker.hybrid.silhouette_fit`: the joints and the root by Levenberg-Marquardt with the skinning's analytic
 Jacobian, the root held near where tree filtering placed the person), and the one that then explains the views
 best (the lowest `SilhouetteFit.fit_cost`) is refined on to the estimate. ``feed`` of the filter's posterior is
-moved onto the sample nearest it, so the next frame's prior starts from it. The tracker never sees the truth; the
-evaluation judges its estimates, and its dictionary's floor, as tree filtering's.
+moved onto the sample nearest it, so the next frame's prior starts from it (a worker thread searches the samples
+for it between the frames, `tracker.threads`; the next step moves the posterior before its prior). The tracker
+never sees the truth; the evaluation judges its estimates, and its dictionary's floor, as tree filtering's.
 
 The fit also follows the skin's features (`tracker.hybrid.feature_pairs`): each frame's features are tied to the
 refined body, and the next frame's pairs ask those points to move with them. They guide each candidate's fit; the
@@ -41,6 +42,7 @@ from tracker.tbf.motion import RandomWalk
 from tracker.tbf.samples import LEVEL_RESOLUTIONS
 from tracker.tbf.settings import TbfSettings, check_settings
 from tracker.tbf.tracker import TBF_LOOK, TbfResult, TbfTracker
+from tracker.threads import TwoEndedJobs
 from tracker.timing import elapsed_ms
 
 
@@ -87,6 +89,7 @@ class HybridTracker(TbfTracker):
     def __init__(self, settings: HybridSettings, cost: Cost, motion: RandomWalk) -> None:
         super().__init__(settings, cost, motion)
         self.refined: np.ndarray | None = None
+        self._feeding: TwoEndedJobs[int] | None = None  # the sample nearest the last refined pose, to come
 
     def start(self, model: BodyMesh, cameras: Sequence[Camera], initial: np.ndarray, rng: np.random.Generator) -> None:
         super().start(model, cameras, initial, rng)
@@ -94,7 +97,7 @@ class HybridTracker(TbfTracker):
         pairing = self.settings.fit.features
         self.features = FeaturePairs(self.body, self.cameras, pairing) if pairing.weight > 0 else None
         self.nearest = NearestSample(self.samples.poses)
-        self.refined = None
+        self.refined, self._feeding = None, None
 
     def proposals(self, found: TbfResult) -> list[np.ndarray]:
         """The filter's best ``proposals`` samples by their posterior, each where the best was placed (its root's
@@ -116,6 +119,7 @@ class HybridTracker(TbfTracker):
             None if self.features is None else self.features.pairs([observation.images[c.name] for c in self.cameras])
         )
         pairing_ms = elapsed_ms(start)
+        self._feed()
         found = super().step(observation)
         if found.failure is not None:
             if self.features is not None:
@@ -132,7 +136,8 @@ class HybridTracker(TbfTracker):
         if self.features is not None:
             self.features.anchor(self.refined, [view.inside_px for view in self.fit.fields])
         if self.settings.feed > 0:
-            self.filter.feed(self.nearest(self.refined), self.settings.feed)
+            refined = self.refined
+            self._feeding = TwoEndedJobs([lambda: self.nearest(refined)])
         found.frame_columns.update(
             hybrid_choice=choice,
             fit_cost=cost,
@@ -145,3 +150,9 @@ class HybridTracker(TbfTracker):
             timings_ms={**found.timings_ms, "refine": elapsed_ms(start) + pairing_ms},
             series={**found.series, "hybrid/fit_cost": cost, "hybrid/choice": float(choice)},
         )
+
+    def _feed(self) -> None:
+        """The last refined pose's share of the posterior onto its nearest sample, before the prior is made."""
+        if self._feeding is not None:
+            self.filter.feed(self._feeding.result(0), self.settings.feed)
+            self._feeding = None
