@@ -108,6 +108,9 @@ def test_the_skinned_vertices_analytic_jacobian_matches_central_differences(body
     transforms = body.bone_transforms(pose)
     assert np.array_equal(body.vertex_jacobian(pose, subset, transforms=transforms), analytic)
     assert np.array_equal(body.posed_vertices(pose, subset, transforms), body.posed_vertices(pose, subset))
+    # Some joints only: the root position's columns, then those joints' in the order asked.
+    some = body.vertex_jacobian(pose, subset, joints=[5, 2])
+    np.testing.assert_allclose(some, analytic[:, :, [0, 1, 2, 18, 19, 20, 9, 10, 11]], rtol=1e-12, atol=1e-15)
 
 
 def test_a_textured_body_gives_corners_to_track_and_the_plain_one_renders_as_before(body, renderer):

@@ -86,6 +86,8 @@ class BodyPartProblem(PixelProblem):
             [view.camera for view in views], [view.observed for view in views], free_columns(joints, root), prior
         )
         self.body, self.joints = body, joints
+        # `free_columns` among `BodyMesh.vertex_jacobian`'s columns (the root position's, then the joints')
+        self._columns = np.arange(0 if root else 3, 3 + 3 * len(joints))
         corners = np.concatenate([view.corners for view in views]) if views else np.empty((0, 3), int)
         self._barycentric = np.concatenate([view.barycentric for view in views]) if views else np.empty((0, 3))
         # Each vertex skinned once however many pairs' faces share it.
@@ -98,7 +100,7 @@ class BodyPartProblem(PixelProblem):
         points = np.einsum("mc,mcd->md", self._barycentric, vertices[self._corners])
         if not with_jacobian:
             return points, None
-        jacobian = self.body.vertex_jacobian(q, self._vertices, self.joints, transforms)[:, :, self.free]
+        jacobian = self.body.vertex_jacobian(q, self._vertices, self.joints, transforms)[:, :, self._columns]
         return points, np.einsum("mc,mcdk->mdk", self._barycentric, jacobian[self._corners])
 
 

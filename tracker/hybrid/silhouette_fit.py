@@ -1,8 +1,8 @@
 """Fitting the skinned body to the views' observed silhouettes and feature pairs: the hybrid's continuous refinement.
 
-Per view, the observed silhouette S (bool, the camera's pixels) gives two distance fields (`ViewField`): ``outside``,
-each pixel's distance to S (0 inside it), and its edge points (S's boundary pixels, evenly thinned). With the
-body's vertices v_i (`BodyMesh.posed_vertices`) projected to pixels u_i (`Camera.project`), the cost sums, over
+Per view, the observed silhouette S (bool, the camera's pixels) gives (`tracker.hybrid.view_field.ViewField`)
+``outside``, each pixel's distance to S (0 inside it), and its edge points (S's boundary pixels, evenly thinned).
+With the body's vertices v_i (`BodyMesh.posed_vertices`) projected to pixels u_i (`Camera.project`), the cost sums, over
 the views and the two terms, the mean of robust squares (``rho(r) = r^2`` up to ``robust_px``, linear beyond:
 Huber) of
     region    ``outside(u_i)`` for every ``vertex_stride``-th vertex: the body stays within the silhouette;
@@ -33,11 +33,11 @@ from dataclasses import dataclass, field
 from typing import Annotated, NamedTuple
 
 import numpy as np
-from scipy.ndimage import binary_erosion, distance_transform_edt, map_coordinates
 from scipy.spatial import cKDTree
 
 from tracker.geometry.cameras import Camera, projection_jacobian
 from tracker.hybrid.feature_pairs import FeaturePairSettings, ViewPairs
+from tracker.hybrid.view_field import ViewField
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.body_skeleton import JOINT_INDEX
 from tracker.ranges import NonNegative, Positive, Range
@@ -72,52 +72,6 @@ class FitSettings:
 
     def __post_init__(self) -> None:
         validate(self)
-
-
-class ViewField:
-    """One view's observed silhouette as the fit reads it: its outside distance field (pixels) with its gradient,
-    sampled bilinearly, and its edge points (at most ``edge_points``, evenly along the pixel list) with their outward
-    normals. The fields are computed in a window of the image around the silhouette, ``MARGIN_PX`` wider on every
-    side (beyond it, a point reads the window's border: further than the robust scale, so its direction is what
-    counts)."""
-
-    MARGIN_PX = 32
-
-    def __init__(self, silhouette: np.ndarray, camera: Camera, edge_points: int) -> None:
-        silhouette = np.asarray(silhouette, dtype=bool)
-        self.camera = camera
-        rows, cols = np.nonzero(silhouette)
-        low = np.maximum([rows.min(), cols.min()] if len(rows) else [0, 0], self.MARGIN_PX) - self.MARGIN_PX
-        high = np.array([rows.max(), cols.max()]) + self.MARGIN_PX + 1 if len(rows) else np.array(silhouette.shape)
-        self.offset = np.array([low[1], low[0]], dtype=np.float64)  # the window's corner, (u, v)
-        window = silhouette[low[0] : high[0], low[1] : high[1]]
-        self.outside = distance_transform_edt(~window)
-        self.gradient = np.stack(np.gradient(self.outside)[::-1])  # (d/du, d/dv), each (h, w)
-        rows, cols = np.nonzero(window & ~binary_erosion(window))
-        step = max(1, int(np.ceil(len(rows) / edge_points)))
-        rows, cols = rows[::step], cols[::step]
-        self.edge = np.stack([cols, rows], axis=1) + self.offset  # (n, 2) pixels (u, v)
-        # The outward normal at each edge point: the gradient of the signed distance (outside minus inside).
-        self.inside = distance_transform_edt(window)
-        normals = np.stack([g[rows, cols] for g in np.gradient(self.outside - self.inside)[::-1]], axis=1)
-        self.edge_normals = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
-
-    def sample(self, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``outside`` and its ``(n, 2)`` gradient at pixels ``uv`` (bilinear; beyond the window, its border's)."""
-        local = uv - self.offset
-        coordinates = np.stack([local[:, 1], local[:, 0]])
-        value = map_coordinates(self.outside, coordinates, order=1, mode="nearest")
-        gradient = np.stack([map_coordinates(g, coordinates, order=1, mode="nearest") for g in self.gradient], 1)
-        return value, gradient
-
-    def inside_px(self, uv: np.ndarray) -> np.ndarray:
-        """Each pixel's distance inside the silhouette (0 outside it; the nearest pixel's)."""
-        local = np.rint(uv - self.offset).astype(np.int64)
-        height, width = self.inside.shape
-        within = (local[:, 0] >= 0) & (local[:, 0] < width) & (local[:, 1] >= 0) & (local[:, 1] < height)
-        distance = np.zeros(len(uv))
-        distance[within] = self.inside[local[within, 1], local[within, 0]]
-        return distance
 
 
 def huber_weights(residuals: np.ndarray, scale: float) -> np.ndarray:
@@ -198,8 +152,11 @@ class SilhouetteFit:
         for term, (camera, directions, corners, blend) in zip(terms, moves, strict=True):
             at = where[first : first + corners.size].reshape(corners.shape)
             first += corners.size
-            point = np.einsum("nc,ncd->nd", blend, points[corners])
-            point_rows = np.einsum("nc,ncdj->ndj", blend, moved[at])
+            if blend is None:  # one vertex a residual
+                point, point_rows = points[corners[:, 0]], moved[at[:, 0]]
+            else:
+                point = np.einsum("nc,ncd->nd", blend, points[corners])
+                point_rows = np.einsum("nc,ncdj->ndj", blend, moved[at])
             rows.append(term._replace(rows=np.einsum("na,nac->nc", directions, pixel_rows(camera, point, point_rows))))
         return rows
 
@@ -211,7 +168,8 @@ class SilhouetteFit:
         normals = self.normals(transforms[0])
         settings, features = self.settings, self.settings.features
         # Per term, what moves its residuals: the camera, each residual's direction on the pixel of its point, and
-        # the point: a blend of vertices (``corners`` (n, c), ``blend`` (n, c): one vertex, or a face's corners).
+        # the point: a blend of vertices (``corners`` (n, c), ``blend`` (n, c): a face's corners), or one vertex
+        # (``corners`` (n, 1), ``blend`` None).
         terms, moves = [], []
         for view, pairs in zip(self.fields, self.pairs, strict=True):
             uv, _ = view.camera.project(points)
@@ -226,7 +184,7 @@ class SilhouetteFit:
             cover = np.einsum("na,na->n", uv[cover_vertices] - edge, edge_normals)
             terms += [Term(outside, None, settings.robust_px, 1.0), Term(cover, None, settings.robust_px, 1.0)]
             for directions, vertices in ((gradient, self.region), (edge_normals, cover_vertices)):
-                moves.append((view.camera, directions, vertices[:, None], np.ones((len(vertices), 1))))
+                moves.append((view.camera, directions, vertices[:, None], None))
             if len(pairs) and features.weight > 0:
                 corners = self.body.faces[pairs.faces]
                 seen, _ = view.camera.project(np.einsum("kc,kcd->kd", pairs.barycentric, points[corners]))
@@ -240,7 +198,7 @@ class SilhouetteFit:
         self, pose: np.ndarray, vertices: np.ndarray, transforms: tuple[np.ndarray, np.ndarray] | None = None
     ) -> np.ndarray:
         """``(n, 3, len(FIT_COLUMNS))``: the posed ``vertices``' derivatives by the fitted parameters (analytic)."""
-        return self.body.vertex_jacobian(pose, vertices, FIT_JOINTS, transforms)[:, :, FIT_COLUMNS]
+        return self.body.vertex_jacobian(pose, vertices, FIT_JOINTS, transforms)  # columns: FIT_COLUMNS
 
     def fit_cost(self, pose: np.ndarray) -> float:
         """How well ``pose`` explains the views' silhouettes: their terms' cost (see the module docstring)."""

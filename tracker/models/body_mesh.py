@@ -153,9 +153,10 @@ class BodyMesh:
         joints: Iterable[int] | None = None,
         transforms: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> np.ndarray:
-        """``(len(subset), 3, POSE_SIZE)``: d v'/d pose of the skinned vertices ``subset`` at ``pose``, analytic
-        (only the root position's and ``joints``' rotation columns when given, the others left 0; ``transforms``:
-        the pose's `bone_transforms`, when the caller has them).
+        """``(len(subset), 3, 3 + 3 * len(joints))``: d v'/d (root position, ``joints``' rotation vectors in their
+        order) of the skinned vertices ``subset`` at ``pose``, analytic (``joints`` None: every joint, so the columns
+        are the pose vector's, ``POSE_SIZE`` of them; ``transforms``: the pose's `bone_transforms`, when the caller
+        has them).
 
         The root's position moves every vertex as it moves (the weights sum to 1). Turning joint j's rotation vector
         r_j by dr turns every bone below it (j included) about the world axis ``a = F_j J_r(r_j) dr`` through j's
@@ -167,9 +168,9 @@ class BodyMesh:
         from_t_pose = rotations @ np.transpose(self.t_pose_alignment, (0, 2, 1))  # F_j
         subset = np.asarray(subset)
         vertices, weights = self.rest_vertices[subset], self.weights[subset]
-        jacobian = np.zeros((len(subset), 3, POSE_SIZE))
-        jacobian[:, :, :3] = np.eye(3) * weights.sum(axis=1)[:, None, None]
         joints = np.arange(len(self.parents)) if joints is None else np.fromiter(joints, dtype=np.int64)
+        jacobian = np.empty((len(subset), 3, 3 + 3 * len(joints)))
+        jacobian[:, :, :3] = np.eye(3) * weights.sum(axis=1)[:, None, None]
         if not len(joints):
             return jacobian
         # p_b for every vertex and bone, (V, J, 3)
@@ -181,8 +182,7 @@ class BodyMesh:
         rates = np.stack([right_jacobian(pose[3 + 3 * joint : 6 + 3 * joint]) for joint in joints])
         axes = np.transpose(from_t_pose[joints] @ rates, (0, 2, 1))  # (K, 3, 3): dr's three components -> axes
         turned = np.cross(axes[None], np.transpose(lever, (0, 2, 1))[:, :, None, :])  # (V, K, 3, 3): a x lever
-        columns = (3 + 3 * joints[:, None] + np.arange(3)).ravel()
-        jacobian[:, :, columns] = np.transpose(turned, (0, 3, 1, 2)).reshape(len(subset), 3, -1)
+        jacobian[:, :, 3:] = np.transpose(turned, (0, 3, 1, 2)).reshape(len(subset), 3, -1)
         return jacobian
 
     @cached_property

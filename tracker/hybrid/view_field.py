@@ -1,0 +1,56 @@
+"""One view's observed silhouette as the hybrid's silhouette fit (`tracker.hybrid.silhouette_fit`) reads it: its
+distance field outside the silhouette, with the field's gradient, and its edge points with their outward normals.
+Pixels are ``(u, v)``: column, row."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.ndimage import binary_erosion, distance_transform_edt, map_coordinates
+
+from tracker.geometry.cameras import Camera
+
+
+class ViewField:
+    """One view's observed silhouette as the fit reads it: its outside distance field (pixels) with its gradient,
+    sampled bilinearly, and its edge points (at most ``edge_points``, evenly along the pixel list) with their outward
+    normals. The fields are computed in a window of the image around the silhouette, ``MARGIN_PX`` wider on every
+    side (beyond it, a point reads the window's border: further than the robust scale, so its direction is what
+    counts)."""
+
+    MARGIN_PX = 32
+
+    def __init__(self, silhouette: np.ndarray, camera: Camera, edge_points: int) -> None:
+        silhouette = np.asarray(silhouette, dtype=bool)
+        self.camera = camera
+        rows, cols = np.nonzero(silhouette)
+        low = np.maximum([rows.min(), cols.min()] if len(rows) else [0, 0], self.MARGIN_PX) - self.MARGIN_PX
+        high = np.array([rows.max(), cols.max()]) + self.MARGIN_PX + 1 if len(rows) else np.array(silhouette.shape)
+        self.offset = np.array([low[1], low[0]], dtype=np.float64)  # the window's corner, (u, v)
+        window = silhouette[low[0] : high[0], low[1] : high[1]]
+        self.outside = distance_transform_edt(~window)
+        self.gradient = np.stack(np.gradient(self.outside)[::-1])  # (d/du, d/dv), each (h, w)
+        rows, cols = np.nonzero(window & ~binary_erosion(window))
+        step = max(1, int(np.ceil(len(rows) / edge_points)))
+        rows, cols = rows[::step], cols[::step]
+        self.edge = np.stack([cols, rows], axis=1) + self.offset  # (n, 2) pixels (u, v)
+        # The outward normal at each edge point: the gradient of the signed distance (outside minus inside).
+        self.inside = distance_transform_edt(window)
+        normals = np.stack([g[rows, cols] for g in np.gradient(self.outside - self.inside)[::-1]], axis=1)
+        self.edge_normals = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+
+    def sample(self, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``outside`` and its ``(n, 2)`` gradient at pixels ``uv`` (bilinear; beyond the window, its border's)."""
+        local = uv - self.offset
+        coordinates = np.stack([local[:, 1], local[:, 0]])
+        value = map_coordinates(self.outside, coordinates, order=1, mode="nearest")
+        gradient = np.stack([map_coordinates(g, coordinates, order=1, mode="nearest") for g in self.gradient], 1)
+        return value, gradient
+
+    def inside_px(self, uv: np.ndarray) -> np.ndarray:
+        """Each pixel's distance inside the silhouette (0 outside it; the nearest pixel's)."""
+        local = np.rint(uv - self.offset).astype(np.int64)
+        height, width = self.inside.shape
+        within = (local[:, 0] >= 0) & (local[:, 0] < width) & (local[:, 1] >= 0) & (local[:, 1] < height)
+        distance = np.zeros(len(uv))
+        distance[within] = self.inside[local[within, 1], local[within, 0]]
+        return distance
