@@ -4,7 +4,7 @@ A body part (`tracker.models.body_skeleton.PART_BONES`) is moved by the rotation
 (`part_joints`; the pelvis also by the root's position). Fitting is top-down over the part tree (`part_parents`,
 `topdown_parts`): each part's joints are fitted with every ancestor's freshly fitted pose held, as the arm's parts
 are. The pairs' points are skinned surface points (barycentric in a face, `tracker.abis.mesh_pairs`), whose
-Jacobian is the skinned vertices' analytic one (`BodyMesh.vertex_jacobian`) blended by the barycentric weights;
+Jacobian is the skinned vertices' analytic one (`tracker.models.skinning_jacobian`) blended by the barycentric weights;
 the cost, its robust rho, the prior rows and the optimiser are the arm's (`tracker.abis.fitting`). Rotation vectors
 are stepped additively: the Jacobian is by their components.
 """
@@ -20,6 +20,7 @@ from tracker.abis.fitting import PixelProblem, Prior
 from tracker.geometry.cameras import Camera
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.body_skeleton import JOINT_INDEX, PART_BONES, POSE_SIZE
+from tracker.models.skinning_jacobian import vertex_jacobian
 
 ROOT_POSITION = np.arange(3)  # the pose vector's root position entries
 
@@ -86,8 +87,7 @@ class BodyPartProblem(PixelProblem):
             [view.camera for view in views], [view.observed for view in views], free_columns(joints, root), prior
         )
         self.body, self.joints = body, joints
-        # `free_columns` among `BodyMesh.vertex_jacobian`'s columns (the root position's, then the joints')
-        self._columns = np.arange(0 if root else 3, 3 + 3 * len(joints))
+        self._columns = slice(0 if root else 3, None)  # `free_columns` among `vertex_jacobian`'s
         corners = np.concatenate([view.corners for view in views]) if views else np.empty((0, 3), int)
         self._barycentric = np.concatenate([view.barycentric for view in views]) if views else np.empty((0, 3))
         # Each vertex skinned once however many pairs' faces share it.
@@ -100,7 +100,7 @@ class BodyPartProblem(PixelProblem):
         points = np.einsum("mc,mcd->md", self._barycentric, vertices[self._corners])
         if not with_jacobian:
             return points, None
-        jacobian = self.body.vertex_jacobian(q, self._vertices, self.joints, transforms)[:, :, self._columns]
+        jacobian = vertex_jacobian(self.body, q, self._vertices, self.joints, transforms)[:, :, self._columns]
         return points, np.einsum("mc,mcdk->mdk", self._barycentric, jacobian[self._corners])
 
 

@@ -89,16 +89,18 @@ def cross_matrix(vector: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
 
 
-def right_jacobian(vector: np.ndarray) -> np.ndarray:
-    """``(3, 3)`` J_r of a rotation vector r: ``Exp(r + dr) = Exp(r) Exp(J_r(r) dr)`` to first order, i.e.
-    ``I - (1 - cos t) / t^2 [r]_x + (t - sin t) / t^3 [r]_x^2`` for t = |r| (series near 0)."""
-    vector = np.asarray(vector, dtype=np.float64)
-    angle = float(np.linalg.norm(vector))
-    cross = cross_matrix(vector)
-    if angle < SERIES_ANGLE_RAD:
-        first, second = 0.5 - angle**2 / 24, 1.0 / 6 - angle**2 / 120
-    else:
-        first, second = (1 - np.cos(angle)) / angle**2, (angle - np.sin(angle)) / angle**3
+def right_jacobian(vectors: np.ndarray) -> np.ndarray:
+    """``(..., 3, 3)`` J_r of rotation vectors r ``(..., 3)``: ``Exp(r + dr) = Exp(r) Exp(J_r(r) dr)`` to first
+    order, i.e. ``I - (1 - cos t) / t^2 [r]_x + (t - sin t) / t^3 [r]_x^2`` for t = |r| (series near 0)."""
+    vectors = np.asarray(vectors, dtype=np.float64)
+    angle = np.linalg.norm(vectors, axis=-1)[..., None, None]
+    x, y, z = np.moveaxis(vectors, -1, 0)
+    zero = np.zeros_like(x)
+    cross = np.stack([np.stack(row, -1) for row in ((zero, -z, y), (z, zero, -x), (-y, x, zero))], -2)  # [r]_x
+    small = angle < SERIES_ANGLE_RAD
+    with np.errstate(divide="ignore", invalid="ignore"):
+        first = np.where(small, 0.5 - angle**2 / 24, (1 - np.cos(angle)) / angle**2)
+        second = np.where(small, 1.0 / 6 - angle**2 / 120, (angle - np.sin(angle)) / angle**3)
     return np.eye(3) - first * cross + second * (cross @ cross)
 
 

@@ -18,8 +18,9 @@ and a prior ``prior_weight^2 |r_j - r_j^0|^2`` on each fitted joint's rotation v
 given, ``root_prior^2 |t - t^0|^2`` on its position (one view hardly sees depth). The parameters are the root's
 position and the rotation vectors of `FIT_JOINTS`; Levenberg-Marquardt steps them by the Gauss-Newton system
 of the residuals' Jacobian, analytic: the image gradient of ``outside`` (for cover, the edge's normal) times the
-projection's Jacobian (`projection_jacobian`) times the skinned vertices' (`BodyMesh.vertex_jacobian`; a pair's
-point: its face's corners' blended by its barycentric coordinates).
+projection's Jacobian (`projection_jacobian`) times the skinned vertices' (`tracker.models.skinning_jacobian`; a
+pair's point: its face's corners' blended by its barycentric coordinates), taken by the joints' levers
+(`residual_rows`).
 
 `fit_cost` is the silhouettes' terms alone: what the hybrid compares candidates by (the same vertices and edge
 points for every candidate, so the numbers compare). The pairs guide each candidate's fit but do not judge between
@@ -40,6 +41,7 @@ from tracker.hybrid.feature_pairs import FeaturePairSettings, ViewPairs
 from tracker.hybrid.view_field import ViewField
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.body_skeleton import JOINT_INDEX
+from tracker.models.skinning_jacobian import SkinningLevers, skinning_levers
 from tracker.ranges import NonNegative, Positive, Range
 from tracker.render.mesh import vertex_normals
 from tracker.settings import validate
@@ -97,10 +99,18 @@ class Term(NamedTuple):
     silhouette: bool = True
 
 
-def pixel_rows(camera: Camera, points: np.ndarray, vertex_rows: np.ndarray) -> np.ndarray:
-    """``(V, 2, C)``: the pixels' derivatives of ``points`` seen by ``camera``, by the parameters of
-    ``vertex_rows`` (``(V, 3, C)``, the points' own): the chain rule through the projection."""
-    return np.einsum("vab,vbc->vac", projection_jacobian(camera, points), vertex_rows)
+def residual_rows(camera: Camera, points: np.ndarray, directions: np.ndarray, levers: SkinningLevers) -> np.ndarray:
+    """``(n, len(FIT_COLUMNS))``: the derivatives of the residuals ``directions . pixel`` (``directions`` ``(n, 2)``)
+    of ``points`` ``(n, 3)`` seen by ``camera``, by the fitted parameters, given the points' skinning ``levers``
+    (`FIT_JOINTS`'). With g the pixel direction pulled back to the world (``J_proj^T d``), the root's columns are
+    the weight sum times g, and a joint's column c ``g . (a_c x L) = a_c . (L x g)``: a scalar triple product per
+    joint, not a 3-row Jacobian per point."""
+    pulled = np.einsum("na,nab->nb", directions, projection_jacobian(camera, points))  # g, (n, 3)
+    rows = np.empty((len(points), len(FIT_COLUMNS)))
+    rows[:, :3] = levers.weight_sums[:, None] * pulled
+    turns = np.cross(levers.levers, pulled[:, None, :]).transpose(1, 0, 2)  # (K, n, 3): L x g
+    rows[:, 3:] = (turns @ levers.axes.transpose(0, 2, 1)).transpose(1, 0, 2).reshape(len(points), -1)
+    return rows
 
 
 class SilhouetteFit:
@@ -147,17 +157,21 @@ class SilhouetteFit:
         if not jacobian:
             return list(terms)
         needed, where = np.unique(np.concatenate([corners.ravel() for *_, corners, _ in moves]), return_inverse=True)
-        moved = self.vertex_rows(pose, needed, transforms)
+        levers = skinning_levers(self.body, pose, needed, FIT_JOINTS, transforms)
         rows, first = [], 0
         for term, (camera, directions, corners, blend) in zip(terms, moves, strict=True):
             at = where[first : first + corners.size].reshape(corners.shape)
             first += corners.size
             if blend is None:  # one vertex a residual
-                point, point_rows = points[corners[:, 0]], moved[at[:, 0]]
-            else:
+                point = points[corners[:, 0]]
+                moving = levers._replace(weight_sums=levers.weight_sums[at[:, 0]], levers=levers.levers[at[:, 0]])
+            else:  # the levers are linear in the vertex: a point blended of vertices has their blend
                 point = np.einsum("nc,ncd->nd", blend, points[corners])
-                point_rows = np.einsum("nc,ncdj->ndj", blend, moved[at])
-            rows.append(term._replace(rows=np.einsum("na,nac->nc", directions, pixel_rows(camera, point, point_rows))))
+                moving = levers._replace(
+                    weight_sums=np.einsum("nc,nc->n", blend, levers.weight_sums[at]),
+                    levers=np.einsum("nc,nckd->nkd", blend, levers.levers[at]),
+                )
+            rows.append(term._replace(rows=residual_rows(camera, point, directions, moving)))
         return rows
 
     def _terms(self, pose: np.ndarray) -> tuple[list[Term], list[tuple], np.ndarray, tuple[np.ndarray, np.ndarray]]:
@@ -193,12 +207,6 @@ class SilhouetteFit:
                 directions = np.tile(np.eye(2), (len(pairs), 1))
                 moves.append((view.camera, directions, np.repeat(corners, 2, 0), np.repeat(pairs.barycentric, 2, 0)))
         return terms, moves, points, transforms
-
-    def vertex_rows(
-        self, pose: np.ndarray, vertices: np.ndarray, transforms: tuple[np.ndarray, np.ndarray] | None = None
-    ) -> np.ndarray:
-        """``(n, 3, len(FIT_COLUMNS))``: the posed ``vertices``' derivatives by the fitted parameters (analytic)."""
-        return self.body.vertex_jacobian(pose, vertices, FIT_JOINTS, transforms)  # columns: FIT_COLUMNS
 
     def fit_cost(self, pose: np.ndarray) -> float:
         """How well ``pose`` explains the views' silhouettes: their terms' cost (see the module docstring)."""

@@ -6,14 +6,13 @@ data (`tracker.models.makehuman.build_body`).
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import cached_property
 from typing import ClassVar
 
 import numpy as np
 
-from tracker.geometry.rotations import matrices_to_rotation_vectors, right_jacobian, rotation_vectors_to_matrices
+from tracker.geometry.rotations import matrices_to_rotation_vectors, rotation_vectors_to_matrices
 from tracker.models.body_skeleton import FOOT_BONES, JOINT_INDEX, JOINT_NAMES, PART_COLORS, PART_NAMES, POSE_SIZE
 from tracker.models.textures import block_noise_texture
 from tracker.render.mesh import SurfaceMesh, vertex_normals
@@ -146,47 +145,9 @@ class BodyMesh:
         vertices = vertices.transpose(1, 0, 2)  # (n, V, 3)
         return vertices[0] if poses.ndim == 1 else vertices
 
-    def vertex_jacobian(
-        self,
-        pose: np.ndarray,
-        subset: np.ndarray,
-        joints: Iterable[int] | None = None,
-        transforms: tuple[np.ndarray, np.ndarray] | None = None,
-    ) -> np.ndarray:
-        """``(len(subset), 3, 3 + 3 * len(joints))``: d v'/d (root position, ``joints``' rotation vectors in their
-        order) of the skinned vertices ``subset`` at ``pose``, analytic (``joints`` None: every joint, so the columns
-        are the pose vector's, ``POSE_SIZE`` of them; ``transforms``: the pose's `bone_transforms`, when the caller
-        has them).
-
-        The root's position moves every vertex as it moves (the weights sum to 1). Turning joint j's rotation vector
-        r_j by dr turns every bone below it (j included) about the world axis ``a = F_j J_r(r_j) dr`` through j's
-        posed head h'_j (F_j: j's world rotation from the T-pose, J_r: `right_jacobian`), so a vertex moves by
-        ``sum over those bones b of w_b a x (p_b - h'_j)``, with ``p_b = R_b (v - h_b) + h'_b`` the vertex as bone b
-        alone would carry it."""
-        pose = np.asarray(pose, dtype=np.float64)
-        rotations, heads = transforms or self.bone_transforms(pose)
-        from_t_pose = rotations @ np.transpose(self.t_pose_alignment, (0, 2, 1))  # F_j
-        subset = np.asarray(subset)
-        vertices, weights = self.rest_vertices[subset], self.weights[subset]
-        joints = np.arange(len(self.parents)) if joints is None else np.fromiter(joints, dtype=np.int64)
-        jacobian = np.empty((len(subset), 3, 3 + 3 * len(joints)))
-        jacobian[:, :, :3] = np.eye(3) * weights.sum(axis=1)[:, None, None]
-        if not len(joints):
-            return jacobian
-        # p_b for every vertex and bone, (V, J, 3)
-        carried = np.matmul(vertices[None] - self.rest_heads[:, None], np.transpose(rotations, (0, 2, 1)))
-        carried = np.transpose(carried + heads[:, None], (1, 0, 2))
-        below = self._descendants[joints].astype(np.float64)  # (K, J): the bones each joint turns
-        moment = np.transpose(weights[:, :, None] * carried, (0, 2, 1)) @ below.T  # (V, 3, K): sum_b w_b p_b
-        lever = moment - (weights @ below.T)[:, None, :] * heads[joints].T[None]  # sum_b w_b (p_b - h'_j)
-        rates = np.stack([right_jacobian(pose[3 + 3 * joint : 6 + 3 * joint]) for joint in joints])
-        axes = np.transpose(from_t_pose[joints] @ rates, (0, 2, 1))  # (K, 3, 3): dr's three components -> axes
-        turned = np.cross(axes[None], np.transpose(lever, (0, 2, 1))[:, :, None, :])  # (V, K, 3, 3): a x lever
-        jacobian[:, :, 3:] = np.transpose(turned, (0, 3, 1, 2)).reshape(len(subset), 3, -1)
-        return jacobian
-
     @cached_property
-    def _descendants(self) -> np.ndarray:
+    def descendants(self) -> np.ndarray:
+        """``(J, J)`` bool: ``[j, b]`` where turning joint j turns bone b (j itself and every bone below it)."""
         below = np.eye(len(self.parents), dtype=bool)
         for joint, parent in enumerate(self.parents):  # parents first
             ancestor = parent
