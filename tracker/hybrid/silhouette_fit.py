@@ -116,13 +116,15 @@ def residual_rows(camera: Camera, points: np.ndarray, directions: np.ndarray, le
 class SilhouetteFit:
     """The fit of ``body`` to the silhouettes of ``cameras`` (one frame's `ViewField` each: `observe`)."""
 
+    POSES_KEPT = 16  # poses whose terms `residuals` keeps (a frame's screening and refining ask for fewer)
+
     def __init__(self, body: BodyMesh, cameras: Sequence[Camera], settings: FitSettings = FitSettings()) -> None:
         self.body, self.cameras, self.settings = body, tuple(cameras), settings
         self.region = np.arange(0, len(body.rest_vertices), settings.vertex_stride)
         self.rest_normals = vertex_normals(body.rest_vertices, body.faces)
         self.fields: list[ViewField] = []
         self.pairs: list[ViewPairs] = []
-        self._last: tuple | None = None  # the last pose asked, and its `_terms`
+        self._asked: dict[bytes, tuple] = {}  # this frame's last poses asked (their bytes), and their `_terms`
 
     def observe(self, silhouettes: Sequence[np.ndarray], pairs: Sequence[ViewPairs] | None = None) -> None:
         """This frame's silhouettes and feature pairs (None: none), one per camera in the cameras' order."""
@@ -130,7 +132,7 @@ class SilhouetteFit:
             ViewField(s, camera, self.settings.edge_points) for s, camera in zip(silhouettes, self.cameras, strict=True)
         ]
         self.pairs = list(pairs) if pairs is not None else [ViewPairs.empty() for _ in self.cameras]
-        self._last = None
+        self._asked = {}
 
     def normals(self, rotations: np.ndarray) -> np.ndarray:
         """``(V, 3)`` the posed vertices' unit normals, skinned as the vertices are (the bones' ``rotations``)."""
@@ -148,12 +150,16 @@ class SilhouetteFit:
         """Per view, the region term, the cover term and, with pairs observed, the feature term (a pair's ``u`` then
         its ``v`` residual); with ``jacobian``, each term's rows by `FIT_COLUMNS` (else None).
 
-        The last pose's terms are kept: Levenberg-Marquardt asks for the Jacobian where it has just taken a step,
-        whose cost it computed to accept it."""
+        The terms of the frame's last `POSES_KEPT` poses are kept: Levenberg-Marquardt asks for the Jacobian where
+        it has just taken a step, whose cost it computed to accept it, and the hybrid refines on, and judges, poses
+        it screened."""
         pose = np.asarray(pose, dtype=np.float64)
-        if self._last is None or not np.array_equal(self._last[0], pose):
-            self._last = (pose.copy(), *self._terms(pose))
-        _, terms, moves, points, transforms = self._last
+        key = pose.tobytes()
+        if key not in self._asked:
+            if len(self._asked) == self.POSES_KEPT:
+                del self._asked[next(iter(self._asked))]  # the oldest
+            self._asked[key] = self._terms(pose)
+        terms, moves, points, transforms = self._asked[key]
         if not jacobian:
             return list(terms)
         needed, where = np.unique(np.concatenate([corners.ravel() for *_, corners, _ in moves]), return_inverse=True)
