@@ -6,7 +6,8 @@ probable samples, placed where the person stands, and the last frame's refined p
 refined for ``screen_iterations`` by the continuous fit of the tracker's own body to every view's silhouette
 (`tracker.hybrid.silhouette_fit`: the joints and the root by Levenberg-Marquardt with the skinning's analytic
 Jacobian, the root held near where tree filtering placed the person), and the one that then explains the views
-best (the lowest `SilhouetteFit.fit_cost`) is refined on to the estimate. ``feed`` of the filter's posterior is
+best (the lowest `SilhouetteFit.fit_cost`; of those whose root turned at most ``max_turn_deg`` from the last refined
+pose) is refined on to the estimate. ``feed`` of the filter's posterior is
 moved onto the sample nearest it, so the next frame's prior starts from it (a worker thread searches the samples
 for it between the frames, `tracker.threads`; the next step moves the posterior before its prior). The tracker
 never sees the truth; the evaluation judges its estimates, and its dictionary's floor, as tree filtering's.
@@ -17,8 +18,8 @@ silhouettes alone choose between the candidates.
 
 Frame columns: ``hybrid_choice`` (the candidate kept: 0 the filter's best sample, then its next proposals, last
 the previous refined pose), ``fit_cost`` (the silhouettes' cost of the estimate), ``fit_cost_proposal`` (of the
-proposal before refining) and ``feature_pairs`` (over the views); the stage ``refine`` in the timings (the
-features' tracking with it).
+proposal before refining), ``feature_pairs`` (over the views) and ``turned_away`` (the candidates ``max_turn_deg``
+kept from the choice); the stage ``refine`` in the timings (the features' tracking with it).
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ from typing import Annotated, ClassVar
 import numpy as np
 
 from tracker.geometry.cameras import Camera
+from tracker.geometry.rotations import rotation_angle_deg, rotation_vectors_to_matrices
 from tracker.hybrid.feature_pairs import FeaturePairs
 from tracker.hybrid.silhouette_fit import FitSettings, SilhouetteFit
 from tracker.models.body_mesh import BodyMesh
@@ -57,6 +59,9 @@ class HybridSettings(TbfSettings):
     # as 3 at 60 % of the time).
     screen_iterations: Annotated[int, Range(0, 100)] = 1
     feed: Annotated[float, Range(0.0, 1.0)] = 0.5
+    # A candidate whose root turned more than this from the last refined pose is not chosen (180: any may be): one
+    # silhouette looks much the same from the front and the back, a person seldom turns that far in a frame.
+    max_turn_deg: Annotated[float, Range(0.0, 180.0)] = 180.0
 
 
 class NearestSample:
@@ -130,7 +135,8 @@ class HybridTracker(TbfTracker):
         candidates = self.proposals(found) + ([self.refined] if self.refined is not None else [])
         placed = found.estimate[:3]  # where tree filtering placed the person this frame
         screened = [self.fit.refine(pose, self.settings.screen_iterations, placed) for pose in candidates]
-        choice = int(np.argmin([cost for _, cost in screened]))
+        turned_away = self.turned_away([pose for pose, _ in screened])
+        choice = int(np.argmin(np.where(turned_away, np.inf, [cost for _, cost in screened])))
         self.refined, cost = self.fit.refine(screened[choice][0], root=placed)
         self._estimate = self.refined
         if self.features is not None:
@@ -143,6 +149,7 @@ class HybridTracker(TbfTracker):
             fit_cost=cost,
             fit_cost_proposal=self.fit.fit_cost(found.estimate),
             feature_pairs=sum(len(view) for view in self.fit.pairs),
+            turned_away=int(turned_away.sum()),
         )
         return replace(
             found,
@@ -150,6 +157,15 @@ class HybridTracker(TbfTracker):
             timings_ms={**found.timings_ms, "refine": elapsed_ms(start) + pairing_ms},
             series={**found.series, "hybrid/fit_cost": cost, "hybrid/choice": float(choice)},
         )
+
+    def turned_away(self, poses: Sequence[np.ndarray]) -> np.ndarray:
+        """``(len(poses),)`` bool: the poses whose root turned more than ``max_turn_deg`` from the last refined pose
+        (none at the first frame; the last refined pose itself, screened, never)."""
+        if self.refined is None or self.settings.max_turn_deg >= 180.0:
+            return np.zeros(len(poses), bool)
+        last = rotation_vectors_to_matrices(self.refined[3:6])[0]
+        roots = rotation_vectors_to_matrices(np.array([pose[3:6] for pose in poses]))
+        return np.array([rotation_angle_deg(last, root) for root in roots]) > self.settings.max_turn_deg
 
     def _feed(self) -> None:
         """The last refined pose's share of the posterior onto its nearest sample, before the prior is made."""
