@@ -47,8 +47,10 @@ def test_a_hybrid_run_refines_the_dictionarys_proposal(hybrid_run):
     # some of the silhouettes' cost for the features'.
     assert table["fit_cost"].tolist()[0] <= table["fit_cost_proposal"].tolist()[0]
     pairs = table["feature_pairs"].tolist()  # the skin's features, where the preset weighs them (3 cameras)
-    assert pairs[0] == 0 and (
-        pairs[1] > 20 if metrics["config"]["tracker"]["fit"]["features"]["weight"] else pairs[1] == 0
+    assert (
+        "turned_away" in table
+        and pairs[0] == 0
+        and (pairs[1] > 20 if metrics["config"]["tracker"]["fit"]["features"]["weight"] else pairs[1] == 0)
     )
     frames = frames_by_entity(hybrid_run / "run.rrd")
     assert frames["/metrics/hybrid/fit_cost"] == [0, 1] and frames["/metrics/tree/entropy"] == [0, 1]
@@ -70,3 +72,24 @@ def test_the_fed_posterior_reaches_the_next_prior_as_if_fed_at_once(hybrid_cache
                 run.tracker._feed()
     assert not np.array_equal(run.tracker.filter.posterior, posteriors[True][-1])  # the feed moves it
     assert np.array_equal(posteriors[False], posteriors[True])
+
+
+def test_a_candidate_turned_further_than_max_turn_deg_from_the_last_estimate_is_kept_from_the_choice(hybrid_cache):
+    from scipy.spatial.transform import Rotation
+
+    run = build(compose(list(small_run(hybrid_cache, "experiment=hybrid_paper_scale", "tracker.max_turn_deg=90"))))
+    tracker, last = run.tracker, run.scene.params(run.model, 0)
+    candidates = []
+    for turn_deg in (0.0, 30.0, 89.0, 91.0, 179.0):  # about the vertical, then about a tilted axis
+        pose = last.copy()
+        pose[3:6] = (
+            Rotation.from_rotvec([0.0, 0.0, np.radians(turn_deg)]) * Rotation.from_rotvec(last[3:6])
+        ).as_rotvec()
+        candidates.append(pose)
+    tilted = last.copy()
+    tilted[3:6] = (
+        Rotation.from_rotvec(np.radians(100.0) * np.array([0.6, 0.0, 0.8])) * Rotation.from_rotvec(last[3:6])
+    ).as_rotvec()
+    assert not tracker.turned_away(candidates).any()  # no estimate yet: any may be chosen
+    tracker.refined = last
+    assert tracker.turned_away([*candidates, tilted]).tolist() == [False, False, False, True, True, True]
