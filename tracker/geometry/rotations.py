@@ -83,10 +83,14 @@ def rotation_angle_deg(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.degrees(np.arccos(np.clip((np.trace(a.T @ b) - 1.0) / 2.0, -1.0, 1.0))))
 
 
-def cross_matrix(vector: np.ndarray) -> np.ndarray:
-    """``[v]_x``, with ``[v]_x w = v x w``."""
-    x, y, z = vector
-    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+def cross_matrix(vectors: np.ndarray) -> np.ndarray:
+    """``[v]_x`` ``(..., 3, 3)`` of vectors ``(..., 3)``, with ``[v]_x w = v x w``."""
+    vectors = np.asarray(vectors, dtype=np.float64)
+    x, y, z = np.moveaxis(vectors, -1, 0)
+    matrices = np.zeros(vectors.shape[:-1] + (3, 3))
+    matrices[..., 0, 1], matrices[..., 0, 2], matrices[..., 1, 2] = -z, y, -x
+    matrices[..., 1, 0], matrices[..., 2, 0], matrices[..., 2, 1] = z, -y, x
+    return matrices
 
 
 def right_jacobian(vectors: np.ndarray) -> np.ndarray:
@@ -94,9 +98,7 @@ def right_jacobian(vectors: np.ndarray) -> np.ndarray:
     order, i.e. ``I - (1 - cos t) / t^2 [r]_x + (t - sin t) / t^3 [r]_x^2`` for t = |r| (series near 0)."""
     vectors = np.asarray(vectors, dtype=np.float64)
     angle = np.linalg.norm(vectors, axis=-1)[..., None, None]
-    x, y, z = np.moveaxis(vectors, -1, 0)
-    zero = np.zeros_like(x)
-    cross = np.stack([np.stack(row, -1) for row in ((zero, -z, y), (z, zero, -x), (-y, x, zero))], -2)  # [r]_x
+    cross = cross_matrix(vectors)
     small = angle < SERIES_ANGLE_RAD
     with np.errstate(divide="ignore", invalid="ignore"):
         first = np.where(small, 0.5 - angle**2 / 24, (1 - np.cos(angle)) / angle**2)
