@@ -15,7 +15,7 @@ DAZ_DIR = data_dir() / "mocap_daz"
 
 def _bone_angles_deg(body, clip, poses, times_s):
     """Per matched bone, the largest angle between the body's bone and the file's over the given frames."""
-    frames = 1 + np.round(times_s / clip.frame_time).astype(int)
+    frames = DAZ.motion_from + np.round(times_s / clip.frame_time).astype(int)
     theirs, ours = clip.joint_positions(frames), body.joint_positions(poses)
     worst = {}
     for joint, (end, (start_file, end_file)) in DAZ.rest_bones.items():
@@ -39,6 +39,17 @@ def test_a_daz_clips_limb_directions_survive_retargeting(body, name):
     arm, rest = posed[:, elbow] - posed[:, shoulder], t_pose[elbow] - t_pose[shoulder]
     turned = np.degrees(np.arccos(arm @ rest / np.linalg.norm(arm, axis=1) / np.linalg.norm(rest)))
     assert turned.max() > 30.0
+
+
+def test_a_daz_clips_first_frame_is_the_motions_not_the_conversions_ease_in(body):
+    """The DAZ-friendly files ease from their T-pose into the motion over frames 1-8: read from frame 1, a clip's first
+    step (root-aligned joints, 15 fps) was 85-180 mm, to a body that then stood almost still (under 1 mm a frame)."""
+    for path in sorted(DAZ_DIR.glob("*.bvh")):
+        poses = clip_poses(read_clip(path), body, ClipSelection(frames=4, fps=15.0))
+        joints = body.joint_positions(poses)
+        joints -= joints[:, :1]
+        steps_mm = 1e3 * np.linalg.norm(np.diff(joints, axis=0), axis=2).mean(axis=1)
+        assert steps_mm[0] <= 1.5 * steps_mm[1:].max() + 5.0, (path.name, steps_mm)  # the motion's own pace
 
 
 def test_a_true_frame_rate_stretches_the_clip_in_time(body):

@@ -8,6 +8,9 @@ which CMU joint, and how their T-poses differ, is the skeleton's retargeting tab
 the MotionBuilder-friendly CMU skeleton of ``mocap/`` maps one to one, the DAZ-friendly one of ``mocap_daz/`` by
 its own table.
 
+The motion starts at the file frame after the T-pose, or later where the skeleton's conversion eases into it
+(`Skeleton.motion_from`: the DAZ-friendly files' frames 1-8); ``start_s`` counts from there.
+
 A file whose header states a wrong frame rate (the DAZ-friendly salsa clips say 120 fps, were captured at 60) is
 read at its true rate when one is given (``true_fps``).
 """
@@ -33,7 +36,7 @@ from tracker.tol import COUNT_ROUNDING
 
 @dataclass(frozen=True)
 class ClipSelection:
-    """Which part of a clip to use: from ``start`` (seconds after the T-pose frame) for ``frames`` frames at
+    """Which part of a clip to use: from ``start`` (seconds after the motion's first frame) for ``frames`` frames at
     ``fps`` (``frames=None``: to the end)."""
 
     start_s: float = 0.0
@@ -44,11 +47,9 @@ class ClipSelection:
 def clip_poses(clip: BvhClip, body: BodyMesh, selection: ClipSelection = ClipSelection()) -> np.ndarray:
     """``(n, POSE_SIZE)`` body pose vectors of ``clip`` resampled at ``selection.fps`` (slerp between frames)."""
     skeleton = retargeting(clip)
-    if clip.frames < 2:
-        raise BvhError(f"{clip.path}: needs the T-pose frame and at least one frame of motion, has {clip.frames}")
     times = _sample_times(clip, selection)
     order = np.array([clip.index(skeleton.sources[name]) for name in JOINT_NAMES])
-    before = np.clip(np.floor(times / clip.frame_time).astype(int), 1, clip.frames - 1)
+    before = np.clip(np.floor(times / clip.frame_time).astype(int), skeleton.motion_from, clip.frames - 1)
     after = np.minimum(before + 1, clip.frames - 1)
     fraction = np.clip(times / clip.frame_time - before, 0.0, 1.0)[:, None]
     frames = np.unique(np.concatenate([[0], before, after]))
@@ -75,16 +76,25 @@ def clip_poses(clip: BvhClip, body: BodyMesh, selection: ClipSelection = ClipSel
     return poses
 
 
+def motion_seconds(clip: BvhClip) -> float:
+    """How long the clip's motion lasts, from its first frame (`Skeleton.motion_from`) to its last."""
+    return max(clip.frames - 1 - retargeting(clip).motion_from, 0) * clip.frame_time
+
+
 def _sample_times(clip: BvhClip, selection: ClipSelection) -> np.ndarray:
-    """Times (s, from frame 0) of the wanted frames; the motion starts at frame 1."""
+    """Times (s, from frame 0) of the wanted frames; the motion starts at the skeleton's `Skeleton.motion_from`."""
     if selection.fps <= 0:
         raise ValueError(f"fps={selection.fps}: must be > 0")
-    first = clip.frame_time * (1 + selection.start_s / clip.frame_time)
+    motion_from = retargeting(clip).motion_from
+    if clip.frames <= motion_from:
+        raise BvhError(
+            f"{clip.path}: has {clip.frames} frame(s), no motion: its motion starts at frame {motion_from}"
+        )
+    first = clip.frame_time * (motion_from + selection.start_s / clip.frame_time)
     last = clip.frame_time * (clip.frames - 1)
     if first > last:
         raise BvhError(
-            f"{clip.path}: start {selection.start_s} s is past the clip's end "
-            f"({(clip.frames - 2) * clip.frame_time:.2f} s of motion)"
+            f"{clip.path}: start {selection.start_s} s is past the clip's end ({motion_seconds(clip):.2f} s of motion)"
         )
     available = int(np.floor((last - first) * selection.fps + COUNT_ROUNDING)) + 1
     count = available if selection.frames is None else selection.frames
@@ -149,8 +159,8 @@ def check_clip(scene: MocapScene, frames: int, key: str, model: str) -> None:
     """Before a run: the scene's file is a readable clip of a known skeleton holding ``frames`` frames from its start.
     Raises ``ValueError`` naming the config keys (``key``: the scene's, e.g. ``scene``)."""
     clip = read_body_clip(scene.path, f"{key}.path", scene.true_fps)
-    motion_s = max(clip.frames - 2, 0) * clip.frame_time  # frame 0 is the T-pose: the motion starts at frame 1
-    if clip.frames < 3:
+    motion_s = motion_seconds(clip)
+    if motion_s <= 0:
         raise ValueError(f"{key}.path={scene.path}: the clip has {clip.frames} frame(s), no motion to track")
     if scene.start_s >= motion_s:
         raise ValueError(
@@ -178,7 +188,7 @@ class MocapScene:
     nothing (the clip's own place)."""
 
     path: str
-    start_s: NonNegative = 0.0  # seconds after the clip's T-pose frame
+    start_s: NonNegative = 0.0  # seconds after the motion's first frame (`ClipSelection`)
     fps: Annotated[float, Range(1.0, 1000.0)] = 30.0  # resampled (slerp) to this rate
     yaw_deg: Finite = -90.0
     center: Literal["first_frame", "path", "none"] = "first_frame"
