@@ -41,8 +41,14 @@ def test_a_hybrid_run_refines_the_dictionarys_proposal(hybrid_run):
     timings = json.loads((hybrid_run / "timings.json").read_text())
     assert timings["estimate_refine_ms_median"] > 0 and timings["estimate_level1_ms_median"] > 0
     table = pd.read_parquet(hybrid_run / "frames.parquet").drop_duplicates("frame")
-    proposals = metrics["config"]["tracker"]["proposals"]  # then the previous refined pose, from frame 1 on
-    assert table["hybrid_choice"].between(0, proposals).all() and table["hybrid_choice"].iloc[0] < proposals
+    # then the previous refined pose, from frame 1 on, or from frame 0 where the preset starts from the given pose
+    proposals, given = metrics["config"]["tracker"]["proposals"], metrics["config"]["tracker"]["start_from"]
+    assert table["hybrid_choice"].between(0, proposals).all()
+    assert (
+        table["hybrid_choice"].iloc[0] <= proposals
+        if given == "initial"
+        else table["hybrid_choice"].iloc[0] < proposals
+    )
     # Without pairs (frame 0) the fit never explains the silhouettes worse than the proposal; with them, it trades
     # some of the silhouettes' cost for the features'.
     assert table["fit_cost"].tolist()[0] <= table["fit_cost_proposal"].tolist()[0]
@@ -72,6 +78,22 @@ def test_the_fed_posterior_reaches_the_next_prior_as_if_fed_at_once(hybrid_cache
                 run.tracker._feed()
     assert not np.array_equal(run.tracker.filter.posterior, posteriors[True][-1])  # the feed moves it
     assert np.array_equal(posteriors[False], posteriors[True])
+
+
+def test_started_from_the_given_pose_frame_0_is_refined_from_it(hybrid_cache):
+    """``start_from=initial``: the frame-0 pose the run gives is a candidate, held where it stands; from tree
+    filtering's generic initial prior alone, frame 0 is only as good as the small dictionary's proposals."""
+    from tracker.evaluation.body import joint_errors_mm
+
+    errors = {}
+    for start_from in ("prior", "initial"):
+        overrides = small_run(hybrid_cache, "experiment=hybrid_multi_view", f"tracker.start_from={start_from}")
+        run = build(compose(list(overrides)))
+        start_tracker(run)
+        result = run.tracker.step(observations(run, 1)[0])
+        errors[start_from] = joint_errors_mm(run.model, run.scene.params(run.model, 0), result.estimate)
+        assert result.frame_columns["hybrid_choice"] <= run.tracker.settings.proposals
+    assert errors["initial"]["absolute"] < 30.0 < errors["prior"]["absolute"]  # mm: the tracker's body is not his
 
 
 def test_a_candidate_turned_further_than_max_turn_deg_from_the_last_estimate_is_kept_from_the_choice(hybrid_cache):

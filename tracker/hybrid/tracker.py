@@ -2,7 +2,8 @@
 
 Each frame, tree filtering (`tracker.tbf.tracker.TbfTracker`, all its settings) searches its dictionary of pose
 samples for the frame's silhouettes: a global search that recovers what a local fit loses. Its ``proposals`` most
-probable samples, placed where the person stands, and the last frame's refined pose are the candidates; each is
+probable samples, placed where the person stands, and the last frame's refined pose are the candidates (at frame 0,
+with ``start_from=initial``, the pose the run gives, as AbIS starts; held where it stands); each is
 refined for ``screen_iterations`` by the continuous fit of the tracker's own body to every view's silhouette
 (`tracker.hybrid.silhouette_fit`: the joints and the root by Levenberg-Marquardt with the skinning's analytic
 Jacobian, the root held near where tree filtering placed the person), and the one that then explains the views
@@ -27,7 +28,7 @@ from __future__ import annotations
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import Annotated, ClassVar
+from typing import Annotated, ClassVar, Literal
 
 import numpy as np
 
@@ -62,6 +63,10 @@ class HybridSettings(TbfSettings):
     # A candidate whose root turned more than this from the last refined pose is not chosen (180: any may be): one
     # silhouette looks much the same from the front and the back, a person seldom turns that far in a frame.
     max_turn_deg: Annotated[float, Range(0.0, 180.0)] = 180.0
+    # Where frame 0 starts: tree filtering's initial prior alone (upright, facing ``initial_yaw_deg``), or also the
+    # frame-0 pose the run gives (paper 1's user-assisted alignment, as AbIS starts): a candidate of frame 0, and
+    # ``feed``'s share of the first prior on its nearest sample.
+    start_from: Literal["prior", "initial"] = "prior"
 
 
 class NearestSample:
@@ -102,18 +107,23 @@ class HybridTracker(TbfTracker):
         pairing = self.settings.fit.features
         self.features = FeaturePairs(self.body, self.cameras, pairing) if pairing.weight > 0 else None
         self.nearest = NearestSample(self.samples.poses)
-        self.refined, self._feeding = None, None
+        self.refined, self._feeding, self._given_root = None, None, None
+        if self.settings.start_from == "initial":
+            given = np.asarray(initial, dtype=np.float64).copy()
+            self.refined, self._feeding = given, TwoEndedJobs([lambda: self.nearest(given)])
+            self._given_root = given[:3]  # frame 0's root is where the given pose puts it
 
-    def proposals(self, found: TbfResult) -> list[np.ndarray]:
-        """The filter's best ``proposals`` samples by their posterior, each where the best was placed (its root's
-        position; the best itself placed as tree filtering places it)."""
+    def proposals(self, found: TbfResult, placed: np.ndarray) -> list[np.ndarray]:
+        """The filter's best ``proposals`` samples by their posterior, each with its root at ``placed``."""
         posterior = self.filter.posterior
         ranked = np.argsort(-posterior, kind="stable")[: self.settings.proposals]
-        poses = [found.estimate]
+        best = found.estimate.copy()
+        best[:3] = placed
+        poses = [best]
         for sample in ranked[ranked != found.filter.sample][: self.settings.proposals - 1]:
             if posterior[sample] > 0:
                 pose = np.asarray(self.samples.poses[sample], dtype=np.float64).copy()
-                pose[:3] = found.estimate[:3]
+                pose[:3] = placed
                 poses.append(pose)
         return poses
 
@@ -132,8 +142,10 @@ class HybridTracker(TbfTracker):
             return found
         start = time.perf_counter()
         self.fit.observe([observation.silhouettes[camera.name] for camera in self.cameras], pairs)
-        candidates = self.proposals(found) + ([self.refined] if self.refined is not None else [])
-        placed = found.estimate[:3]  # where tree filtering placed the person this frame
+        # where tree filtering placed the person this frame (frame 0 started from the given pose: where it is)
+        placed = found.estimate[:3] if self._given_root is None else self._given_root
+        self._given_root = None
+        candidates = self.proposals(found, placed) + ([self.refined] if self.refined is not None else [])
         screened = [self.fit.refine(pose, self.settings.screen_iterations, placed) for pose in candidates]
         turned_away = self.turned_away([pose for pose, _ in screened])
         choice = int(np.argmin(np.where(turned_away, np.inf, [cost for _, cost in screened])))

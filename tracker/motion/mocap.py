@@ -87,9 +87,7 @@ def _sample_times(clip: BvhClip, selection: ClipSelection) -> np.ndarray:
         raise ValueError(f"fps={selection.fps}: must be > 0")
     motion_from = retargeting(clip).motion_from
     if clip.frames <= motion_from:
-        raise BvhError(
-            f"{clip.path}: has {clip.frames} frame(s), no motion: its motion starts at frame {motion_from}"
-        )
+        raise BvhError(f"{clip.path}: has {clip.frames} frame(s), no motion: its motion starts at frame {motion_from}")
     first = clip.frame_time * (motion_from + selection.start_s / clip.frame_time)
     last = clip.frame_time * (clip.frames - 1)
     if first > last:
