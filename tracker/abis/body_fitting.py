@@ -18,7 +18,7 @@ import numpy as np
 
 from tracker.abis.fitting import PixelProblem, Prior
 from tracker.geometry.cameras import Camera
-from tracker.models.body_mesh import BodyMesh
+from tracker.models.body_mesh import BodyMesh, BoneChain
 from tracker.models.body_skeleton import JOINT_INDEX, PART_BONES, POSE_SIZE
 from tracker.models.skinning_jacobian import vertex_jacobian
 
@@ -93,9 +93,12 @@ class BodyPartProblem(PixelProblem):
         # Each vertex skinned once however many pairs' faces share it.
         self._vertices, inverse = np.unique(corners, return_inverse=True)
         self._corners = inverse.reshape(corners.shape)
+        self._start: BoneChain | None = None  # the chain of the first pose asked: the others turn only these joints
 
     def points(self, q: np.ndarray, with_jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
-        transforms = self.body.bone_transforms(q)  # skinning and its Jacobian both start from them
+        if self._start is None:
+            self._start = self.body.chain(q)
+        transforms = self.body.chain(q, self._start, self.joints).transforms  # skinning and its Jacobian start here
         vertices = self.body.posed_vertices(q, self._vertices, transforms)
         points = np.einsum("mc,mcd->md", self._barycentric, vertices[self._corners])
         if not with_jacobian:
