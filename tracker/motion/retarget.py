@@ -91,9 +91,9 @@ def _both_sides(table: dict) -> dict:
 
 
 # Bruce Hahne's "DAZ-friendly" conversion of the CMU clips: 43 joints rooted at ``hip``, two spine bones, no toes.
-# Every file of it eases from its T-pose into the motion over frames 1-8 (in all 21 staged clips the joints' mean
-# step between file frames falls from 2-8 units at frame 1 to the motion's own, under 0.1-1, at frame 9): those
-# frames are the conversion's, not the person's.
+# Every file of it eases from its T-pose into the motion over frames 1-8: in all 21 staged clips the joints' mean
+# step (root-relative, file units) is up to 15 between frames 1 and 5, then falls to the motion's own by frame 9
+# (at most 1.3 in 95 % of each clip's first 120 frames of motion, median 0.12): those frames are the conversion's.
 DAZ = Skeleton(
     "daz",
     sources={
