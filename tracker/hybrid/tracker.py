@@ -111,7 +111,7 @@ class HybridTracker(TbfTracker):
         if self.settings.start_from == "initial":
             given = np.asarray(initial, dtype=np.float64).copy()
             self.refined, self._feeding = given, TwoEndedJobs([lambda: self.nearest(given)])
-            self._given_root = given[:3]  # frame 0's root is where the given pose puts it
+            self._given_root = given[:3]  # the first frame fitted holds the root where the given pose puts it
 
     def proposals(self, found: TbfResult, placed: np.ndarray) -> list[np.ndarray]:
         """The filter's best ``proposals`` samples by their posterior, each with its root at ``placed``."""
@@ -142,7 +142,7 @@ class HybridTracker(TbfTracker):
             return found
         start = time.perf_counter()
         self.fit.observe([observation.silhouettes[camera.name] for camera in self.cameras], pairs)
-        # where tree filtering placed the person this frame (frame 0 started from the given pose: where it is)
+        # where tree filtering placed the person this frame (the first one, started from the given pose: where it is)
         placed = found.estimate[:3] if self._given_root is None else self._given_root
         self._given_root = None
         candidates = self.proposals(found, placed) + ([self.refined] if self.refined is not None else [])
