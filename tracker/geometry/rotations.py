@@ -49,9 +49,7 @@ def rotation_vectors_to_matrices(vectors: np.ndarray) -> np.ndarray:
     """``(n, 3)`` rotation vectors -> ``(n, 3, 3)`` rotations (Rodrigues, batched)."""
     vectors = np.asarray(vectors, dtype=np.float64).reshape(-1, 3)
     angle = np.linalg.norm(vectors, axis=1)[:, None, None]
-    cross = np.zeros((len(vectors), 3, 3))
-    cross[:, 0, 1], cross[:, 0, 2], cross[:, 1, 2] = -vectors[:, 2], vectors[:, 1], -vectors[:, 0]
-    cross -= cross.transpose(0, 2, 1)
+    cross = cross_matrix(vectors)
     small = angle < SERIES_ANGLE_RAD
     safe = np.where(small, 1.0, angle)
     first = np.where(small, 1.0 - angle**2 / 6, np.sin(safe) / safe)
@@ -86,7 +84,7 @@ def rotation_angle_deg(a: np.ndarray, b: np.ndarray) -> float:
 def cross_matrix(vectors: np.ndarray) -> np.ndarray:
     """``[v]_x`` ``(..., 3, 3)`` of vectors ``(..., 3)``, with ``[v]_x w = v x w``."""
     vectors = np.asarray(vectors, dtype=np.float64)
-    x, y, z = np.moveaxis(vectors, -1, 0)
+    x, y, z = vectors[..., 0], vectors[..., 1], vectors[..., 2]
     matrices = np.zeros(vectors.shape[:-1] + (3, 3))
     matrices[..., 0, 1], matrices[..., 0, 2], matrices[..., 1, 2] = -z, y, -x
     matrices[..., 1, 0], matrices[..., 2, 0], matrices[..., 2, 1] = z, -y, x
