@@ -43,7 +43,7 @@ def test_a_daz_clips_limb_directions_survive_retargeting(body, name):
 
 def test_a_daz_clips_first_frame_is_the_motions_not_the_conversions_ease_in(body):
     """The DAZ-friendly files ease from their T-pose into the motion over frames 1-8: read from frame 1, a clip's first
-    step (root-aligned joints, 15 fps) was 85-180 mm, to a body that then stood almost still (under 1 mm a frame)."""
+    step (root-aligned joints, 15 fps) was 85-180 mm, into a motion whose next steps were 0.2-15 mm."""
     for path in sorted(DAZ_DIR.glob("*.bvh")):
         poses = clip_poses(read_clip(path), body, ClipSelection(frames=4, fps=15.0))
         joints = body.joint_positions(poses)
