@@ -52,6 +52,15 @@ def test_a_daz_clips_first_frame_is_the_motions_not_the_conversions_ease_in(body
         assert steps_mm[0] <= 1.5 * steps_mm[1:].max() + 5.0, (path.name, steps_mm)  # the motion's own pace
 
 
+def test_no_staged_clip_turns_the_hip_bones(body):
+    """What the hybrid's fit holds by default (`tracker.hybrid.silhouette_fit`): CMU's skeleton gives LHipJoint and
+    RHipJoint no channels of motion, and the retargeting of the DAZ clips leaves them at rest."""
+    hips = np.r_[[3 + 3 * JOINT_INDEX[name] + np.arange(3) for name in ("LHipJoint", "RHipJoint")]].ravel()
+    for path in [*sorted(DAZ_DIR.glob("*.bvh")), *sorted((data_dir() / "mocap").glob("*.bvh"))]:
+        poses = clip_poses(read_clip(path), body, ClipSelection(fps=5.0))
+        assert np.abs(poses[:, hips]).max() < 1e-9, path.name
+
+
 def test_a_true_frame_rate_stretches_the_clip_in_time(body):
     header = read_clip(DAZ_DIR / "salsa_01.bvh")
     true = read_clip(DAZ_DIR / "salsa_01.bvh", true_fps=60.0)

@@ -16,10 +16,13 @@ square (up to ``features.robust_px``) of each pair's point on the posed body pro
 and a prior ``prior_weight^2 |r_j - r_j^0|^2`` on each fitted joint's rotation vector, towards the starting pose
 (a joint the silhouettes do not constrain, a limb's twist, stays where it was), and where a place for the root is
 given, ``root_prior^2 |t - t^0|^2`` on its position (one view hardly sees depth). The parameters are the root's
-position and the rotation vectors of `FIT_JOINTS`; Levenberg-Marquardt steps them by the Gauss-Newton system
-of the residuals' Jacobian, analytic: the image gradient of ``outside`` (for cover, the edge's normal) times the
-projection's Jacobian (`projection_jacobian`) times the skinned vertices' (`tracker.models.skinning_jacobian`; a
-pair's point: its face's corners' blended by its barycentric coordinates), taken by the joints' levers
+position and the rotation vectors of `FIT_JOINTS` but the ``held_joints``, which keep the candidate's rotations:
+by default the two hip bones (``LHipJoint``, ``RHipJoint``: pelvis to thigh), which no staged clip turns (CMU's
+skeleton gives them no channels of motion, and the retargeting leaves them at rest) and which, turned, let the
+pelvis float off the legs while the silhouettes stay explained. Levenberg-Marquardt steps them by the Gauss-Newton
+system of the residuals' Jacobian, analytic: the image gradient of ``outside`` (for cover, the edge's normal) times
+the projection's Jacobian (`projection_jacobian`) times the skinned vertices' (`tracker.models.skinning_jacobian`;
+a pair's point: its face's corners' blended by its barycentric coordinates), taken by the joints' levers
 (`residual_rows`).
 
 `fit_cost` is the silhouettes' terms alone: what the hybrid compares candidates by (the same vertices and edge
@@ -31,7 +34,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Annotated, NamedTuple
+from typing import Annotated, Literal, NamedTuple
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -40,7 +43,7 @@ from tracker.geometry.cameras import Camera, projection_jacobian
 from tracker.hybrid.feature_pairs import FeaturePairSettings, ViewPairs
 from tracker.hybrid.view_field import ViewField
 from tracker.models.body_mesh import BodyMesh
-from tracker.models.body_skeleton import JOINT_INDEX
+from tracker.models.body_skeleton import JOINT_INDEX, JOINT_NAMES
 from tracker.models.skinning_jacobian import SkinningLevers, skinning_levers
 from tracker.ranges import NonNegative, Positive, Range
 from tracker.render.mesh import vertex_normals
@@ -54,7 +57,12 @@ FIT_JOINTS = tuple(
         "RightArm RightForeArm RightHand LHipJoint LeftUpLeg LeftLeg LeftFoot RHipJoint RightUpLeg RightLeg RightFoot"
     ).split()
 )
-FIT_COLUMNS = np.r_[np.arange(3), (3 + 3 * np.array(FIT_JOINTS)[:, None] + np.arange(3)).ravel()]
+FitJoint = Literal[tuple(JOINT_NAMES[joint] for joint in FIT_JOINTS)]
+
+
+def fit_columns(joints: Sequence[int]) -> np.ndarray:
+    """The pose vector's entries a fit of ``joints`` steps: the root's position, then each joint's rotation vector."""
+    return np.r_[np.arange(3), (3 + 3 * np.asarray(joints, dtype=np.int64)[:, None] + np.arange(3)).ravel()]
 
 
 @dataclass(frozen=True)
@@ -70,10 +78,16 @@ class FitSettings:
     root_prior: NonNegative = 20.0  # pixels per metre of the root away from where it is held (`refine`'s root)
     damping: Positive = 1e-3  # Levenberg-Marquardt's first lambda, relative to the system's diagonal
     tolerance: NonNegative = 0.02  # stop once an iteration lowers the cost by less than this fraction of it
+    held_joints: tuple[FitJoint, ...] = ("LHipJoint", "RHipJoint")  # not fitted (see the module docstring)
     features: FeaturePairSettings = field(default_factory=FeaturePairSettings)
 
     def __post_init__(self) -> None:
         validate(self)
+
+    @property
+    def joints(self) -> tuple[int, ...]:
+        """The joints fitted: `FIT_JOINTS` but the ``held_joints``."""
+        return tuple(joint for joint in FIT_JOINTS if JOINT_NAMES[joint] not in self.held_joints)
 
 
 def huber_weights(residuals: np.ndarray, scale: float) -> np.ndarray:
@@ -88,7 +102,7 @@ def huber(residuals: np.ndarray, scale: float) -> np.ndarray:
 
 
 class Term(NamedTuple):
-    """A block of the fit's residuals: their ``values``, their ``rows`` of the Jacobian by `FIT_COLUMNS` (None when
+    """A block of the fit's residuals: their ``values``, their ``rows`` of the Jacobian by the fit's columns (None when
     not asked for), the Huber scale and the ``weight`` of their mean robust square in the cost; ``silhouette``: a
     silhouette's term (what `SilhouetteFit.fit_cost` counts), not the feature pairs'."""
 
@@ -100,13 +114,13 @@ class Term(NamedTuple):
 
 
 def residual_rows(camera: Camera, points: np.ndarray, directions: np.ndarray, levers: SkinningLevers) -> np.ndarray:
-    """``(n, len(FIT_COLUMNS))``: the derivatives of the residuals ``directions . pixel`` (``directions`` ``(n, 2)``)
-    of ``points`` ``(n, 3)`` seen by ``camera``, by the fitted parameters, given the points' skinning ``levers``
-    (`FIT_JOINTS`'). With g the pixel direction pulled back to the world (``J_proj^T d``), the root's columns are
-    the weight sum times g, and a joint's column c ``g . (a_c x L) = a_c . (L x g)``: a scalar triple product per
-    joint, not a 3-row Jacobian per point."""
+    """``(n, 3 + 3 K)``: the derivatives of the residuals ``directions . pixel`` (``directions`` ``(n, 2)``) of
+    ``points`` ``(n, 3)`` seen by ``camera``, by the fitted parameters (`fit_columns` of the K joints the points'
+    skinning ``levers`` are taken by). With g the pixel direction pulled back to the world (``J_proj^T d``), the
+    root's columns are the weight sum times g, and a joint's column c ``g . (a_c x L) = a_c . (L x g)``: a scalar
+    triple product per joint, not a 3-row Jacobian per point."""
     pulled = np.einsum("na,nab->nb", directions, projection_jacobian(camera, points))  # g, (n, 3)
-    rows = np.empty((len(points), len(FIT_COLUMNS)))
+    rows = np.empty((len(points), 3 + 3 * len(levers.axes)))
     rows[:, :3] = levers.weight_sums[:, None] * pulled
     turns = np.cross(levers.levers, pulled[:, None, :]).transpose(1, 0, 2)  # (K, n, 3): L x g
     rows[:, 3:] = (turns @ levers.axes.transpose(0, 2, 1)).transpose(1, 0, 2).reshape(len(points), -1)
@@ -120,6 +134,8 @@ class SilhouetteFit:
 
     def __init__(self, body: BodyMesh, cameras: Sequence[Camera], settings: FitSettings = FitSettings()) -> None:
         self.body, self.cameras, self.settings = body, tuple(cameras), settings
+        self.joints = settings.joints
+        self.columns = fit_columns(self.joints)
         self.region = np.arange(0, len(body.rest_vertices), settings.vertex_stride)
         self.rest_normals = vertex_normals(body.rest_vertices, body.faces)
         self.fields: list[ViewField] = []
@@ -148,7 +164,7 @@ class SilhouetteFit:
 
     def residuals(self, pose: np.ndarray, jacobian: bool = True) -> list[Term]:
         """Per view, the region term, the cover term and, with pairs observed, the feature term (a pair's ``u`` then
-        its ``v`` residual); with ``jacobian``, each term's rows by `FIT_COLUMNS` (else None).
+        its ``v`` residual); with ``jacobian``, each term's rows by the fit's ``columns`` (else None).
 
         The terms of the frame's last `POSES_KEPT` poses are kept: Levenberg-Marquardt asks for the Jacobian where
         it has just taken a step, whose cost it computed to accept it, and the hybrid refines on, and judges, poses
@@ -163,7 +179,7 @@ class SilhouetteFit:
         if not jacobian:
             return list(terms)
         needed, where = np.unique(np.concatenate([corners.ravel() for *_, corners, _ in moves]), return_inverse=True)
-        levers = skinning_levers(self.body, pose, needed, FIT_JOINTS, transforms)
+        levers = skinning_levers(self.body, pose, needed, self.joints, transforms)
         rows, first = [], 0
         for term, (camera, directions, corners, blend) in zip(terms, moves, strict=True):
             at = where[first : first + corners.size].reshape(corners.shape)
@@ -236,22 +252,22 @@ class SilhouetteFit:
         settings'), the root's position held near ``root`` (None: free); the pose vector it ends at and its
         `fit_cost` (computed on the way)."""
         settings, pose = self.settings, np.asarray(start, dtype=np.float64).copy()
-        anchor = pose[FIT_COLUMNS].copy()
+        anchor = pose[self.columns].copy()
         root_weight = 0.0 if root is None else settings.root_prior
         if root is not None:
             anchor[:3] = root
-        prior_rows = np.r_[np.full(3, root_weight), np.full(len(FIT_COLUMNS) - 3, settings.prior_weight)]
+        prior_rows = np.r_[np.full(3, root_weight), np.full(len(self.columns) - 3, settings.prior_weight)]
 
         def total(candidate: np.ndarray) -> tuple[float, float]:
             """The cost with the feature pairs and the prior, and the `fit_cost` in it."""
             terms = self.residuals(candidate, jacobian=False)
-            prior = float(((prior_rows * (candidate[FIT_COLUMNS] - anchor)) ** 2).sum())
+            prior = float(((prior_rows * (candidate[self.columns] - anchor)) ** 2).sum())
             return self.cost(terms) + prior, self.cost(terms, silhouettes_only=True)
 
         (current, fitted), damping = total(pose), settings.damping
         for _ in range(settings.iterations if iterations is None else iterations):
             hessian = np.diag(prior_rows**2)
-            gradient = prior_rows**2 * (pose[FIT_COLUMNS] - anchor)
+            gradient = prior_rows**2 * (pose[self.columns] - anchor)
             for term in self.residuals(pose):
                 if not len(term.values):
                     continue
@@ -261,7 +277,7 @@ class SilhouetteFit:
             while damping < 1e8:
                 system = hessian + damping * np.diag(np.diag(hessian) + 1e-9)
                 trial = pose.copy()
-                trial[FIT_COLUMNS] -= np.linalg.solve(system, gradient)
+                trial[self.columns] -= np.linalg.solve(system, gradient)
                 cost, trial_fitted = total(trial)
                 if cost < current:
                     pose, current, fitted, damping, gain = (

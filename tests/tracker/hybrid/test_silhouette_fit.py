@@ -8,7 +8,7 @@ from scipy.spatial.transform import Rotation
 from tracker.evaluation.body import joint_errors_mm
 from tracker.geometry.rigs import View, cameras
 from tracker.hybrid.feature_pairs import FeaturePairs, FeaturePairSettings, ViewPairs
-from tracker.hybrid.silhouette_fit import FIT_COLUMNS, FIT_JOINTS, FitSettings, SilhouetteFit, residual_rows
+from tracker.hybrid.silhouette_fit import FIT_JOINTS, FitSettings, SilhouetteFit, fit_columns, residual_rows
 from tracker.models.body_skeleton import JOINT_INDEX
 from tracker.models.skinning_jacobian import skinning_levers
 from tracker.tbf.pose_sets import arm_grid
@@ -34,11 +34,11 @@ def test_the_residual_rows_are_the_derivative_of_the_projected_skinned_vertices(
     points = body.posed_vertices(pose)
     directions = np.random.default_rng(0).normal(size=(len(points), 2))
     levers = skinning_levers(body, pose, np.arange(len(points)), FIT_JOINTS)
-    analytic = residual_rows(RIG[1], points, directions, levers)
+    analytic, columns = residual_rows(RIG[1], points, directions, levers), fit_columns(FIT_JOINTS)
     step = 1e-6
-    for column in (0, 2, 3, 5, 10, 40, len(FIT_COLUMNS) - 1):  # the root's position, the root's and limbs' joints
+    for column in (0, 2, 3, 5, 10, 40, len(columns) - 1):  # the root's position, the root's and limbs' joints
         moved = pose.copy()
-        moved[FIT_COLUMNS[column]] += step
+        moved[columns[column]] += step
         before, _ = RIG[1].project(body.posed_vertices(pose - (moved - pose)))
         after, _ = RIG[1].project(body.posed_vertices(moved))
         numeric = np.einsum("na,na->n", directions, after - before) / (2 * step)
@@ -63,6 +63,33 @@ def test_the_fit_recovers_a_perturbed_pose_from_three_rendered_silhouettes(body,
     before, after = joint_errors_mm(body, pose, start), joint_errors_mm(body, pose, refined)
     assert fit.fit_cost(refined) < 0.2 * fit.fit_cost(start)
     assert after["absolute"] < 0.3 * before["absolute"] and after["aligned"] < 0.6 * before["aligned"], (before, after)
+
+
+def test_the_held_joints_keep_the_candidates_rotations(body, pose, renderer):
+    """The hip bones (held by default) keep the rotation the candidate has, even one no clip gives them; with
+    nothing held the same fit turns them."""
+    hips = [slice(3 + 3 * JOINT_INDEX[name], 6 + 3 * JOINT_INDEX[name]) for name in ("LHipJoint", "RHipJoint")]
+    start = perturbed(pose)
+    for where in hips:
+        start[where] += [0.05, -0.1, 0.08]
+    views = silhouettes(renderer, body, pose, RIG)
+    settings = {None: FitSettings(iterations=5), (): FitSettings(iterations=5, held_joints=())}
+    fits = {held: SilhouetteFit(body, RIG, these) for held, these in settings.items()}
+    refined = {}
+    for held, fit in fits.items():
+        if held is None:
+            assert fit.settings.held_joints == ("LHipJoint", "RHipJoint")  # the default
+        fit.observe(views)
+        refined[held], _ = fit.refine(start)
+    for where in hips:
+        assert np.array_equal(refined[None][where], start[where])
+        assert np.abs(refined[()][where] - start[where]).max() > 1e-3
+    assert np.abs(refined[None] - start).max() > 1e-2  # the other joints did move
+
+
+def test_a_held_joint_must_be_a_fitted_one():
+    with pytest.raises(ValueError, match=r"^held_joints\[0\]='LeftToeBase' is not allowed: allowed Hips, .*RightFoot$"):
+        FitSettings(held_joints=("LeftToeBase",))
 
 
 def test_from_one_view_the_fit_recovers_what_the_view_sees(body, pose, renderer):
@@ -99,9 +126,9 @@ def test_the_feature_terms_jacobian_is_the_derivative_of_its_residuals(body, pos
     features = [term for term in terms if term.robust_px == fit.settings.features.robust_px]
     assert len(terms) == 3 * 3 and len(features) == 3 and all(len(term.values) == 80 for term in features)
     step = 1e-6
-    for column in (0, 2, 3, 10, 40, len(FIT_COLUMNS) - 1):
+    for column in (0, 2, 3, 10, 40, len(fit.columns) - 1):
         moved = pose.copy()
-        moved[FIT_COLUMNS[column]] += step
+        moved[fit.columns[column]] += step
         after = fit.residuals(moved, jacobian=False)
         before = fit.residuals(pose - (moved - pose), jacobian=False)
         for index in range(2, len(terms), 3):  # each view's feature term
