@@ -41,6 +41,8 @@ def frame_table(run: Path) -> pd.DataFrame:
     """A run's frames, one row each (its first part's), with ``seen``: every view saw the whole subject (True for
     runs written before the runs said so), and ``floor_mm`` where the run judged a dictionary."""
     table = pd.read_parquet(run / "frames.parquet")
+    if "frame" not in table:  # a run that failed before its first frame
+        return pd.DataFrame({"seen": pd.Series(dtype=bool)}, index=pd.Index([], name="frame"))
     frames = table.drop_duplicates("frame").set_index("frame")
     views = [column for column in frames.columns if column.startswith("in_view_")]
     frames["seen"] = frames[views].all(axis=1) if views else True
@@ -68,7 +70,8 @@ def benchmark_table(root: Path, labels: dict[str, str]) -> pd.DataFrame:
         floor = floors[0] if floors else pd.Series(np.nan, index=scored)
         for folder, label in labels.items():
             for run in of_clip[of_clip["folder"] == folder].to_dict("records"):
-                rows.append(clip_row(clip, label, run, frames[run["run"]].assign(floor_mm=floor), scored))
+                table = frames[run["run"]]
+                rows.append(clip_row(clip, label, run, table.assign(floor_mm=floor.reindex(table.index)), scored))
     return pd.DataFrame(rows, columns=COLUMNS)
 
 

@@ -83,6 +83,12 @@ def run_row(row: Row, run_dir: Path, overrides: list[str]) -> None:
     subprocess.run(args, check=False)
 
 
+def frames_done(run_dir: Path) -> int:
+    """How many frames the run in ``run_dir`` tracked (0 when it failed before its first, or never started)."""
+    metrics = run_dir / "metrics.json"
+    return int(json.loads(metrics.read_text()).get("frames_done", 0)) if metrics.exists() else 0
+
+
 def run_benchmark(split: Split, rows: dict[str, Row], reports: Path, clips: str = "test") -> Section:
     """Every row on every clip of the list ``clips`` (test, or validation: where settings are chosen), one run after
     another (a paper-scale run takes much of the memory); then the tables and figures."""
@@ -95,7 +101,7 @@ def run_benchmark(split: Split, rows: dict[str, Row], reports: Path, clips: str 
             run_dir = root / Path(clip).stem / folder
             print(f"benchmark: {clip}, {row.label} ...", flush=True)
             run_row(row, run_dir, clip_overrides(split, clip, dictionary[folder]))
-            if (run_dir / "frames.parquet").exists():
+            if frames_done(run_dir):
                 figures += [
                     fig5_strip(run_dir, run_dir / "fig5.png"),
                     error_against_floor(run_dir, run_dir / "error_against_floor.png", f"{clip}, {row.label}"),

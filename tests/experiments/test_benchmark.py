@@ -73,20 +73,29 @@ def test_the_benchmark_on_a_tiny_split_tabulates_every_row_against_the_clips_flo
         "tracker.samples.clip_turns_deg=[0.0]",
         "tracker.thresholds=[0.05,0.03,0.02]",
     ]
+    away = [*small, "rig.target=[0,-9,1]"]
     rows = {
         "tbf": {"label": "tree filtering", "experiment": "tbf_paper_scale", "overrides": small},
         "abis": {"label": "AbIS", "experiment": "abis_body", "overrides": ["rig=body_multi"]},
+        # its camera looks away: the run fails before its first frame, and the benchmark goes on
+        "lost": {"label": "looking away", "experiment": "tbf_paper_scale", "overrides": away},
     }
     path = write_split(tmp_path, validation=["mocap/143_33.bvh"], test=["mocap/69_20.bvh"], max_frames=2, rows=rows)
     reports = tmp_path / "reports"
     main(["--split", str(path), "--reports", str(reports)])
+    lost = reports / "benchmark" / "69_20" / "lost"
+    assert json.loads((lost / "metrics.json").read_text())["frames_done"] == 0 and not (lost / "fig5.png").exists()
+    rows.pop("lost")
     runs = {folder: reports / "benchmark" / "69_20" / folder for folder in rows}
     metrics = {folder: json.loads((run / "metrics.json").read_text()) for folder, run in runs.items()}
     assert all(m["status"] == "ok" and m["frames_done"] == 2 for m in metrics.values())
     assert metrics["tbf"]["config"]["tracker"]["samples"]["clips"] == ["mocap_daz/martial_04.bvh"]
     assert metrics["tbf"]["config"]["model"]["shape"] == metrics["abis"]["config"]["model"]["shape"]
     table = pd.read_csv(reports / "benchmark.csv")
-    assert list(table["tracker"]) == ["tree filtering", "AbIS"] and set(MEASURES) <= set(table.columns)
+    assert list(table["tracker"]) == ["tree filtering", "AbIS", "looking away"] and set(MEASURES) <= set(table.columns)
+    assert table.loc[2, "status"].startswith("failed: ValueError") and table.loc[2, ["frames", "scored"]].sum() == 0
+    assert table.loc[2, list(MEASURES)].isna().all()
+    table = table.iloc[:2]
     assert list(table["scored"]) == [2, 2]  # 69_20 starts in every view
     floor = metrics["tbf"]["mpjpe_floor_mm"]  # AbIS searches no dictionary: held against the clip's
     assert table["floor mm"].to_numpy() == pytest.approx(floor, abs=0.1)  # per-frame values kept to 0.1 mm
