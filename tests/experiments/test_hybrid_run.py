@@ -115,3 +115,22 @@ def test_a_candidate_turned_further_than_max_turn_deg_from_the_last_estimate_is_
     assert not tracker.turned_away(candidates).any()  # no estimate yet: any may be chosen
     tracker.refined = last
     assert tracker.turned_away([*candidates, tilted]).tolist() == [False, False, False, True, True, True]
+
+
+def test_screen_best_screens_the_candidates_cheapest_as_proposed_and_the_last_pose(hybrid_cache):
+    overrides = small_run(hybrid_cache, "experiment=hybrid_multi_view", "tracker.proposals=4", "tracker.screen_best=2")
+    run = build(compose(list(overrides)))
+    start_tracker(run)
+    tracker = run.tracker
+    for observation in observations(run, 2):
+        result = tracker.step(observation)
+        assert result.frame_columns["screened"] == 2 and result.frame_columns["hybrid_choice"] <= 4
+    last = tracker.refined
+    rng = np.random.default_rng(0)
+    candidates = [last + np.r_[np.zeros(3), rng.normal(0, 0.05 * k, len(last) - 3)] for k in range(1, 5)] + [last]
+    costs = [tracker.fit.fit_cost(pose) for pose in candidates]
+    cheapest = min(range(4), key=costs.__getitem__)  # of the proposals; the last pose is always screened
+    assert tracker.screened(candidates).tolist() == sorted([cheapest, 4])
+    tracker.refined = None  # no last pose: the two cheapest
+    assert tracker.screened(candidates).tolist() == sorted(np.argsort(costs, kind="stable")[:2].tolist())
+    assert tracker.screened(candidates[:2]).tolist() == [0, 1]

@@ -4,7 +4,8 @@ Each frame, tree filtering (`tracker.tbf.tracker.TbfTracker`, all its settings) 
 samples for the frame's silhouettes: a global search that recovers what a local fit loses. Its ``proposals`` most
 probable samples, placed where the person stands, and the last frame's refined pose are the candidates (at frame 0,
 with ``start_from=initial``, the pose the run gives, as AbIS starts; held where it stands); each is
-refined for ``screen_iterations`` by the continuous fit of the tracker's own body to every view's silhouette
+refined for ``screen_iterations`` (with ``screen_best``, only the ``screen_best`` whose silhouettes' cost is lowest as
+proposed, and the last refined pose) by the continuous fit of the tracker's own body to every view's silhouette
 (`tracker.hybrid.silhouette_fit`: the joints and the root by Levenberg-Marquardt with the skinning's analytic
 Jacobian, the root held near where tree filtering placed the person), and the one that then explains the views
 best (the lowest `SilhouetteFit.fit_cost`; of those whose root turned at most ``max_turn_deg`` from the last refined
@@ -18,7 +19,7 @@ refined body, and the next frame's pairs ask those points to move with them. The
 silhouettes alone choose between the candidates.
 
 Frame columns: ``hybrid_choice`` (the candidate kept: 0 the filter's best sample, then its next proposals, last
-the previous refined pose), ``fit_cost`` (the silhouettes' cost of the estimate), ``fit_cost_proposal`` (of the
+the previous refined pose), ``screened`` (the candidates screened), ``fit_cost`` (the silhouettes' cost of the estimate), ``fit_cost_proposal`` (of the
 proposal before refining), ``feature_pairs`` (over the views) and ``turned_away`` (the candidates ``max_turn_deg``
 kept from the choice); the stage ``refine`` in the timings (the features' tracking with it).
 """
@@ -67,6 +68,9 @@ class HybridSettings(TbfSettings):
     # frame-0 pose the run gives (paper 1's user-assisted alignment, as AbIS starts): a candidate of frame 0, and
     # ``feed``'s share of the first prior on its nearest sample.
     start_from: Literal["prior", "initial"] = "prior"
+    # Of the candidates, only this many are screened: those whose silhouettes' cost is lowest as proposed, the last
+    # refined pose always among them (None: every candidate). A screen is most of a candidate's cost.
+    screen_best: Annotated[int, Range(1, 100)] | None = None
 
 
 class NearestSample:
@@ -146,10 +150,12 @@ class HybridTracker(TbfTracker):
         placed = found.estimate[:3] if self._given_root is None else self._given_root
         self._given_root = None
         candidates = self.proposals(found, placed) + ([self.refined] if self.refined is not None else [])
-        screened = [self.fit.refine(pose, self.settings.screen_iterations, placed) for pose in candidates]
+        kept = self.screened(candidates)
+        screened = [self.fit.refine(candidates[k], self.settings.screen_iterations, placed) for k in kept]
         turned_away = self.turned_away([pose for pose, _ in screened])
-        choice = int(np.argmin(np.where(turned_away, np.inf, [cost for _, cost in screened])))
-        self.refined, cost = self.fit.refine(screened[choice][0], root=placed)
+        best = int(np.argmin(np.where(turned_away, np.inf, [cost for _, cost in screened])))
+        choice = int(kept[best])
+        self.refined, cost = self.fit.refine(screened[best][0], root=placed)
         self._estimate = self.refined
         if self.features is not None:
             self.features.anchor(self.refined, [view.inside_px for view in self.fit.fields])
@@ -158,6 +164,7 @@ class HybridTracker(TbfTracker):
             self._feeding = TwoEndedJobs([lambda: self.nearest(refined)])
         found.frame_columns.update(
             hybrid_choice=choice,
+            screened=len(kept),
             fit_cost=cost,
             fit_cost_proposal=self.fit.fit_cost(found.estimate),
             feature_pairs=sum(len(view) for view in self.fit.pairs),
@@ -169,6 +176,17 @@ class HybridTracker(TbfTracker):
             timings_ms={**found.timings_ms, "refine": elapsed_ms(start) + pairing_ms},
             series={**found.series, "hybrid/fit_cost": cost, "hybrid/choice": float(choice)},
         )
+
+    def screened(self, candidates: Sequence[np.ndarray]) -> np.ndarray:
+        """The indices (ascending) of the candidates to screen (``screen_best``): the last refined pose, last in
+        ``candidates`` when there is one, and those of lowest `SilhouetteFit.fit_cost` as they are."""
+        keep = self.settings.screen_best
+        if keep is None or len(candidates) <= keep:
+            return np.arange(len(candidates))
+        costs = np.array([self.fit.fit_cost(pose) for pose in candidates])
+        if self.refined is not None:
+            costs[-1] = -np.inf
+        return np.sort(np.argsort(costs, kind="stable")[:keep])
 
     def turned_away(self, poses: Sequence[np.ndarray]) -> np.ndarray:
         """``(len(poses),)`` bool: the poses whose root turned more than ``max_turn_deg`` from the last refined pose
