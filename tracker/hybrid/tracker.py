@@ -19,9 +19,10 @@ refined body, and the next frame's pairs ask those points to move with them. The
 silhouettes alone choose between the candidates.
 
 Frame columns: ``hybrid_choice`` (the candidate kept: 0 the filter's best sample, then its next proposals, last
-the previous refined pose), ``screened`` (the candidates screened), ``fit_cost`` (the silhouettes' cost of the estimate), ``fit_cost_proposal`` (of the
-proposal before refining), ``feature_pairs`` (over the views) and ``turned_away`` (the candidates ``max_turn_deg``
-kept from the choice); the stage ``refine`` in the timings (the features' tracking with it).
+the previous refined pose), ``screened`` (the candidates screened), ``fit_cost`` (the silhouettes' cost of the
+estimate), ``fit_cost_proposal`` (of the proposal before refining), ``feature_pairs`` (over the views) and
+``turned_away`` (the screened candidates ``max_turn_deg`` kept from the choice); the stage ``refine`` in the timings
+(the features' tracking with it).
 """
 
 from __future__ import annotations
