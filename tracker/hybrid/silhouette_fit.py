@@ -130,7 +130,9 @@ def residual_rows(camera: Camera, points: np.ndarray, directions: np.ndarray, le
 class SilhouetteFit:
     """The fit of ``body`` to the silhouettes of ``cameras`` (one frame's `ViewField` each: `observe`)."""
 
-    POSES_KEPT = 16  # poses whose terms `residuals` keeps (a frame's screening and refining ask for fewer)
+    # Poses whose terms `residuals` keeps: a frame's candidates costed as proposed (13 in hybrid_multi_view: with
+    # 16, some were evicted before their screen and computed again), their screens' trials, the refining's steps.
+    POSES_KEPT = 32
 
     def __init__(self, body: BodyMesh, cameras: Sequence[Camera], settings: FitSettings = FitSettings()) -> None:
         self.body, self.cameras, self.settings = body, tuple(cameras), settings
