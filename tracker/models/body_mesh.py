@@ -177,7 +177,7 @@ class BodyMesh:
         offsets = heads - np.einsum("njab,jb->nja", rotations, self.rest_heads)
         bones = np.concatenate([rotations, offsets[..., None]], axis=3)  # (n, J, 3, 4): x' = R x + o per bone
         # Each vertex's blend of its few bones, for every pose in one sparse product: (V, J) @ (J, n * 12).
-        weights = self._sparse_weights if subset is None else self._sparse_weights[subset]
+        weights = self._sparse_weights if subset is None else self._subset_weights(np.asarray(subset, dtype=np.int64).tobytes())
         blended = (weights @ bones.transpose(1, 0, 2, 3).reshape(joints, -1)).reshape(-1, count, 3, 4)
         rest = (self.rest_vertices if subset is None else self.rest_vertices[subset])[:, None, None, :]
         vertices = (
@@ -219,6 +219,11 @@ class BodyMesh:
         from scipy.sparse import csr_matrix
 
         return csr_matrix(self.weights)
+
+    @functools.lru_cache(maxsize=64)  # noqa: B019 (a fit skins the same few vertices at every step: slicing once)
+    def _subset_weights(self, subset: bytes):
+        """The rows of `_sparse_weights` of the vertices ``subset`` (int64 indices, their bytes)."""
+        return self._sparse_weights[np.frombuffer(subset, dtype=np.int64)]
 
     def surface_meshes(self, pose: np.ndarray, color: tuple[int, int, int] = SKIN_RGB) -> list[SurfaceMesh]:
         """One lit mesh per body part (label = part index + 1), each with only its own vertices."""

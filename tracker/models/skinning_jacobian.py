@@ -74,6 +74,9 @@ def vertex_jacobian(
     weight_sums, levers, axes = skinning_levers(body, pose, subset, joints, transforms)
     jacobian = np.empty((len(weight_sums), 3, 3 + 3 * len(axes)))
     jacobian[:, :, :3] = np.eye(3) * weight_sums[:, None, None]
-    turned = np.cross(axes[None], levers[:, :, None, :])  # (V, K, 3, 3): a x lever
-    jacobian[:, :, 3:] = np.transpose(turned, (0, 3, 1, 2)).reshape(len(weight_sums), 3, -1)
+    # a x lever per vertex, joint and component, one world coordinate d at a time (np.cross's products and
+    # differences, without its overhead: this runs at every step of a fit)
+    axis, lever = axes[None], levers[:, :, None, :]  # (1, K, 3, 3), (V, K, 1, 3)
+    for d, (e, f) in enumerate(((1, 2), (2, 0), (0, 1))):
+        jacobian[:, d, 3:] = (axis[..., e] * lever[..., f] - axis[..., f] * lever[..., e]).reshape(len(weight_sums), -1)
     return jacobian
