@@ -101,3 +101,60 @@ def test_on_the_arms_meshes_every_point_gets_the_nearest_of_every_triangle_to_th
             [point_triangle_distance(np.repeat(p[None], len(mesh.faces), 0), *corners).min() for p in points]
         )
         np.testing.assert_array_equal(point_mesh_distance(points, mesh.vertices, mesh.faces), every)
+
+
+def _every_triangle(points, vertices, faces):
+    corners = [vertices[faces[:, j]] for j in range(3)]
+    return np.array([point_triangle_distance(np.repeat(p[None], len(faces), 0), *corners).min() for p in points])
+
+
+def test_across_a_dsq_meshs_seam_the_triangles_around_are_tried_and_give_every_triangles_answer():
+    """The omega seam repeats its vertices (the topology's weld says which): points on and beside its edges tie
+    between the triangles on either side, which share no vertex index."""
+    from experiments.components import build, compose
+
+    components = build(compose(["frames=2"]))
+    arm, topology = components.model, components.model.topology
+    rng = np.random.default_rng(0)
+    seam = np.flatnonzero(np.isclose(topology.omega, -np.pi))
+    seam = seam[np.argsort(topology.eta[seam])]
+    for vertices in arm.surface_vertices(components.scene.params(arm, 0)):
+        along, edge = rng.uniform(0, 1, (300, 1)), rng.integers(0, len(seam) - 1, 300)
+        on = vertices[seam[edge]] * (1 - along) + vertices[seam[edge + 1]] * along
+        points = on + (on - vertices.mean(axis=0)) * rng.choice([0.0, 1e-6, 1e-3, 0.03], (300, 1))
+        np.testing.assert_array_equal(
+            point_mesh_distance(points, vertices, topology.faces, topology.weld),
+            _every_triangle(points, vertices, topology.faces),
+        )
+
+
+def test_a_mesh_moved_rigidly_is_searched_in_its_kept_tree_and_still_gets_every_triangles_answer():
+    from experiments.components import build, compose
+    from tracker.geometry.rotations import rotation_vectors_to_matrices
+    from tracker.geometry.surface_distance import RigidTrees
+
+    components = build(compose(["frames=2"]))
+    arm, topology = components.model, components.model.topology
+    params = components.scene.params(arm, 0)
+    vertices = arm.surface_vertices(params)[1]
+    faces = np.ascontiguousarray(topology.faces, dtype=np.int64)
+    turn = rotation_vectors_to_matrices(np.array([[0.3, -1.2, 2.0]]))[0]
+    moved = vertices @ turn.T + [0.2, -0.1, 0.5]
+    rng = np.random.default_rng(4)
+    near = moved[::5]
+    points = near + rng.normal(scale=rng.choice([1e-4, 3e-3, 5e-2], size=(len(near), 1)), size=near.shape)
+    trees = RigidTrees()
+    trees.nearest(points, vertices, faces)
+    nearest, closest = trees.nearest(points, moved, faces)
+    assert len(trees) == 1  # the first mesh's tree, found again
+    fresh_nearest, fresh_closest = RigidTrees().nearest(points, moved, faces)
+    np.testing.assert_allclose(closest, fresh_closest, atol=1e-12)  # the same nearest points, moved back
+    assert np.mean(nearest == fresh_nearest) > 0.9  # the same triangles, but where neighbours tie
+    bent = params.copy()
+    bent[1, 8] += 0.01  # b1: the part bends, no rigid motion makes it
+    trees.nearest(points, arm.surface_vertices(bent)[1], faces)
+    assert len(trees) == 2
+    point_mesh_distance(points, vertices, faces, topology.weld)  # the module's trees keep the unmoved mesh's ...
+    np.testing.assert_array_equal(  # ... and its moved copy gets what trying every triangle gives
+        point_mesh_distance(points, moved, faces, topology.weld), _every_triangle(points, moved, faces)
+    )

@@ -177,7 +177,10 @@ class BodyMesh:
         offsets = heads - np.einsum("njab,jb->nja", rotations, self.rest_heads)
         bones = np.concatenate([rotations, offsets[..., None]], axis=3)  # (n, J, 3, 4): x' = R x + o per bone
         # Each vertex's blend of its few bones, for every pose in one sparse product: (V, J) @ (J, n * 12).
-        weights = self._sparse_weights if subset is None else self._subset_weights(np.asarray(subset, dtype=np.int64).tobytes())
+        if subset is None:
+            weights = self._sparse_weights
+        else:
+            weights = self._subset_weights(np.asarray(subset, dtype=np.int64).tobytes())
         blended = (weights @ bones.transpose(1, 0, 2, 3).reshape(joints, -1)).reshape(-1, count, 3, 4)
         rest = (self.rest_vertices if subset is None else self.rest_vertices[subset])[:, None, None, :]
         vertices = (
