@@ -33,6 +33,13 @@ def test_a_square_gives_its_height_above_and_the_euclidean_distance_beside():
     np.testing.assert_allclose(point_mesh_distance(points, vertices, faces), [0.25, 0.5, np.sqrt(3.0), 0.0], atol=1e-12)
 
 
+def test_a_mesh_with_a_vertex_not_a_number_is_measured_on_its_other_triangles_every_time():
+    vertices = np.array([[0.0, 0, 0], [np.nan, 0, 0], [1, 1, 0], [0, 1, 0]])
+    faces = np.array([[0, 1, 2], [0, 2, 3]])
+    for _ in range(2):  # the second time, the trees kept are tried first: no rotation fits it
+        np.testing.assert_array_equal(point_mesh_distance(np.array([[0.3, 0.6, 0.25]]), vertices, faces), [0.25])
+
+
 def test_points_around_a_fine_sphere_are_their_height_above_it_and_the_shortcut_is_exact():
     sphere = trimesh.creation.icosphere(subdivisions=4, radius=1.0)
     rng = np.random.default_rng(2)

@@ -164,8 +164,8 @@ class _Centred:
     def turn_from(self, seen: _Centred) -> np.ndarray | None:
         """The rotation R with ``self.centred = seen.centred R^T`` to `RIGID_M` at every vertex, else None (Kabsch:
         the rotation that best maps one onto the other, then checked)."""
-        if self.centred.shape != seen.centred.shape or abs(self.spread - seen.spread) > 1e-6 * seen.spread:
-            return None
+        if self.centred.shape != seen.centred.shape or not abs(self.spread - seen.spread) <= 1e-6 * seen.spread:
+            return None  # not the same spread about the centroid (or not a number: no tree fits it)
         u, _, vt = np.linalg.svd(seen.centred.T @ self.centred)
         turn = (u @ np.diag([1.0, 1.0, np.linalg.det(u @ vt)]) @ vt).T
         return turn if np.abs(seen.centred @ turn.T - self.centred).max() <= RIGID_M else None
