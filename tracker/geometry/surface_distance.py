@@ -19,6 +19,7 @@ returns decides those bits: a kept tree and a new one may differ there by 1e-17 
 from __future__ import annotations
 
 import functools
+import threading
 from dataclasses import dataclass
 
 import igl
@@ -123,6 +124,7 @@ class RigidTrees:
     def __init__(self, kept: int = TREES_KEPT) -> None:
         self.kept = kept
         self._trees: list[tuple[bytes, _Centred, igl.AABB]] = []  # the faces' bytes, the vertices, the tree
+        self._lock = threading.Lock()  # one caller at a time (a run's evaluation may sit in a thread of a sweep)
 
     def __len__(self) -> int:
         """The trees kept."""
@@ -131,6 +133,10 @@ class RigidTrees:
     def nearest(self, points: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Per point (contiguous float64 ``(n, 3)``; the mesh's as contiguous float64 and int64), the index of the
         nearest triangle and the nearest point on it."""
+        with self._lock:
+            return self._nearest(points, vertices, faces)
+
+    def _nearest(self, points: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         key, now = faces.tobytes(), _Centred.of(vertices)
         for k, (faces_key, seen, tree) in enumerate(self._trees):
             turn = now.turn_from(seen) if faces_key == key else None
