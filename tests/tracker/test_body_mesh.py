@@ -137,6 +137,18 @@ def test_the_skinned_vertices_analytic_jacobian_matches_central_differences(body
     np.testing.assert_allclose(some, analytic[:, :, [0, 1, 2, 18, 19, 20, 9, 10, 11]], rtol=1e-12, atol=1e-15)
 
 
+def test_some_vertices_skinned_alone_are_those_of_the_whole_body_whichever_subset_came_before(body):
+    """`posed_vertices` keeps the weights of the subsets it was asked for (a fit asks for the same at every step):
+    each subset, asked in turn and again, in any integer type, gets the whole body's vertices' bits."""
+    rng = np.random.default_rng(1)
+    pose = body.mesh_rest_pose()
+    pose[3:] += rng.normal(0.0, 0.3, POSE_SIZE - 3)
+    whole = body.posed_vertices(pose)
+    subsets = [rng.choice(len(whole), size, replace=False) for size in (40, 300, 40)]
+    for subset in [*subsets, subsets[0].astype(np.int32), *subsets]:
+        assert np.array_equal(body.posed_vertices(pose, subset), whole[subset])
+
+
 def test_a_textured_body_gives_corners_to_track_and_the_plain_one_renders_as_before(body, renderer):
     """``texture_seed`` draws block noise over each part (u about its long axis, v along it): Shi-Tomasi finds
     several times more corners inside the body than on the plain skin, whose meshes carry no texture at all."""
