@@ -21,6 +21,9 @@ within ``reach`` standard deviations, found by a KD-tree over pose space divided
 per distinct sigma vector, i.e. per DM2 occlusion pattern, built on first use) and kept per sample
 (`KernelNeighbours`): the support moves little from frame to frame, and in a pose space of ~100 components the
 tree spends its time proving that a sample has few neighbours (a few dozen terms a frame at ~52,000 samples).
+A tree holds the sample set scaled (29 MB at 37,000 samples) and a clip meets a new occlusion pattern every ~15
+frames: only the `KERNEL_TREES_KEPT` last used keep their trees; the others keep the neighbours they found, and build
+their tree again only for a sample not asked before.
 Terms beyond ``reach`` sigmas weigh less than ``exp(-reach^2 / 2)`` each (reach 4: 3e-4); the posterior mass left
 out of the support is reported per frame (`PosePrior.last_mass_used`).
 """
@@ -115,13 +118,19 @@ class LearnedTransitions(OccludedWiderWalk):
         return walk_sigmas * (self.learned_sigma / self.sigma)
 
 
+KERNEL_TREES_KEPT = 12  # `PosePrior`'s KD-trees kept, the last used: 6 occlusion patterns' walk and learned kernels
+
+
 class KernelNeighbours:
     """For one sigma vector, each asked sample's samples within ``reach`` sigmas and their distances in sigmas,
-    found on first ask (one KD-tree query for all of a call's new samples) and kept."""
+    found on first ask (one KD-tree query for all of a call's new samples) and kept. `release` lets the tree go
+    (the neighbours found stay); a sample asked after it builds it again, the same."""
 
     def __init__(self, poses: np.ndarray, sigmas: np.ndarray, reach: float) -> None:
-        self.scaled, self.reach = poses / sigmas, reach
-        self.tree = cKDTree(self.scaled)
+        self.poses, self.sigmas, self.reach = poses, sigmas, reach
+        self.scaled: np.ndarray | None = None
+        self.tree: cKDTree | None = None
+        self._build()
         self._first = np.full(len(poses), -1)  # per sample: where its neighbours start in the kept arrays, -1: unasked
         self._count = np.zeros(len(poses), np.int64)
         self._neighbours, self._distances = np.zeros(0, np.int64), np.zeros(0)
@@ -131,6 +140,8 @@ class KernelNeighbours:
         distance in sigmas; centre by centre, each centre's samples in index order."""
         new = np.unique(centres[self._first[centres] < 0])
         if len(new):
+            if self.tree is None:
+                self._build()
             found = self.tree.sparse_distance_matrix(cKDTree(self.scaled[new]), self.reach, output_type="ndarray")
             order = np.lexsort((found["i"], found["j"]))  # by centre, then by sample
             counts = np.bincount(found["j"], minlength=len(new))  # >= 1: a centre is its own neighbour
@@ -142,6 +153,14 @@ class KernelNeighbours:
         rows = np.repeat(np.arange(len(centres)), counts)
         index = np.repeat(self._first[centres] - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())
         return rows, self._neighbours[index], self._distances[index]
+
+    def release(self) -> None:
+        """Let the tree and the scaled samples go; the neighbours found stay."""
+        self.scaled, self.tree = None, None
+
+    def _build(self) -> None:
+        self.scaled = self.poses / self.sigmas
+        self.tree = cKDTree(self.scaled)
 
 
 class PosePrior:
@@ -176,10 +195,15 @@ class PosePrior:
             self._within_reach(motion.learned_sigmas(motion.base_sigmas(space)))
 
     def _within_reach(self, sigmas: np.ndarray) -> KernelNeighbours:
+        """The neighbours for ``sigmas``, kept or found anew; the trees but the `KERNEL_TREES_KEPT` last used let go."""
         key = sigmas.tobytes()
-        if key not in self._neighbours:
-            self._neighbours[key] = KernelNeighbours(self.poses, sigmas, self.reach)
-        return self._neighbours[key]
+        neighbours = self._neighbours.pop(key, None)
+        if neighbours is None:
+            neighbours = KernelNeighbours(self.poses, sigmas, self.reach)
+        self._neighbours[key] = neighbours  # the most recent last
+        for older in list(self._neighbours.values())[:-KERNEL_TREES_KEPT]:
+            older.release()
+        return neighbours
 
     def prior(self, posterior: np.ndarray, occluded_parts: np.ndarray) -> tuple[np.ndarray, int]:
         """``(N,)`` unnormalised eq 14 at every sample (0 where beyond reach) and the number of kernel terms

@@ -102,6 +102,29 @@ def test_the_sparse_prior_matches_the_dense_sum(samples):
         np.testing.assert_allclose(sparse, dense, atol=4e-6 * dense.max())
 
 
+def test_the_prior_keeps_few_trees_and_finds_the_same_terms_after_letting_one_go(samples):
+    """Over more occlusion patterns than `KERNEL_TREES_KEPT`, and back to the first with samples it was not asked
+    for before, the prior is bit for bit a fresh one's, and only the last used patterns hold a tree."""
+    from tracker.tbf.motion import KERNEL_TREES_KEPT
+
+    rng = np.random.default_rng(1)
+    motion = OccludedWiderWalk(sigma=0.15, m=5.0)
+    kept, patterns = PosePrior(samples.poses, motion, reach=5.0), []
+    for k in range(KERNEL_TREES_KEPT + 3):
+        occluded = np.zeros(len(PART_NAMES), bool)
+        occluded[[k % len(PART_NAMES), (3 * k + 1) % len(PART_NAMES)]] = True
+        patterns.append(occluded)
+    for occluded in [*patterns, patterns[0], patterns[1]]:
+        posterior = np.zeros(len(samples))
+        posterior[rng.choice(len(samples), 6, replace=False)] = rng.random(6)
+        fresh = PosePrior(samples.poses, motion, reach=5.0).prior(posterior, occluded)
+        again = kept.prior(posterior, occluded)
+        np.testing.assert_array_equal(again[0], fresh[0])
+        assert again[1] == fresh[1]
+    trees = [neighbours.tree is not None for neighbours in kept._neighbours.values()]
+    assert sum(trees) == KERNEL_TREES_KEPT and trees[-KERNEL_TREES_KEPT:] == [True] * KERNEL_TREES_KEPT
+
+
 def test_the_filter_recovers_a_held_samples_pose_from_its_own_silhouette(body, samples, tree):
     held = 72  # swing 48 degrees forward, abduction 0, elbow 0: the arm in full view
     stack = samples.silhouettes((320, 240))
