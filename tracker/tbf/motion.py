@@ -21,9 +21,10 @@ within ``reach`` standard deviations, found by a KD-tree over pose space divided
 per distinct sigma vector, i.e. per DM2 occlusion pattern, built on first use) and kept per sample
 (`KernelNeighbours`): the support moves little from frame to frame, and in a pose space of ~100 components the
 tree spends its time proving that a sample has few neighbours (a few dozen terms a frame at ~52,000 samples).
-A tree holds the sample set scaled (29 MB at 37,000 samples) and a clip meets a new occlusion pattern every ~15
-frames: only the `KERNEL_TREES_KEPT` last used keep their trees; the others keep the neighbours they found, and build
-their tree again only for a sample not asked before.
+A tree holds the sample set scaled (29 MB at 37,000 samples; two trees a pattern with the learned motion's kernels)
+and a clip meets a new occlusion pattern every ~30 frames (indian_14: 12 in 374): only the `KERNEL_TREES_KEPT` last
+used keep their trees; the others keep the neighbours they found, and build their tree again only for a sample not
+asked before.
 Terms beyond ``reach`` sigmas weigh less than ``exp(-reach^2 / 2)`` each (reach 4: 3e-4); the posterior mass left
 out of the support is reported per frame (`PosePrior.last_mass_used`).
 """
@@ -127,7 +128,7 @@ class KernelNeighbours:
     (the neighbours found stay); a sample asked after it builds it again, the same."""
 
     def __init__(self, poses: np.ndarray, sigmas: np.ndarray, reach: float) -> None:
-        self.poses, self.sigmas, self.reach = poses, sigmas, reach
+        self.poses, self.sigmas, self.reach = poses, np.array(sigmas, dtype=np.float64), reach  # its own sigmas
         self.scaled: np.ndarray | None = None
         self.tree: cKDTree | None = None
         self._build()
