@@ -161,6 +161,10 @@ def test_a_mesh_moved_rigidly_is_searched_in_its_kept_tree_and_still_gets_every_
     bent[1, 8] += 0.01  # b1: the part bends, no rigid motion makes it
     trees.nearest(points, arm.surface_vertices(bent)[1], faces)
     assert len(trees) == 2
+    one = RigidTrees(kept=1)
+    for mesh in (vertices, arm.surface_vertices(bent)[1], moved):
+        one.nearest(points, mesh, faces)
+    assert len(one) == 1  # the bound holds however few it keeps
     point_mesh_distance(points, vertices, faces, topology.weld)  # the module's trees keep the unmoved mesh's ...
     np.testing.assert_array_equal(  # ... and its moved copy gets what trying every triangle gives
         point_mesh_distance(points, moved, faces, topology.weld), _every_triangle(points, moved, faces)

@@ -146,7 +146,7 @@ class RigidTrees:
                 return np.asarray(nearest, dtype=np.int64), seen.back(closest, turn.T, now)
         tree = igl.AABB()
         tree.init(vertices, faces)
-        self._trees = [*self._trees[-(self.kept - 1) :], (key, now, tree)]
+        self._trees = [*self._trees, (key, now, tree)][-self.kept :]
         _, nearest, closest = tree.squared_distance(vertices, faces, points)
         return np.asarray(nearest, dtype=np.int64), closest
 
