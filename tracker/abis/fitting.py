@@ -93,6 +93,8 @@ class PixelProblem:
             inverse = 1.0 / prior.sigmas[self.free]
             self._prior_rows = np.flatnonzero(inverse > 0)
             self._prior_scale = inverse[self._prior_rows]
+            self._prior_jacobian = np.zeros((len(self._prior_rows), len(self.free)))
+            self._prior_jacobian[np.arange(len(self._prior_rows)), self._prior_rows] = self._prior_scale
 
     @property
     def empty(self) -> bool:
@@ -143,9 +145,7 @@ class PixelProblem:
             prior_cost = float(prior_residual @ prior_residual)
             vector.append(prior_residual)
             weights.append(np.ones(len(prior_residual)))
-            prior_jacobian = np.zeros((len(prior_residual), len(self.free)))
-            prior_jacobian[np.arange(len(prior_residual)), self._prior_rows] = self._prior_scale
-            jacobians = [*jacobians, prior_jacobian]
+            jacobians = [*jacobians, self._prior_jacobian]
         return Evaluation(
             view_residuals=residuals,
             vector=np.concatenate(vector) if vector else np.empty(0),

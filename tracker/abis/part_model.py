@@ -18,9 +18,16 @@ import math
 
 import numpy as np
 
-from tracker.geometry.cameras import Camera, projection_jacobian
+from tracker.geometry.cameras import Camera, camera_projection_jacobian
 from tracker.geometry.rotations import euler_to_matrix, euler_to_matrix_derivatives, local_rotation_derivatives
-from tracker.models.dsq import PARAM_INDEX, PARAM_NAMES, SHAPE_NAMES, dsq_points, dsq_points_jacobian
+from tracker.models.dsq import (
+    PARAM_INDEX,
+    PARAM_NAMES,
+    SHAPE_NAMES,
+    SurfaceTrig,
+    dsq_points_at,
+    dsq_points_jacobian_at,
+)
 
 _C = slice(PARAM_INDEX["c1"], PARAM_INDEX["c3"] + 1)
 _R = slice(PARAM_INDEX["r1"], PARAM_INDEX["r3"] + 1)
@@ -36,34 +43,43 @@ def free_parameter_indices(is_root: bool) -> np.ndarray:
     return np.array([PARAM_INDEX[name] for name in free_parameter_names(is_root)])
 
 
+def posed_coordinates(eta: np.ndarray, omega: np.ndarray, is_root: bool) -> SurfaceTrig:
+    """The trigonometry `part_world_points` poses: the samples at (eta, omega), and for a child its bottom pole
+    (its joint) riding along as the last point: one evaluation, not two."""
+    if not is_root:
+        eta, omega = np.append(eta, _BOTTOM_POLE[0]), np.append(omega, _BOTTOM_POLE[1])
+    return SurfaceTrig.of(eta, omega)
+
+
 def part_world_points(
     q: np.ndarray,
-    eta: np.ndarray,
-    omega: np.ndarray,
+    coordinates: SurfaceTrig,
     parent_world: np.ndarray | None = None,
     joint_in_parent: np.ndarray | None = None,
     local_rotation: bool = False,
     with_jacobian: bool = True,
 ) -> tuple[np.ndarray, np.ndarray | None]:
-    """World points ``(n, 3)`` of the samples at (eta, omega) and their Jacobian over the free parameters.
+    """World points ``(n, 3)`` of the samples at ``coordinates`` (`posed_coordinates`) and their Jacobian over the
+    free parameters.
 
     For a root pass neither ``parent_world`` nor ``joint_in_parent``; for a child pass the parent's ``(4, 4)``
     world transform and the joint in the parent's frame (its top pole). Without ``with_jacobian`` the Jacobian is
     None (and not computed).
     """
     q = np.asarray(q, dtype=np.float64)
-    if not with_jacobian:
-        return _world_points(q, eta, omega, parent_world, joint_in_parent), None
     rotation = euler_to_matrix(q[_R])
+    local = dsq_points_at(q, coordinates)
+    is_root = parent_world is None
+    if not with_jacobian:
+        if is_root:
+            return local @ rotation.T + q[_C], None
+        in_parent = (local[:-1] - local[-1]) @ rotation.T + joint_in_parent
+        return in_parent @ parent_world[:3, :3].T + parent_world[:3, 3], None
     if local_rotation:
         rotation_derivatives = local_rotation_derivatives(rotation)
     else:
         rotation_derivatives = euler_to_matrix_derivatives(q[_R])
-    is_root = parent_world is None
-    if not is_root:  # the child's bottom pole (its joint) rides along as the last point: one call, not two
-        eta, omega = np.append(eta, _BOTTOM_POLE[0]), np.append(omega, _BOTTOM_POLE[1])
-    local = dsq_points(q, eta, omega)
-    local_jacobian = dsq_points_jacobian(q, eta, omega)  # (n, 3, 11)
+    local_jacobian = dsq_points_jacobian_at(q, coordinates)  # (n, 3, 11)
     if is_root:
         points = local @ rotation.T + q[_C]
         shape_jacobian = np.einsum("ij,njk->nik", rotation, local_jacobian)
@@ -80,17 +96,8 @@ def part_world_points(
     return points, np.concatenate([shape_jacobian, rotation_jacobian], axis=2)
 
 
-def _world_points(q, eta, omega, parent_world, joint_in_parent) -> np.ndarray:
-    """The points of `part_world_points` alone."""
-    rotation = euler_to_matrix(q[_R])
-    if parent_world is None:
-        return dsq_points(q, eta, omega) @ rotation.T + q[_C]
-    local = dsq_points(q, np.append(eta, _BOTTOM_POLE[0]), np.append(omega, _BOTTOM_POLE[1]))
-    in_parent = (local[:-1] - local[-1]) @ rotation.T + joint_in_parent
-    return in_parent @ parent_world[:3, :3].T + parent_world[:3, 3]
-
-
 def project_with_jacobian(camera: Camera, points: np.ndarray, jacobian: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Pixels ``(n, 2)`` of world points and their Jacobian ``(n, 2, n_free)`` by the chain rule."""
-    uv, _ = camera.project(points)
-    return uv, np.einsum("nij,njk->nik", projection_jacobian(camera, points), jacobian)
+    in_camera = camera.world_to_camera(points)
+    uv, _ = camera.camera_to_pixels(in_camera)
+    return uv, np.einsum("nij,njk->nik", camera_projection_jacobian(camera, in_camera), jacobian)

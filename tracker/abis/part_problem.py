@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tracker.abis.fitting import PixelProblem, Prior
-from tracker.abis.part_model import free_parameter_indices, part_world_points
+from tracker.abis.part_model import free_parameter_indices, part_world_points, posed_coordinates
 from tracker.geometry.cameras import Camera
 from tracker.geometry.rotations import (
     euler_to_matrix,
@@ -59,15 +59,17 @@ class PartProblem(PixelProblem):
             free_parameter_indices(parent_world is None),
             prior,
         )
-        self._eta = np.concatenate([view.eta for view in self.views]) if self.views else np.empty(0)
-        self._omega = np.concatenate([view.omega for view in self.views]) if self.views else np.empty(0)
+        eta = np.concatenate([view.eta for view in self.views]) if self.views else np.empty(0)
+        omega = np.concatenate([view.omega for view in self.views]) if self.views else np.empty(0)
+        self._coordinates = posed_coordinates(eta, omega, parent_world is None)  # every evaluation poses them
+        self._is_rotation = np.isin(self.free, _ROTATION)
+        self._reference_rotation = None if prior is None else euler_to_matrix(prior.reference[_ROTATION])
         self.parent_world, self.joint_in_parent = parent_world, joint_in_parent
 
     def points(self, q: np.ndarray, with_jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
         return part_world_points(
             q,
-            self._eta,
-            self._omega,
+            self._coordinates,
             self.parent_world,
             self.joint_in_parent,
             local_rotation=True,
@@ -80,21 +82,23 @@ class PartProblem(PixelProblem):
 
     def moved(self, q: np.ndarray, delta: np.ndarray) -> np.ndarray:
         """``q`` moved by ``delta`` over the free parameters (rotation entries: a local increment w)."""
-        return _apply(q, self.free, delta)
+        return _apply(q, self.free, self._is_rotation, delta)
 
     def pressed(self, q: np.ndarray, gradient: np.ndarray) -> np.ndarray:
         return _pressed_against_bounds(q, self.free, gradient)
 
     def prior_difference(self, q: np.ndarray) -> np.ndarray:
         """Rotations: the rotation vector of R(ref)^T R(q)."""
-        return _parameter_difference(q, self.prior.reference, self.free)
+        return _parameter_difference(q, self.prior.reference, self._reference_rotation, self.free, self._is_rotation)
 
 
-def _parameter_difference(q: np.ndarray, reference: np.ndarray, free: np.ndarray) -> np.ndarray:
-    """q - reference over the free parameters; for the rotation, the rotation vector of R(ref)^T R(q)."""
+def _parameter_difference(
+    q: np.ndarray, reference: np.ndarray, reference_rotation: np.ndarray, free: np.ndarray, is_rotation: np.ndarray
+) -> np.ndarray:
+    """q - reference over the free parameters (``is_rotation``: which are r); for the rotation, the rotation vector
+    of R(ref)^T R(q) (``reference_rotation``: R(ref))."""
     difference = q[free] - reference[free]
-    is_rotation = np.isin(free, _ROTATION)
-    relative = euler_to_matrix(reference[_ROTATION]).T @ euler_to_matrix(q[_ROTATION])
+    relative = reference_rotation.T @ euler_to_matrix(q[_ROTATION])
     difference[is_rotation] = matrix_to_rotation_vector(relative)
     return difference
 
@@ -116,16 +120,18 @@ def _bounds(index: int) -> tuple[float, float]:
     return allowed.low + (inset if allowed.low_open else 0.0), allowed.high - (inset if allowed.high_open else 0.0)
 
 
-def _apply(q: np.ndarray, free: np.ndarray, delta: np.ndarray) -> np.ndarray:
-    """q moved by ``delta`` over the free parameters; the rotation entries of delta are a local increment w."""
+_LOW, _HIGH = np.array([_bounds(index) for index in range(len(PARAM_NAMES))]).T  # every parameter's, q's order
+
+
+def _apply(q: np.ndarray, free: np.ndarray, is_rotation: np.ndarray, delta: np.ndarray) -> np.ndarray:
+    """q moved by ``delta`` over the free parameters (``is_rotation``: which are r); the rotation entries of delta
+    are a local increment w."""
     candidate = q.copy()
-    is_rotation = np.isin(free, _ROTATION)
     candidate[free[~is_rotation]] += delta[~is_rotation]
     turned = euler_to_matrix(q[_ROTATION]) @ rotation_vector_to_matrix(delta[is_rotation])
     candidate[_ROTATION] = matrix_to_euler(turned, near=q[_ROTATION])
-    for index in free[~is_rotation]:  # stay inside eq 1-2's ranges
-        low, high = _bounds(index)
-        candidate[index] = min(max(candidate[index], low), high)
+    stepped = free[~is_rotation]  # stay inside eq 1-2's ranges
+    candidate[stepped] = np.clip(candidate[stepped], _LOW[stepped], _HIGH[stepped])
     return _normalise_gauge(candidate)
 
 

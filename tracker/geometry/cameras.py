@@ -51,7 +51,10 @@ class Camera:
 
         Points with ``z <= MIN_DEPTH_M`` (behind or on the camera) get NaN pixels.
         """
-        p = self.world_to_camera(points)
+        return self.camera_to_pixels(self.world_to_camera(points))
+
+    def camera_to_pixels(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """`project` of camera-frame points ``(n, 3)``."""
         z = p[:, 2]
         in_front = z > MIN_DEPTH_M
         safe_z = np.where(in_front, z, 1.0)
@@ -62,7 +65,11 @@ class Camera:
 
 def projection_jacobian(camera: Camera, points: np.ndarray) -> np.ndarray:
     """``(n, 2, 3)``: derivatives of `Camera.project`'s pixels with respect to the world points."""
-    p = camera.world_to_camera(points)
+    return camera_projection_jacobian(camera, camera.world_to_camera(points))
+
+
+def camera_projection_jacobian(camera: Camera, p: np.ndarray) -> np.ndarray:
+    """`projection_jacobian` at the camera-frame points ``p`` ``(n, 3)`` of the world points."""
     x, y, z = p[:, 0:1], p[:, 1:2], p[:, 2:3]
     rows = camera.rotation.T  # d p_camera / d p_world
     du = camera.fx * (rows[0] * z - x * rows[2]) / z**2

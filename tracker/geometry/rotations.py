@@ -91,6 +91,9 @@ def cross_matrix(vectors: np.ndarray) -> np.ndarray:
     return matrices
 
 
+_AXES_CROSSED = cross_matrix(np.eye(3))  # [e_i]_x, i = 0, 1, 2
+
+
 def right_jacobian(vectors: np.ndarray) -> np.ndarray:
     """``(..., 3, 3)`` J_r of rotation vectors r ``(..., 3)``: ``Exp(r + dr) = Exp(r) Exp(J_r(r) dr)`` to first
     order, i.e. ``I - (1 - cos t) / t^2 [r]_x + (t - sin t) / t^3 [r]_x^2`` for t = |r| (series near 0)."""
@@ -106,7 +109,7 @@ def right_jacobian(vectors: np.ndarray) -> np.ndarray:
 
 def local_rotation_derivatives(rotation: np.ndarray) -> np.ndarray:
     """``(3, 3, 3)``: ``[i] = d/dw_i R Exp(w)`` at w = 0, i.e. ``R [e_i]_x`` (increments in the rotated frame)."""
-    return np.stack([rotation @ cross_matrix(axis) for axis in np.eye(3)])
+    return rotation @ _AXES_CROSSED
 
 
 def euler_to_matrix_derivatives(r: np.ndarray) -> np.ndarray:

@@ -11,6 +11,7 @@ Convention:
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from functools import lru_cache
@@ -69,18 +70,48 @@ def _snap(x: np.ndarray) -> np.ndarray:
     return np.where(np.abs(x) < TRIG_SNAP, 0.0, x)
 
 
-def signed_power(x: np.ndarray, eps: float) -> np.ndarray:
-    """``sign(x) |x|^eps``, with ``0^0 = 0`` so that eps -> 0 gives a box, never NaN."""
-    return np.sign(x) * np.abs(x) ** eps
+@dataclass(frozen=True, eq=False)
+class SurfaceTrig:
+    """What eq 1 takes of surface coordinates ``(n,)``: the cosines and sines of eta and omega (snapped to 0 near
+    it), as signs and magnitudes ``(4, n)``, rows cos eta, sin eta, cos omega, sin omega. Made once where many
+    parameter values pose the same coordinates (a fit's pairs): eq 1 then only raises them to eps1 and eps2."""
+
+    sign: np.ndarray
+    magnitude: np.ndarray
+
+    @classmethod
+    def of(cls, eta: np.ndarray, omega: np.ndarray) -> SurfaceTrig:
+        eta, omega = np.asarray(eta, np.float64), np.asarray(omega, np.float64)
+        trig = np.stack([_snap(np.cos(eta)), _snap(np.sin(eta)), _snap(np.cos(omega)), _snap(np.sin(omega))])
+        return cls(np.sign(trig), np.abs(trig))
+
+    def __len__(self) -> int:
+        return self.magnitude.shape[1]
+
+    @functools.cached_property
+    def log_magnitude(self) -> np.ndarray:
+        """``ln|x|`` with 0 where x is 0: it multiplies a factor ``|x|^eps`` that is 0 there (x^eps ln x -> 0)."""
+        return np.log(np.where(self.magnitude > 0, self.magnitude, 1.0))
+
+    def signed_powers(self, eps1: float, eps2: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Eq 1's ``sign(x) |x|^eps`` of each row (``0^0 = 0``, so that eps -> 0 gives a box, never NaN)."""
+        sign, magnitude = self.sign, self.magnitude
+        return (
+            sign[0] * magnitude[0] ** eps1,
+            sign[1] * magnitude[1] ** eps1,
+            sign[2] * magnitude[2] ** eps2,
+            sign[3] * magnitude[3] ** eps2,
+        )
 
 
 def superquadric_points(q: np.ndarray, eta: np.ndarray, omega: np.ndarray) -> np.ndarray:
     """Eq 1: ``(n,)`` surface coordinates -> ``(n, 3)`` points of the undeformed superquadric."""
+    return _superquadric(q, SurfaceTrig.of(eta, omega))
+
+
+def _superquadric(q: np.ndarray, trig: SurfaceTrig) -> np.ndarray:
     a, a1, a2, a3, eps1, eps2 = q[:6]
-    c_eta = signed_power(_snap(np.cos(eta)), eps1)
-    s_eta = signed_power(_snap(np.sin(eta)), eps1)
-    c_omega = signed_power(_snap(np.cos(omega)), eps2)
-    s_omega = signed_power(_snap(np.sin(omega)), eps2)
+    c_eta, s_eta, c_omega, s_omega = trig.signed_powers(eps1, eps2)
     return a * np.stack([a1 * c_eta * c_omega, a2 * c_eta * s_omega, a3 * s_eta], axis=1)
 
 
@@ -97,8 +128,13 @@ def deform(q: np.ndarray, e: np.ndarray) -> np.ndarray:
 
 def dsq_points(q: np.ndarray, eta: np.ndarray, omega: np.ndarray) -> np.ndarray:
     """Eq 1-2: surface coordinates -> ``(n, 3)`` DSQ points in the part's local frame."""
+    return dsq_points_at(q, SurfaceTrig.of(eta, omega))
+
+
+def dsq_points_at(q: np.ndarray, trig: SurfaceTrig) -> np.ndarray:
+    """`dsq_points` of coordinates whose trigonometry is made."""
     q = np.asarray(q, dtype=np.float64)
-    return deform(q, superquadric_points(q, np.asarray(eta, np.float64), np.asarray(omega, np.float64)))
+    return deform(q, _superquadric(q, trig))
 
 
 def pole_point(q: np.ndarray, top: bool) -> np.ndarray:
@@ -119,6 +155,11 @@ class SampleGrid:
     eta: np.ndarray
     omega: np.ndarray
     ids: np.ndarray
+
+    @functools.cached_property
+    def trig(self) -> SurfaceTrig:
+        """The samples' trigonometry (`dsq_points_at`), made once."""
+        return SurfaceTrig.of(self.eta, self.omega)
 
 
 @lru_cache(maxsize=8)
@@ -151,6 +192,11 @@ class MeshTopology:
     uv: np.ndarray
     weld: np.ndarray
 
+    @functools.cached_property
+    def trig(self) -> SurfaceTrig:
+        """The vertices' trigonometry (`dsq_points_at`), made once."""
+        return SurfaceTrig.of(self.eta, self.omega)
+
 
 @lru_cache(maxsize=8)
 def mesh_topology(n_eta: int, n_omega: int) -> MeshTopology:
@@ -177,24 +223,21 @@ def mesh_topology(n_eta: int, n_omega: int) -> MeshTopology:
     return MeshTopology(eta_grid.ravel(), omega_grid.ravel(), faces, uv.reshape(-1, 2), weld.ravel())
 
 
-def _log_abs(x: np.ndarray) -> np.ndarray:
-    """``ln|x|`` with 0 where x is 0: it multiplies a factor ``|x|^eps`` that is 0 there (x^eps ln x -> 0)."""
-    magnitude = np.abs(x)
-    return np.log(np.where(magnitude > 0, magnitude, 1.0))
-
-
 def dsq_points_jacobian(q: np.ndarray, eta: np.ndarray, omega: np.ndarray) -> np.ndarray:
     """``(n, 3, 11)``: derivatives of eq 1-2's local points with respect to the shape parameters `SHAPE_NAMES`.
 
     Derived by hand from eq 1-2, with ``S = e3 / (a a3) = sign(sin eta)|sin eta|^eps1`` (which does not depend
     on a or a3) and the bending angle ``theta = (S + b2 / (a a3)) pi b3``. Checked against finite differences.
     """
+    return dsq_points_jacobian_at(q, SurfaceTrig.of(eta, omega))
+
+
+def dsq_points_jacobian_at(q: np.ndarray, trig: SurfaceTrig) -> np.ndarray:
+    """`dsq_points_jacobian` of coordinates whose trigonometry is made."""
     q = np.asarray(q, dtype=np.float64)
     a, a1, a2, a3, eps1, eps2, t1, t2, b1, b2, b3 = q[:11]
-    cos_eta, sin_eta = _snap(np.cos(eta)), _snap(np.sin(eta))
-    cos_omega, sin_omega = _snap(np.cos(omega)), _snap(np.sin(omega))
-    c_eta, s_eta = signed_power(cos_eta, eps1), signed_power(sin_eta, eps1)
-    c_omega, s_omega = signed_power(cos_omega, eps2), signed_power(sin_omega, eps2)
+    c_eta, s_eta, c_omega, s_omega = trig.signed_powers(eps1, eps2)
+    log_cos_eta, log_sin_eta, log_cos_omega, log_sin_omega = trig.log_magnitude
     half_length = a * a3
     e1, e2, e3 = a * a1 * c_eta * c_omega, a * a2 * c_eta * s_omega, half_length * s_eta
     taper1, taper2 = t1 * s_eta + 1.0, t2 * s_eta + 1.0
@@ -202,25 +245,29 @@ def dsq_points_jacobian(q: np.ndarray, eta: np.ndarray, omega: np.ndarray) -> np
     bend_slope = -b1 * np.sin(theta)  # d(b1 cos theta) / d theta
 
     # d/d eps of the signed powers: x^eps ln|x|.
-    de1_eps1, de2_eps1 = e1 * _log_abs(cos_eta), e2 * _log_abs(cos_eta)
-    ds_eta_eps1 = s_eta * _log_abs(sin_eta)
-    de1_eps2, de2_eps2 = e1 * _log_abs(cos_omega), e2 * _log_abs(sin_omega)
-    zero = np.zeros_like(e1)
-    columns = {
-        "a": (taper1 * e1 / a + bend_slope * (-b2 * math.pi * b3 / (a * half_length)), taper2 * e2 / a, e3 / a),
-        "a1": (taper1 * e1 / a1, zero, zero),
-        "a2": (zero, taper2 * e2 / a2, zero),
-        "a3": (bend_slope * (-b2 * math.pi * b3 / (a3 * half_length)), zero, e3 / a3),
-        "eps1": (
-            t1 * ds_eta_eps1 * e1 + taper1 * de1_eps1 + bend_slope * math.pi * b3 * ds_eta_eps1,
-            t2 * ds_eta_eps1 * e2 + taper2 * de2_eps1,
-            half_length * ds_eta_eps1,
-        ),
-        "eps2": (taper1 * de1_eps2, taper2 * de2_eps2, zero),
-        "t1": (s_eta * e1, zero, zero),
-        "t2": (zero, s_eta * e2, zero),
-        "b1": (np.cos(theta), zero, zero),
-        "b2": (bend_slope * math.pi * b3 / half_length, zero, zero),
-        "b3": (bend_slope * (s_eta + b2 / half_length) * math.pi, zero, zero),
+    de1_eps1, de2_eps1 = e1 * log_cos_eta, e2 * log_cos_eta
+    ds_eta_eps1 = s_eta * log_sin_eta
+    de1_eps2, de2_eps2 = e1 * log_cos_omega, e2 * log_sin_omega
+    derivatives = {  # (parameter, axis of the point): its derivative; every other entry is 0
+        ("a", 0): taper1 * e1 / a + bend_slope * (-b2 * math.pi * b3 / (a * half_length)),
+        ("a", 1): taper2 * e2 / a,
+        ("a", 2): e3 / a,
+        ("a1", 0): taper1 * e1 / a1,
+        ("a2", 1): taper2 * e2 / a2,
+        ("a3", 0): bend_slope * (-b2 * math.pi * b3 / (a3 * half_length)),
+        ("a3", 2): e3 / a3,
+        ("eps1", 0): t1 * ds_eta_eps1 * e1 + taper1 * de1_eps1 + bend_slope * math.pi * b3 * ds_eta_eps1,
+        ("eps1", 1): t2 * ds_eta_eps1 * e2 + taper2 * de2_eps1,
+        ("eps1", 2): half_length * ds_eta_eps1,
+        ("eps2", 0): taper1 * de1_eps2,
+        ("eps2", 1): taper2 * de2_eps2,
+        ("t1", 0): s_eta * e1,
+        ("t2", 1): s_eta * e2,
+        ("b1", 0): np.cos(theta),
+        ("b2", 0): bend_slope * math.pi * b3 / half_length,
+        ("b3", 0): bend_slope * (s_eta + b2 / half_length) * math.pi,
     }
-    return np.stack([np.stack(columns[name], axis=1) for name in SHAPE_NAMES], axis=2)
+    jacobian = np.zeros((len(e1), 3, len(SHAPE_NAMES)))  # filled in place: stacking 33 columns cost more
+    for (name, axis), derivative in derivatives.items():
+        jacobian[:, axis, PARAM_INDEX[name]] = derivative
+    return jacobian

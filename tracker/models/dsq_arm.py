@@ -22,6 +22,7 @@ from tracker.models.dsq import (
     MeshTopology,
     SampleGrid,
     dsq_points,
+    dsq_points_at,
     mesh_topology,
     pole_point,
     sample_grid,
@@ -165,13 +166,13 @@ class DSQArm:
         """Per part, the world positions ``(n_samples, 3)`` of its model samples (row k is sample id k)."""
         world = self.world_transforms(params)
         grid = self.sample_grid
-        return [transform_points(world[k], dsq_points(params[k], grid.eta, grid.omega)) for k in range(len(self.parts))]
+        return [transform_points(world[k], dsq_points_at(params[k], grid.trig)) for k in range(len(self.parts))]
 
     def surface_vertices(self, params: np.ndarray) -> list[np.ndarray]:
         """Per part, the world positions of its mesh's vertices (faces: ``topology.faces``)."""
         world = self.world_transforms(params)
-        eta, omega = self.topology.eta, self.topology.omega
-        return [transform_points(world[k], dsq_points(params[k], eta, omega)) for k in range(len(self.parts))]
+        trig = self.topology.trig
+        return [transform_points(world[k], dsq_points_at(params[k], trig)) for k in range(len(self.parts))]
 
     def surface_meshes(self, params: np.ndarray) -> list[SurfaceMesh]:
         """The parts' textured meshes in the world, labels 1..n."""
@@ -197,7 +198,7 @@ class DSQArm:
             SurfaceMesh(
                 key=f"{part.name}/zbuffer",
                 label=k + 1,
-                vertices=transform_points(world[k], dsq_points(params[k], topology.eta, topology.omega)),
+                vertices=transform_points(world[k], dsq_points_at(params[k], topology.trig)),
                 faces=topology.faces,
                 normals=None,
                 color=part.tint,

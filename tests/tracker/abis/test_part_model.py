@@ -1,7 +1,12 @@
 import numpy as np
 import pytest
 
-from tracker.abis.part_model import free_parameter_indices, part_world_points, project_with_jacobian
+from tracker.abis.part_model import (
+    free_parameter_indices,
+    part_world_points,
+    posed_coordinates,
+    project_with_jacobian,
+)
 from tracker.models.dsq import PARAM_INDEX, pole_point
 
 
@@ -21,7 +26,7 @@ def test_projected_jacobian_matches_finite_differences_through_the_arm(arm, moti
     is_root = part == 0
     parent = None if is_root else world[part - 1]
     joint = None if is_root else pole_point(params[part - 1], top=True)
-    points, jacobian = part_world_points(params[part], grid.eta, grid.omega, parent, joint)
+    points, jacobian = part_world_points(params[part], posed_coordinates(grid.eta, grid.omega, is_root), parent, joint)
     np.testing.assert_allclose(points, arm.sample_points(params)[part], atol=1e-12)  # same points as the arm
     camera = rig[0]
     uv, uv_jacobian = project_with_jacobian(camera, points, jacobian)
