@@ -11,7 +11,7 @@ are stepped additively: the Jacobian is by their components.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -95,16 +95,18 @@ class BodyPartProblem(PixelProblem):
         self._corners = inverse.reshape(corners.shape)
         self._start: BoneChain | None = None  # the chain of the first pose asked: the others turn only these joints
 
-    def points(self, q: np.ndarray, with_jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
+    def points(self, q: np.ndarray) -> tuple[np.ndarray, Callable[[], np.ndarray]]:
         if self._start is None:
             self._start = self.body.chain(q)
         transforms = self.body.chain(q, self._start, self.joints).transforms  # skinning and its Jacobian start here
         vertices = self.body.posed_vertices(q, self._vertices, transforms)
-        points = np.einsum("mc,mcd->md", self._barycentric, vertices[self._corners])
-        if not with_jacobian:
-            return points, None
-        jacobian = vertex_jacobian(self.body, q, self._vertices, self.joints, transforms)[:, :, self._columns]
-        return points, np.einsum("mc,mcdk->mdk", self._barycentric, jacobian[self._corners])
+        q = q.copy()  # as asked, whatever becomes of the caller's array
+
+        def jacobian() -> np.ndarray:
+            of_vertices = vertex_jacobian(self.body, q, self._vertices, self.joints, transforms)[:, :, self._columns]
+            return np.einsum("mc,mcdk->mdk", self._barycentric, of_vertices[self._corners])
+
+        return np.einsum("mc,mcd->md", self._barycentric, vertices[self._corners]), jacobian
 
 
 def pose_prior_sigmas(translation_m: float, rotation_rad: float) -> np.ndarray:

@@ -16,14 +16,15 @@ leaves a parameter free; without a prior the cost is eq 8 itself.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import dataclasses
+import functools
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 
-from tracker.abis.part_model import project_with_jacobian
-from tracker.geometry.cameras import Camera
+from tracker.geometry.cameras import Camera, camera_projection_jacobian
 from tracker.ranges import Count, Positive
 from tracker.settings import validate
 from tracker.tol import ZERO_LENGTH
@@ -66,13 +67,19 @@ class FitResult:
 
 @dataclass(frozen=True, eq=False)
 class Evaluation:
-    """The part's residuals at q: per view (pixels), and stacked with the prior rows for least squares."""
+    """The part's residuals at q: per view (pixels), and stacked with the prior rows for least squares; their
+    Jacobian made when first asked (a trial step the optimiser rejects, or its last, never asks)."""
 
     view_residuals: list[np.ndarray]
     vector: np.ndarray  # (2M + n_prior,)
-    jacobian: np.ndarray | None  # (2M + n_prior, n_free)
     weights: np.ndarray  # (2M + n_prior,) IRLS weights (Huber on pixel pairs, 1 for the prior)
     cost: float
+    jacobian_of: Callable[[], np.ndarray] = dataclasses.field(repr=False)
+
+    @functools.cached_property
+    def jacobian(self) -> np.ndarray:
+        """``(2M + n_prior, n_free)``."""
+        return self.jacobian_of()
 
 
 class PixelProblem:
@@ -100,9 +107,9 @@ class PixelProblem:
     def empty(self) -> bool:
         return not self._cameras
 
-    def points(self, q: np.ndarray, with_jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
-        """Every view's pairs' world points ``(M, 3)``, views one after another, and their Jacobian ``(M, 3,
-        n_free)``."""
+    def points(self, q: np.ndarray) -> tuple[np.ndarray, Callable[[], np.ndarray]]:
+        """Every view's pairs' world points ``(M, 3)``, views one after another, and what makes their Jacobian
+        ``(M, 3, n_free)`` when asked."""
         raise NotImplementedError
 
     def start(self, q: np.ndarray) -> np.ndarray:
@@ -123,35 +130,45 @@ class PixelProblem:
         """q - the prior's reference, over the free parameters."""
         return q[self.free] - self.prior.reference[self.free]
 
-    def evaluate(self, q: np.ndarray, settings: FitSettings, with_jacobian: bool = True) -> Evaluation:
-        residuals, jacobians = [], []
+    def evaluate(self, q: np.ndarray, settings: FitSettings) -> Evaluation:
         # All views' points in one batch: the per-call overhead dominates at a few dozen pairs per view.
-        points, jacobian = self.points(q, with_jacobian)
-        for camera, observed, rows in zip(self._cameras, self._observed, self._rows, strict=True):
-            if with_jacobian:
-                uv, uv_jacobian = project_with_jacobian(camera, points[rows], jacobian[rows])
-                jacobians.append(uv_jacobian.reshape(-1, len(self.free)))
-            else:
-                uv, _ = camera.project(points[rows])
-            residuals.append(uv - observed)
+        points, points_jacobian = self.points(q)
+        in_cameras = [
+            camera.world_to_camera(points[rows]) for camera, rows in zip(self._cameras, self._rows, strict=True)
+        ]
+        residuals = [
+            camera.camera_to_pixels(in_camera)[0] - observed
+            for camera, in_camera, observed in zip(self._cameras, in_cameras, self._observed, strict=True)
+        ]
         distances = np.concatenate([np.linalg.norm(r, axis=1) for r in residuals]) if residuals else np.empty(0)
         pixel_cost, pixel_weights = robust_cost(distances, settings.huber_px)
         vector = [np.concatenate([r.ravel() for r in residuals])] if residuals else []
         weights = [np.repeat(pixel_weights, 2)]
         prior_cost = 0.0
-        if self.prior is not None and len(self._prior_rows):
+        with_prior = self.prior is not None and len(self._prior_rows) > 0
+        if with_prior:
             difference = self.prior_difference(q)[self._prior_rows]
             prior_residual = difference * self._prior_scale
             prior_cost = float(prior_residual @ prior_residual)
             vector.append(prior_residual)
             weights.append(np.ones(len(prior_residual)))
-            jacobians = [*jacobians, self._prior_jacobian]
+
+        def jacobian() -> np.ndarray:
+            world = points_jacobian()
+            rows = [
+                np.einsum("nij,njk->nik", camera_projection_jacobian(camera, in_camera), world[view_rows]).reshape(
+                    -1, len(self.free)
+                )
+                for camera, in_camera, view_rows in zip(self._cameras, in_cameras, self._rows, strict=True)
+            ]
+            return np.concatenate([*rows, self._prior_jacobian] if with_prior else rows)
+
         return Evaluation(
             view_residuals=residuals,
             vector=np.concatenate(vector) if vector else np.empty(0),
-            jacobian=np.concatenate(jacobians) if with_jacobian and jacobians else None,
             weights=np.concatenate(weights),
             cost=pixel_cost + prior_cost,
+            jacobian_of=jacobian,
         )
 
 
@@ -178,8 +195,7 @@ def fit_part(q0: np.ndarray, problem: PixelProblem, settings: FitSettings = FitS
         if improvement <= settings.relative_tolerance * max(evaluation.cost, ZERO_LENGTH):
             current = evaluation
             break
-        # LM's trial points come with their Jacobian (most are accepted); SD's do not (Armijo rejects many).
-        current = evaluation if evaluation.jacobian is not None else problem.evaluate(q, settings)
+        current = evaluation
     return FitResult(q, cost_start, current.cost, accepted, current.view_residuals)
 
 
@@ -223,7 +239,7 @@ def _sd_step(q, problem, current, settings, state):
     beta = slope / curvature
     for _ in range(30):
         candidate = problem.moved(q, -beta * gradient / scale)
-        evaluation = problem.evaluate(candidate, settings, with_jacobian=False)
+        evaluation = problem.evaluate(candidate, settings)
         if evaluation.cost <= current.cost - ARMIJO * beta * 2 * slope:  # sufficient decrease
             return candidate, evaluation
         beta /= 2

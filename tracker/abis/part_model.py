@@ -15,10 +15,10 @@ points its axis along +x with r2 = pi/2), an increment never does.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
-from tracker.geometry.cameras import Camera, camera_projection_jacobian
 from tracker.geometry.rotations import euler_to_matrix, euler_to_matrix_derivatives, local_rotation_derivatives
 from tracker.models.dsq import (
     PARAM_INDEX,
@@ -57,47 +57,37 @@ def part_world_points(
     parent_world: np.ndarray | None = None,
     joint_in_parent: np.ndarray | None = None,
     local_rotation: bool = False,
-    with_jacobian: bool = True,
-) -> tuple[np.ndarray, np.ndarray | None]:
-    """World points ``(n, 3)`` of the samples at ``coordinates`` (`posed_coordinates`) and their Jacobian over the
-    free parameters.
+) -> tuple[np.ndarray, Callable[[], np.ndarray]]:
+    """World points ``(n, 3)`` of the samples at ``coordinates`` (`posed_coordinates`), and what makes their
+    Jacobian over the free parameters ``(n, 3, n_free)`` when asked.
 
     For a root pass neither ``parent_world`` nor ``joint_in_parent``; for a child pass the parent's ``(4, 4)``
-    world transform and the joint in the parent's frame (its top pole). Without ``with_jacobian`` the Jacobian is
-    None (and not computed).
+    world transform and the joint in the parent's frame (its top pole).
     """
-    q = np.asarray(q, dtype=np.float64)
+    q = np.array(q, dtype=np.float64)  # a copy: the Jacobian is made later, whatever becomes of the caller's array
     rotation = euler_to_matrix(q[_R])
     local = dsq_points_at(q, coordinates)
-    is_root = parent_world is None
-    if not with_jacobian:
-        if is_root:
-            return local @ rotation.T + q[_C], None
-        in_parent = (local[:-1] - local[-1]) @ rotation.T + joint_in_parent
-        return in_parent @ parent_world[:3, :3].T + parent_world[:3, 3], None
-    if local_rotation:
-        rotation_derivatives = local_rotation_derivatives(rotation)
-    else:
-        rotation_derivatives = euler_to_matrix_derivatives(q[_R])
-    local_jacobian = dsq_points_jacobian_at(q, coordinates)  # (n, 3, 11)
-    if is_root:
+    if parent_world is None:
         points = local @ rotation.T + q[_C]
-        shape_jacobian = np.einsum("ij,njk->nik", rotation, local_jacobian)
-        translation_jacobian = np.broadcast_to(np.eye(3), (len(local), 3, 3))
-        rotation_jacobian = np.einsum("kij,nj->nik", rotation_derivatives, local)
-        return points, np.concatenate([shape_jacobian, translation_jacobian, rotation_jacobian], axis=2)
+    else:
+        relative = local[:-1] - local[-1]
+        in_parent = relative @ rotation.T + joint_in_parent
+        points = in_parent @ parent_world[:3, :3].T + parent_world[:3, 3]
 
-    relative = local[:-1] - local[-1]
-    in_parent = relative @ rotation.T + joint_in_parent
-    parent_rotation = parent_world[:3, :3]
-    points = in_parent @ parent_rotation.T + parent_world[:3, 3]
-    shape_jacobian = np.einsum("ij,njk->nik", parent_rotation @ rotation, local_jacobian[:-1] - local_jacobian[-1])
-    rotation_jacobian = np.einsum("ij,kjl,nl->nik", parent_rotation, rotation_derivatives, relative)
-    return points, np.concatenate([shape_jacobian, rotation_jacobian], axis=2)
+    def jacobian() -> np.ndarray:
+        if local_rotation:
+            rotation_derivatives = local_rotation_derivatives(rotation)
+        else:
+            rotation_derivatives = euler_to_matrix_derivatives(q[_R])
+        local_jacobian = dsq_points_jacobian_at(q, coordinates)  # (n, 3, 11)
+        if parent_world is None:
+            shape_jacobian = np.einsum("ij,njk->nik", rotation, local_jacobian)
+            translation_jacobian = np.broadcast_to(np.eye(3), (len(local), 3, 3))
+            rotation_jacobian = np.einsum("kij,nj->nik", rotation_derivatives, local)
+            return np.concatenate([shape_jacobian, translation_jacobian, rotation_jacobian], axis=2)
+        parent_rotation = parent_world[:3, :3]
+        shape_jacobian = np.einsum("ij,njk->nik", parent_rotation @ rotation, local_jacobian[:-1] - local_jacobian[-1])
+        rotation_jacobian = np.einsum("ij,kjl,nl->nik", parent_rotation, rotation_derivatives, relative)
+        return np.concatenate([shape_jacobian, rotation_jacobian], axis=2)
 
-
-def project_with_jacobian(camera: Camera, points: np.ndarray, jacobian: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Pixels ``(n, 2)`` of world points and their Jacobian ``(n, 2, n_free)`` by the chain rule."""
-    in_camera = camera.world_to_camera(points)
-    uv, _ = camera.camera_to_pixels(in_camera)
-    return uv, np.einsum("nij,njk->nik", camera_projection_jacobian(camera, in_camera), jacobian)
+    return points, jacobian

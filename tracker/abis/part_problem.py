@@ -11,7 +11,7 @@ after every step (`tracker.abis.part_model`): the Euler angles themselves are si
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -66,15 +66,8 @@ class PartProblem(PixelProblem):
         self._reference_rotation = None if prior is None else euler_to_matrix(prior.reference[_ROTATION])
         self.parent_world, self.joint_in_parent = parent_world, joint_in_parent
 
-    def points(self, q: np.ndarray, with_jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
-        return part_world_points(
-            q,
-            self._coordinates,
-            self.parent_world,
-            self.joint_in_parent,
-            local_rotation=True,
-            with_jacobian=with_jacobian,
-        )
+    def points(self, q: np.ndarray) -> tuple[np.ndarray, Callable[[], np.ndarray]]:
+        return part_world_points(q, self._coordinates, self.parent_world, self.joint_in_parent, local_rotation=True)
 
     def start(self, q: np.ndarray) -> np.ndarray:
         """``q`` (a copy) in the gauge ``max(a1, a2, a3) = 1``."""

@@ -120,7 +120,7 @@ def test_a_body_parts_pixel_jacobian_matches_central_differences(body):
         for column, entry in enumerate(problem.free):
             step = np.zeros(POSE_SIZE)
             step[entry] = 1e-6
-            plus, minus = (problem.evaluate(q + sign * step, settings, with_jacobian=False).vector for sign in (1, -1))
+            plus, minus = (problem.evaluate(q + sign * step, settings).vector for sign in (1, -1))
             numeric[:, column] = (plus - minus) / 2e-6
         np.testing.assert_allclose(analytic, numeric, atol=1e-4 * np.abs(numeric).max())
         assert np.abs(numeric).max() > 10  # pixels per radian: not a vacuous comparison
