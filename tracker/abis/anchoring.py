@@ -17,6 +17,7 @@ Texture convention (`tracker.models.dsq.mesh_topology`, as the renderer samples 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Annotated
 
@@ -48,16 +49,17 @@ def texture_offsets(
     eta: np.ndarray,
     omega: np.ndarray,
     jacobian: np.ndarray,
-    texture_gray: np.ndarray,
+    textures: Sequence[np.ndarray],
     settings: AnchorSettings,
     search: bool | np.ndarray = True,
+    texture_of: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """For features at ``points`` ``(n, 2)`` over the surface coordinates ``eta``, ``omega`` ``(n,)`` of the
     estimate, whose pixels move by ``jacobian`` ``(n, 2, 2)`` (d(u, v) / d(eta, omega)): the offsets ``(n, 2)`` in
     (eta, omega) to the material point the observed patch shows, and which matches were trusted ``(n,)``.
-    ``observed_gray`` and ``texture_gray`` are float32 grey images. ``search`` (one for all, or ``(n,)``): look over
-    whole pixels first (a new pair); without, only refine from no offset (a pair anchored before, whose feature
-    drifts by a fraction of a pixel per frame)."""
+    ``observed_gray`` and ``textures`` are float32 grey images; ``texture_of`` ``(n,)``: each point's texture (None:
+    the first). ``search`` (one for all, or ``(n,)``): look over whole pixels first (a new pair); without, only
+    refine from no offset (a pair anchored before, whose feature drifts by a fraction of a pixel per frame)."""
     n = len(points)
     h, r = settings.half_window_px, settings.search_px
     offsets, trusted = np.zeros((n, 2)), np.zeros(n, bool)
@@ -66,14 +68,17 @@ def texture_offsets(
     if len(chosen) == 0:
         return offsets, trusted
     to_surface = np.linalg.inv(jacobian[chosen])  # pixels -> (eta, omega)
-    synthesise = _Synthesiser(texture_gray, eta[chosen], omega[chosen], to_surface)
+    texture_of = np.zeros(n, int) if texture_of is None else np.asarray(texture_of)
+    synthesise = _Synthesiser(textures, texture_of[chosen], eta[chosen], omega[chosen], to_surface)
     patches = np.stack(
         [cv2.getRectSubPix(observed_gray, (2 * h + 1, 2 * h + 1), (float(x), float(y))) for x, y in points[chosen]]
     ).astype(np.float64)
     shift = np.zeros((len(chosen), 2))
     searched = np.flatnonzero(np.broadcast_to(search, (n,))[chosen])
     if len(searched):  # whole pixels: the best normalised cross-correlation over the search window
-        around = _Synthesiser(texture_gray, eta[chosen[searched]], omega[chosen[searched]], to_surface[searched])
+        around = _Synthesiser(
+            textures, texture_of[chosen[searched]], eta[chosen[searched]], omega[chosen[searched]], to_surface[searched]
+        )
         windows = np.lib.stride_tricks.sliding_window_view(
             around(shift[searched], h + r), (2 * h + 1, 2 * h + 1), axis=(1, 2)
         )  # (k, 2r + 1, 2r + 1, 2h + 1, 2h + 1)
@@ -93,11 +98,27 @@ def texture_offsets(
 
 
 class _Synthesiser:
-    """The texture as the estimate shows it: ``(m, 2h + 1, 2h + 1)`` patches around each point's pixel plus a
-    shift ``(m, 2)`` (pixels), through each point's affine map from pixels to (eta, omega)."""
+    """The textures as the estimate shows them: ``(m, 2h + 1, 2h + 1)`` patches around each point's pixel plus a
+    shift ``(m, 2)`` (pixels), through each point's affine map from pixels to (eta, omega), each from its texture
+    (``texture_of``)."""
 
-    def __init__(self, texture: np.ndarray, eta: np.ndarray, omega: np.ndarray, to_surface: np.ndarray) -> None:
-        self.texture, self.eta, self.omega, self.to_surface = texture, eta, omega, to_surface
+    def __init__(
+        self,
+        textures: Sequence[np.ndarray],
+        texture_of: np.ndarray,
+        eta: np.ndarray,
+        omega: np.ndarray,
+        to_surface: np.ndarray,
+    ) -> None:
+        self.textures, self.texture_of, self.eta, self.omega, self.to_surface = (
+            textures,
+            texture_of,
+            eta,
+            omega,
+            to_surface,
+        )
+        shapes = np.array([texture.shape for texture in textures], dtype=np.float64).reshape(-1, 2)
+        self.height, self.width = shapes[texture_of, 0, None], shapes[texture_of, 1, None]  # (m, 1): each point's
 
     def __call__(self, shift: np.ndarray, half: int) -> np.ndarray:
         steps = np.arange(2 * half + 1, dtype=np.float64) - half
@@ -106,12 +127,18 @@ class _Synthesiser:
         repeat = len(shift) // len(self.eta)  # shifts may come stacked several times over the points
         to_surface = np.tile(self.to_surface, (repeat, 1, 1))
         surface = to_surface @ pixels
-        height, width = self.texture.shape
+        height, width = np.tile(self.height, (repeat, 1)), np.tile(self.width, (repeat, 1))
         rows = (math.pi / 2 - np.tile(self.eta, repeat)[:, None] - surface[:, 0]) / math.pi * height - 0.5
         columns = (
             (np.tile(self.omega, repeat)[:, None] + surface[:, 1] + math.pi) / (2 * math.pi) * width - 0.5
         ) % width
-        values = map_coordinates(self.texture, [rows.ravel(), columns.ravel()], order=1, mode="nearest")
+        values = np.empty(rows.shape, np.result_type(*self.textures))  # map_coordinates keeps a texture's type
+        texture_of = np.tile(self.texture_of, repeat)
+        for index in np.unique(texture_of):
+            mine = texture_of == index
+            values[mine] = map_coordinates(
+                self.textures[index], [rows[mine].ravel(), columns[mine].ravel()], order=1, mode="nearest"
+            ).reshape(-1, rows.shape[1])
         return values.reshape(len(shift), 2 * half + 1, 2 * half + 1)
 
 

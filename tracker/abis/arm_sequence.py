@@ -211,24 +211,29 @@ class ArmAbis(AbisSequence):
         """Move the ``due`` pairs' surface coordinates (in place) to the material point their feature shows, as
         matched against the model's texture around where the estimate puts each pair (`tracker.abis.anchoring`;
         ``search``: over whole pixels first, for new pairs)."""
-        gray = features.gray.astype(np.float32)  # the feature tracker's own grey
-        for part in np.unique(pairs.parts[due]):
-            mine = np.flatnonzero(due & (pairs.parts == part))
-            # The observed patch around the feature against the texture around the pair's point, as the estimate
-            # maps it: the match is in the material, whatever the estimate's offset in the image.
-            jacobian = pixel_jacobian(self._surface(part, world), camera, pairs.eta[mine], pairs.omega[mine])
-            offsets, _ = texture_offsets(
-                gray,
-                feature_rows(features, pairs.feature_ids[mine]),
-                pairs.eta[mine],
-                pairs.omega[mine],
-                jacobian,
-                self._textures[part],
-                self.settings.anchor,
-                search[mine],
+        mine = np.flatnonzero(due)
+        parts = pairs.parts[mine]
+        # The observed patch around the feature against the texture around the pair's point, as the estimate maps
+        # it: the match is in the material, whatever the estimate's offset in the image. Every part's at once.
+        jacobian = np.zeros((len(mine), 2, 2))
+        for part in np.unique(parts):
+            on_part = parts == part
+            jacobian[on_part] = pixel_jacobian(
+                self._surface(part, world), camera, pairs.eta[mine[on_part]], pairs.omega[mine[on_part]]
             )
-            pairs.eta[mine] = np.clip(
-                pairs.eta[mine] + offsets[:, 0], -np.pi / 2 + POLE_MARGIN_RAD, np.pi / 2 - POLE_MARGIN_RAD
-            )  # as `refine_surface_coordinates` keeps them
-            omega = pairs.omega[mine] + offsets[:, 1]
-            pairs.omega[mine] = np.where(np.abs(omega) > np.pi, (omega + np.pi) % (2 * np.pi) - np.pi, omega)
+        offsets, _ = texture_offsets(
+            features.gray.astype(np.float32),  # the feature tracker's own grey
+            feature_rows(features, pairs.feature_ids[mine]),
+            pairs.eta[mine],
+            pairs.omega[mine],
+            jacobian,
+            self._textures,
+            self.settings.anchor,
+            search[mine],
+            texture_of=parts,
+        )
+        pairs.eta[mine] = np.clip(
+            pairs.eta[mine] + offsets[:, 0], -np.pi / 2 + POLE_MARGIN_RAD, np.pi / 2 - POLE_MARGIN_RAD
+        )  # as `refine_surface_coordinates` keeps them
+        omega = pairs.omega[mine] + offsets[:, 1]
+        pairs.omega[mine] = np.where(np.abs(omega) > np.pi, (omega + np.pi) % (2 * np.pi) - np.pi, omega)

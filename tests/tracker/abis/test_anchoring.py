@@ -32,7 +32,7 @@ def test_a_known_shift_of_the_material_is_recovered(shift_px):
     columns = ((omega + math.pi) / (2 * math.pi) * texture.shape[1] - 0.5) % texture.shape[1]
     image = map_coordinates(texture, [rows, columns], order=1, mode="nearest").reshape(64, 64).astype(np.float32)
     offsets, trusted = texture_offsets(
-        image, point[None], np.array([eta0]), np.array([omega0]), jacobian[None], texture, AnchorSettings()
+        image, point[None], np.array([eta0]), np.array([omega0]), jacobian[None], [texture], AnchorSettings()
     )
     assert trusted[0]
     np.testing.assert_allclose(jacobian @ offsets[0], shift_px, atol=0.15)
@@ -43,7 +43,7 @@ def test_a_known_shift_of_the_material_is_recovered(shift_px):
             np.array([eta0]),
             np.array([omega0]),
             jacobian[None],
-            texture,
+            [texture],
             AnchorSettings(),
             search=False,
         )
@@ -89,7 +89,7 @@ def test_pairs_formed_on_a_wrong_estimate_are_anchored_onto_their_material_point
             eta,
             omega,
             pixel_jacobian(surface, camera, eta, omega),
-            texture,
+            [texture],
             AnchorSettings(),
         )
         truly = on(truth)  # where the truth shows each pair's point: on its feature when the pair is right
