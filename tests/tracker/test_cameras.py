@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from tracker.geometry.cameras import Camera, look_at, opengl_camera
+from tracker.geometry.cameras import Camera, ViewsPoints, look_at, opengl_camera, projection_jacobian
 from tracker.geometry.rigs import mono, orthogonal3
 
 
@@ -109,3 +109,20 @@ def test_opengl_conversion_agrees_with_pyrender_projection_and_the_wrong_one_doe
     # Wrong reading 2: forgetting OpenGL's half-pixel centres shifts the image by half a pixel.
     unshifted, _ = _pyrender_pixel(type(gl)(gl.fx, gl.fy, camera.cx, camera.cy, gl.pose), 320, 240, point)
     np.testing.assert_allclose(unshifted - expected[0], [-0.5, -0.5], atol=1e-9)
+
+
+def test_points_of_several_views_get_each_cameras_own_pixels_and_jacobian_bit_for_bit(rig):
+    rng = np.random.default_rng(4)
+    counts = [7, 0, 12]  # a camera with no points among them
+    points = [rng.normal([0.5, 0.0, -0.2], 0.3, size=(count, 3)) for count in counts]
+    points[2][3] = rig[2].position - 0.5 * rig[2].rotation[:, 2]  # behind the camera: no pixel
+    views = ViewsPoints.of(rig, counts)
+    in_cameras = views.to_camera(np.concatenate(points))
+    uv, depth = views.pixels(in_cameras)
+    jacobian = views.projection_jacobian(in_cameras)
+    for camera, rows, own in zip(rig, views.rows, points, strict=True):
+        expected_uv, expected_depth = camera.project(own)
+        np.testing.assert_array_equal(uv[rows], expected_uv)  # NaN where the camera's own is NaN
+        np.testing.assert_array_equal(depth[rows], expected_depth)
+        np.testing.assert_array_equal(jacobian[rows], projection_jacobian(camera, own))
+    assert np.isnan(uv[views.rows[2]][3]).all()

@@ -24,7 +24,7 @@ from typing import Literal
 
 import numpy as np
 
-from tracker.geometry.cameras import Camera, camera_projection_jacobian
+from tracker.geometry.cameras import Camera, ViewsPoints
 from tracker.ranges import Count, Positive
 from tracker.settings import validate
 from tracker.tol import ZERO_LENGTH
@@ -91,9 +91,8 @@ class PixelProblem:
     def __init__(
         self, cameras: Sequence[Camera], observed: Sequence[np.ndarray], free: np.ndarray, prior: Prior | None
     ) -> None:
-        self._cameras, self._observed = list(cameras), list(observed)
-        bounds = np.cumsum([0] + [len(pixels) for pixels in self._observed])
-        self._rows = [slice(start, end) for start, end in zip(bounds[:-1], bounds[1:], strict=True)]
+        self._views = ViewsPoints.of(cameras, [len(pixels) for pixels in observed])
+        self._observed_rows = np.concatenate(observed) if len(observed) else np.empty((0, 2))  # views one after another
         self.free = free
         self.prior = prior
         if prior is not None:
@@ -105,7 +104,7 @@ class PixelProblem:
 
     @property
     def empty(self) -> bool:
-        return not self._cameras
+        return not self._views.cameras
 
     def points(self, q: np.ndarray) -> tuple[np.ndarray, Callable[[], np.ndarray]]:
         """Every view's pairs' world points ``(M, 3)``, views one after another, and what makes their Jacobian
@@ -133,16 +132,11 @@ class PixelProblem:
     def evaluate(self, q: np.ndarray, settings: FitSettings) -> Evaluation:
         # All views' points in one batch: the per-call overhead dominates at a few dozen pairs per view.
         points, points_jacobian = self.points(q)
-        in_cameras = [
-            camera.world_to_camera(points[rows]) for camera, rows in zip(self._cameras, self._rows, strict=True)
-        ]
-        residuals = [
-            camera.camera_to_pixels(in_camera)[0] - observed
-            for camera, in_camera, observed in zip(self._cameras, in_cameras, self._observed, strict=True)
-        ]
-        distances = np.concatenate([np.linalg.norm(r, axis=1) for r in residuals]) if residuals else np.empty(0)
-        pixel_cost, pixel_weights = robust_cost(distances, settings.huber_px)
-        vector = [np.concatenate([r.ravel() for r in residuals])] if residuals else []
+        in_cameras = self._views.to_camera(points)
+        residual = self._views.pixels(in_cameras)[0] - self._observed_rows
+        residuals = [residual[rows] for rows in self._views.rows]
+        pixel_cost, pixel_weights = robust_cost(np.linalg.norm(residual, axis=1), settings.huber_px)
+        vector = [residual.ravel()]
         weights = [np.repeat(pixel_weights, 2)]
         prior_cost = 0.0
         with_prior = self.prior is not None and len(self._prior_rows) > 0
@@ -154,18 +148,13 @@ class PixelProblem:
             weights.append(np.ones(len(prior_residual)))
 
         def jacobian() -> np.ndarray:
-            world = points_jacobian()
-            rows = [
-                np.einsum("nij,njk->nik", camera_projection_jacobian(camera, in_camera), world[view_rows]).reshape(
-                    -1, len(self.free)
-                )
-                for camera, in_camera, view_rows in zip(self._cameras, in_cameras, self._rows, strict=True)
-            ]
-            return np.concatenate([*rows, self._prior_jacobian] if with_prior else rows)
+            pixels = np.einsum("nij,njk->nik", self._views.projection_jacobian(in_cameras), points_jacobian())
+            rows = pixels.reshape(-1, len(self.free))
+            return np.concatenate([rows, self._prior_jacobian]) if with_prior else rows
 
         return Evaluation(
             view_residuals=residuals,
-            vector=np.concatenate(vector) if vector else np.empty(0),
+            vector=np.concatenate(vector),
             weights=np.concatenate(weights),
             cost=pixel_cost + prior_cost,
             jacobian_of=jacobian,

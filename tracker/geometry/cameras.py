@@ -13,6 +13,7 @@ Convention:
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -51,29 +52,77 @@ class Camera:
 
         Points with ``z <= MIN_DEPTH_M`` (behind or on the camera) get NaN pixels.
         """
-        return self.camera_to_pixels(self.world_to_camera(points))
-
-    def camera_to_pixels(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """`project` of camera-frame points ``(n, 3)``."""
-        z = p[:, 2]
-        in_front = z > MIN_DEPTH_M
-        safe_z = np.where(in_front, z, 1.0)
-        uv = np.stack([self.fx * p[:, 0] / safe_z + self.cx, self.fy * p[:, 1] / safe_z + self.cy], axis=1)
-        uv[~in_front] = np.nan
-        return uv, z
+        return _pixels(self.world_to_camera(points), self.fx, self.fy, self.cx, self.cy)
 
 
 def projection_jacobian(camera: Camera, points: np.ndarray) -> np.ndarray:
     """``(n, 2, 3)``: derivatives of `Camera.project`'s pixels with respect to the world points."""
-    return camera_projection_jacobian(camera, camera.world_to_camera(points))
+    return _projection_jacobian(camera.world_to_camera(points), camera.fx, camera.fy, camera.rotation.T)
 
 
-def camera_projection_jacobian(camera: Camera, p: np.ndarray) -> np.ndarray:
-    """`projection_jacobian` at the camera-frame points ``p`` ``(n, 3)`` of the world points."""
+@dataclass(frozen=True, eq=False)
+class ViewsPoints:
+    """Points seen by several cameras in one array, ``counts[k]`` of ``cameras[k]`` after those of the cameras before:
+    their pixels and the pixels' Jacobian computed once for all, with each point's camera constants, the same numbers
+    as each camera's own (`Camera.project`, `projection_jacobian`)."""
+
+    cameras: tuple[Camera, ...]
+    rows: tuple[slice, ...]  # each camera's points
+    fx: np.ndarray  # (n, 1), each point's camera's; fy, cx, cy likewise
+    fy: np.ndarray
+    cx: np.ndarray
+    cy: np.ndarray
+    axes: np.ndarray  # (n, 3, 3): each point's camera's rotation transposed (d p_camera / d p_world)
+
+    @classmethod
+    def of(cls, cameras: Sequence[Camera], counts: Sequence[int]) -> ViewsPoints:
+        ends = np.cumsum(counts, dtype=int)
+        rows = tuple(slice(end - count, end) for end, count in zip(ends, counts, strict=True))
+
+        def each(values) -> np.ndarray:
+            return np.repeat(np.asarray(values, dtype=np.float64), counts, axis=0)
+
+        return cls(
+            tuple(cameras),
+            rows,
+            *(each([getattr(camera, name) for camera in cameras])[:, None] for name in ("fx", "fy", "cx", "cy")),
+            axes=each([camera.rotation.T for camera in cameras]).reshape(-1, 3, 3),
+        )
+
+    def to_camera(self, points: np.ndarray) -> np.ndarray:
+        """World points ``(n, 3)`` -> each in its camera's frame (camera by camera, as `Camera.world_to_camera`)."""
+        if not self.cameras:
+            return np.empty((0, 3))
+        return np.concatenate(
+            [camera.world_to_camera(points[rows]) for camera, rows in zip(self.cameras, self.rows, strict=True)]
+        )
+
+    def pixels(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """`Camera.project` of camera-frame points ``p`` ``(n, 3)`` (`to_camera`), each by its camera."""
+        return _pixels(p, self.fx[:, 0], self.fy[:, 0], self.cx[:, 0], self.cy[:, 0])
+
+    def projection_jacobian(self, p: np.ndarray) -> np.ndarray:
+        """`projection_jacobian` ``(n, 2, 3)`` at camera-frame points ``p`` (`to_camera`), each by its camera."""
+        return _projection_jacobian(p, self.fx, self.fy, self.axes)
+
+
+def _pixels(p: np.ndarray, fx, fy, cx, cy) -> tuple[np.ndarray, np.ndarray]:
+    """Eq 6 of camera-frame points ``(n, 3)``: pixels ``(n, 2)`` (NaN behind the camera) and depths ``(n,)``;
+    ``fx`` .. ``cy`` one camera's or each point's ``(n,)``."""
+    z = p[:, 2]
+    in_front = z > MIN_DEPTH_M
+    safe_z = np.where(in_front, z, 1.0)
+    uv = np.stack([fx * p[:, 0] / safe_z + cx, fy * p[:, 1] / safe_z + cy], axis=1)
+    uv[~in_front] = np.nan
+    return uv, z
+
+
+def _projection_jacobian(p: np.ndarray, fx, fy, axes: np.ndarray) -> np.ndarray:
+    """``(n, 2, 3)`` d pixels / d world point at camera-frame points ``p`` ``(n, 3)``; ``axes`` the rotation
+    transposed, ``(3, 3)`` of one camera or ``(n, 3, 3)`` each point's (``fx``, ``fy`` then ``(n, 1)``)."""
     x, y, z = p[:, 0:1], p[:, 1:2], p[:, 2:3]
-    rows = camera.rotation.T  # d p_camera / d p_world
-    du = camera.fx * (rows[0] * z - x * rows[2]) / z**2
-    dv = camera.fy * (rows[1] * z - y * rows[2]) / z**2
+    du = fx * (axes[..., 0, :] * z - x * axes[..., 2, :]) / z**2
+    dv = fy * (axes[..., 1, :] * z - y * axes[..., 2, :]) / z**2
     return np.stack([du, dv], axis=1)
 
 

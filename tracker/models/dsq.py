@@ -73,34 +73,35 @@ def _snap(x: np.ndarray) -> np.ndarray:
 @dataclass(frozen=True, eq=False)
 class SurfaceTrig:
     """What eq 1 takes of surface coordinates ``(n,)``: the cosines and sines of eta and omega (snapped to 0 near
-    it), as signs and magnitudes ``(4, n)``, rows cos eta, sin eta, cos omega, sin omega. Made once where many
-    parameter values pose the same coordinates (a fit's pairs): eq 1 then only raises them to eps1 and eps2."""
+    it), as signs and magnitudes, each four ``(n,)`` arrays: cos eta, sin eta, cos omega, sin omega. Made once where
+    many parameter values pose the same coordinates (a fit's pairs): eq 1 then only raises them to eps1 and eps2."""
 
-    sign: np.ndarray
-    magnitude: np.ndarray
+    sign: tuple[np.ndarray, ...]
+    magnitude: tuple[np.ndarray, ...]
 
     @classmethod
     def of(cls, eta: np.ndarray, omega: np.ndarray) -> SurfaceTrig:
         eta, omega = np.asarray(eta, np.float64), np.asarray(omega, np.float64)
-        trig = np.stack([_snap(np.cos(eta)), _snap(np.sin(eta)), _snap(np.cos(omega)), _snap(np.sin(omega))])
-        return cls(np.sign(trig), np.abs(trig))
-
-    def __len__(self) -> int:
-        return self.magnitude.shape[1]
+        cos_eta, sin_eta = _snap(np.cos(eta)), _snap(np.sin(eta))
+        cos_omega, sin_omega = _snap(np.cos(omega)), _snap(np.sin(omega))
+        return cls(
+            (np.sign(cos_eta), np.sign(sin_eta), np.sign(cos_omega), np.sign(sin_omega)),
+            (np.abs(cos_eta), np.abs(sin_eta), np.abs(cos_omega), np.abs(sin_omega)),
+        )
 
     @functools.cached_property
-    def log_magnitude(self) -> np.ndarray:
+    def log_magnitude(self) -> tuple[np.ndarray, ...]:
         """``ln|x|`` with 0 where x is 0: it multiplies a factor ``|x|^eps`` that is 0 there (x^eps ln x -> 0)."""
-        return np.log(np.where(self.magnitude > 0, self.magnitude, 1.0))
+        return tuple(np.log(np.where(magnitude > 0, magnitude, 1.0)) for magnitude in self.magnitude)
 
     def signed_powers(self, eps1: float, eps2: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Eq 1's ``sign(x) |x|^eps`` of each row (``0^0 = 0``, so that eps -> 0 gives a box, never NaN)."""
-        sign, magnitude = self.sign, self.magnitude
+        """Eq 1's ``sign(x) |x|^eps`` of each (``0^0 = 0``, so that eps -> 0 gives a box, never NaN)."""
+        (cos_eta, sin_eta, cos_omega, sin_omega), magnitude = self.sign, self.magnitude
         return (
-            sign[0] * magnitude[0] ** eps1,
-            sign[1] * magnitude[1] ** eps1,
-            sign[2] * magnitude[2] ** eps2,
-            sign[3] * magnitude[3] ** eps2,
+            cos_eta * magnitude[0] ** eps1,
+            sin_eta * magnitude[1] ** eps1,
+            cos_omega * magnitude[2] ** eps2,
+            sin_omega * magnitude[3] ** eps2,
         )
 
 
