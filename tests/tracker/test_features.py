@@ -1,8 +1,9 @@
 import cv2
 import numpy as np
+import pytest
 
 from tracker.models.textures import block_noise_texture
-from tracker.observe.features import FeatureSettings, FeatureTracker
+from tracker.observe.features import FeatureSettings, FeatureTracker, away_from
 
 
 def textured_image(seed=0, size=(240, 320)):
@@ -76,3 +77,15 @@ def test_features_leaving_the_image_are_lost():
 def test_a_plain_image_has_no_features():
     frame = FeatureTracker().step(np.full((240, 320, 3), 40, np.uint8))
     assert len(frame.ids) == 0 and frame.points.shape == (0, 2)
+
+
+@pytest.mark.parametrize("radius", [1, 5, 9])
+def test_the_mask_away_from_live_tracks_is_every_disc_drawn_by_opencv(radius):
+    rng = np.random.default_rng(radius)
+    shape = (60, 90)
+    centres = np.rint(rng.uniform([-4, -4], [shape[1] + 3, shape[0] + 3], size=(150, 2))).astype(int)  # some off it
+    drawn = np.full(shape, 255, np.uint8)
+    for u, v in centres:
+        cv2.circle(drawn, (int(u), int(v)), radius, 0, thickness=-1)
+    np.testing.assert_array_equal(away_from(shape, centres, radius), drawn)
+    np.testing.assert_array_equal(away_from(shape, centres[:0], radius), np.full(shape, 255, np.uint8))

@@ -9,6 +9,7 @@ tracker sees only the images: never the model or the truth.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Annotated
 
@@ -108,9 +109,7 @@ class FeatureTracker:
         wanted = s.max_features - len(existing)
         if wanted <= 0:
             return np.empty((0, 2))
-        mask = np.full(gray.shape, 255, np.uint8)
-        for u, v in np.rint(existing).astype(int):  # no new corner next to a live track
-            cv2.circle(mask, (int(u), int(v)), int(np.ceil(s.min_distance_px)), 0, thickness=-1)
+        mask = away_from(gray.shape, np.rint(existing).astype(int), int(np.ceil(s.min_distance_px)))
         corners = cv2.goodFeaturesToTrack(
             gray,
             maxCorners=wanted,
@@ -122,3 +121,24 @@ class FeatureTracker:
         if corners is None:
             return np.empty((0, 2))
         return corners.reshape(-1, 2).astype(np.float64)
+
+
+def away_from(shape: tuple[int, int], centres: np.ndarray, radius: int) -> np.ndarray:
+    """A ``shape`` uint8 mask, 255 but on a filled disc of ``radius`` around each integer centre ``(n, 2)`` (u, v),
+    where it is 0: no new corner next to a live track. The disc is OpenCV's own (`cv2.circle`, filled), stamped at
+    every centre at once and cut at the image's edges, the same pixels as drawing each."""
+    du, dv = _disc(radius)
+    rows, columns = centres[:, 1, None] + dv, centres[:, 0, None] + du
+    inside = (rows >= 0) & (rows < shape[0]) & (columns >= 0) & (columns < shape[1])
+    mask = np.full(shape, 255, np.uint8)
+    mask[rows[inside], columns[inside]] = 0
+    return mask
+
+
+@functools.cache
+def _disc(radius: int) -> tuple[np.ndarray, np.ndarray]:
+    """The pixel offsets (du, dv) of `cv2.circle`'s filled disc of ``radius``."""
+    stamp = np.zeros((2 * radius + 1, 2 * radius + 1), np.uint8)
+    cv2.circle(stamp, (radius, radius), radius, 1, thickness=-1)
+    dv, du = np.nonzero(stamp)
+    return du - radius, dv - radius
