@@ -180,11 +180,9 @@ def fit_part(q0: np.ndarray, problem: PixelProblem, settings: FitSettings = FitS
             break
         accepted += 1
         improvement = current.cost - evaluation.cost
-        q = candidate
-        if improvement <= settings.relative_tolerance * max(evaluation.cost, ZERO_LENGTH):
-            current = evaluation
+        q, current = candidate, evaluation  # its Jacobian is made only if another step asks for it
+        if improvement <= settings.relative_tolerance * max(current.cost, ZERO_LENGTH):
             break
-        current = evaluation
     return FitResult(q, cost_start, current.cost, accepted, current.view_residuals)
 
 
