@@ -110,13 +110,8 @@ class _Synthesiser:
         omega: np.ndarray,
         to_surface: np.ndarray,
     ) -> None:
-        self.textures, self.texture_of, self.eta, self.omega, self.to_surface = (
-            textures,
-            texture_of,
-            eta,
-            omega,
-            to_surface,
-        )
+        self.textures, self.texture_of = textures, texture_of
+        self.eta, self.omega, self.to_surface = eta, omega, to_surface
         shapes = np.array([texture.shape for texture in textures], dtype=np.float64).reshape(-1, 2)
         self.height, self.width = shapes[texture_of, 0, None], shapes[texture_of, 1, None]  # (m, 1): each point's
 

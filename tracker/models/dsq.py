@@ -11,10 +11,9 @@ Convention:
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 from typing import Annotated
 
 import numpy as np
@@ -89,19 +88,19 @@ class SurfaceTrig:
             (np.abs(cos_eta), np.abs(sin_eta), np.abs(cos_omega), np.abs(sin_omega)),
         )
 
-    @functools.cached_property
+    @cached_property
     def log_magnitude(self) -> tuple[np.ndarray, ...]:
         """``ln|x|`` with 0 where x is 0: it multiplies a factor ``|x|^eps`` that is 0 there (x^eps ln x -> 0)."""
         return tuple(np.log(np.where(magnitude > 0, magnitude, 1.0)) for magnitude in self.magnitude)
 
     def signed_powers(self, eps1: float, eps2: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Eq 1's ``sign(x) |x|^eps`` of each (``0^0 = 0``, so that eps -> 0 gives a box, never NaN)."""
-        (cos_eta, sin_eta, cos_omega, sin_omega), magnitude = self.sign, self.magnitude
+        sign, magnitude = self.sign, self.magnitude
         return (
-            cos_eta * magnitude[0] ** eps1,
-            sin_eta * magnitude[1] ** eps1,
-            cos_omega * magnitude[2] ** eps2,
-            sin_omega * magnitude[3] ** eps2,
+            sign[0] * magnitude[0] ** eps1,
+            sign[1] * magnitude[1] ** eps1,
+            sign[2] * magnitude[2] ** eps2,
+            sign[3] * magnitude[3] ** eps2,
         )
 
 
@@ -157,7 +156,7 @@ class SampleGrid:
     omega: np.ndarray
     ids: np.ndarray
 
-    @functools.cached_property
+    @cached_property
     def trig(self) -> SurfaceTrig:
         """The samples' trigonometry (`dsq_points_at`), made once."""
         return SurfaceTrig.of(self.eta, self.omega)
@@ -193,7 +192,7 @@ class MeshTopology:
     uv: np.ndarray
     weld: np.ndarray
 
-    @functools.cached_property
+    @cached_property
     def trig(self) -> SurfaceTrig:
         """The vertices' trigonometry (`dsq_points_at`), made once."""
         return SurfaceTrig.of(self.eta, self.omega)
