@@ -78,7 +78,7 @@ class PartProblem(PixelProblem):
         return _apply(q, self.free, self._is_rotation, delta)
 
     def pressed(self, q: np.ndarray, gradient: np.ndarray) -> np.ndarray:
-        return _pressed_against_bounds(q, self.free, gradient)
+        return _pressed_against_bounds(q, self.free, self._is_rotation, gradient)
 
     def prior_difference(self, q: np.ndarray) -> np.ndarray:
         """Rotations: the rotation vector of R(ref)^T R(q)."""
@@ -96,15 +96,14 @@ def _parameter_difference(
     return difference
 
 
-def _pressed_against_bounds(q: np.ndarray, free: np.ndarray, gradient: np.ndarray) -> np.ndarray:
-    """Free parameters at a bound of their range whose descent direction (-gradient) points out of it."""
-    pressed = np.zeros(len(free), bool)
-    for column, index in enumerate(free):
-        if index in _ROTATION:
-            continue
-        low, high = _bounds(index)
-        pressed[column] = (q[index] <= low and gradient[column] > 0) or (q[index] >= high and gradient[column] < 0)
-    return pressed
+def _pressed_against_bounds(
+    q: np.ndarray, free: np.ndarray, is_rotation: np.ndarray, gradient: np.ndarray
+) -> np.ndarray:
+    """Free parameters (``is_rotation``: which are r, never pressed) at a bound of their range whose descent direction
+    (-gradient) points out of it."""
+    at_low = (q[free] <= _LOW[free]) & (gradient > 0)
+    at_high = (q[free] >= _HIGH[free]) & (gradient < 0)
+    return ~is_rotation & (at_low | at_high)
 
 
 def _bounds(index: int) -> tuple[float, float]:
