@@ -65,6 +65,9 @@ class SceneRenderer:
         zfar: float = 100.0,
     ) -> None:
         self._pyrender = load_pyrender()
+        from OpenGL import GL  # only once pyrender has chosen the platform
+
+        self._gl = GL
         self.width, self.height = int(width), int(height)
         self.znear, self.zfar = znear, zfar
         pr = self._pyrender
@@ -109,9 +112,7 @@ class SceneRenderer:
             labels, _ = self._label_pass()
             pass_ms["rgb_depth"] += 1e3 * (lit - start)
             pass_ms["labels"] += 1e3 * (time.perf_counter() - lit)
-            views[camera.name] = RenderedView(
-                rgb=np.ascontiguousarray(rgb), depth=_metric_depth(depth), labels=np.ascontiguousarray(labels[:, :, 0])
-            )
+            views[camera.name] = RenderedView(rgb=rgb, depth=depth, labels=labels)
         self.last_pass_ms = pass_ms
         return views
 
@@ -124,7 +125,7 @@ class SceneRenderer:
         for camera in cameras:
             self._set_camera(camera)
             labels, depth = self._label_pass()
-            views[camera.name] = DepthLabels(depth=_metric_depth(depth), labels=np.ascontiguousarray(labels[:, :, 0]))
+            views[camera.name] = DepthLabels(depth=depth, labels=labels)
         return views
 
     def _set_camera(self, camera: Camera) -> None:
@@ -139,27 +140,60 @@ class SceneRenderer:
         self._scene.set_pose(self._camera_node, gl.pose)
 
     def _lit_pass(self) -> tuple[np.ndarray, np.ndarray]:
-        """RGB and depth, lit and textured: the lit nodes drawn, the label node hidden."""
+        """RGB and metric depth, lit and textured: the lit nodes drawn, the label node hidden."""
         if self._label_node is not None:
             self._label_node.mesh.is_visible = False
         try:
-            return self._renderer.render(self._scene)
+            return self._draw(self._pyrender.RenderFlags.NONE, self._gl.GL_RGB)
         finally:
             if self._label_node is not None:
                 self._label_node.mesh.is_visible = True
 
     def _label_pass(self) -> tuple[np.ndarray, np.ndarray]:
-        """Labels (every channel the label, 0 on the background) and depth: the label node drawn unlit on black,
-        the lit nodes hidden."""
+        """Labels (0 on the background) and metric depth: the label node drawn unlit on black, the lit nodes
+        hidden."""
         background, self._scene.bg_color = self._scene.bg_color, np.array([0.0, 0.0, 0.0, 1.0])
         for node in self._lit_nodes:
             node.mesh.is_visible = False
         try:
-            return self._renderer.render(self._scene, flags=self._pyrender.RenderFlags.FLAT)
+            return self._draw(self._pyrender.RenderFlags.FLAT, self._gl.GL_RED)
         finally:
             self._scene.bg_color = background
             for node in self._lit_nodes:
                 node.mesh.is_visible = True
+
+    def _draw(self, flags, colour_format: int) -> tuple[np.ndarray, np.ndarray]:
+        """The scene drawn from the camera: its colour buffer (``GL_RGB``: ``(h, w, 3)``, ``GL_RED``: ``(h, w)``,
+        uint8) and its metric depth, both top row first.
+
+        Without framebuffers (OSMesa) pyrender draws to the window's buffer and reads back RGB and a depth it makes
+        metric with boolean masks; this reads only the channels asked for, into arrays of its own, and makes the
+        depth metric with pyrender's formula, element by element (the same values). With framebuffers pyrender's
+        own (multisampled) path is kept."""
+        offscreen, gl = self._renderer, self._gl
+        red = colour_format == gl.GL_RED
+        if offscreen._platform.supports_framebuffers():
+            colour, depth = offscreen.render(self._scene, flags=flags)
+            return np.ascontiguousarray(colour[:, :, 0] if red else colour), _metric_depth(depth)
+        colour = np.empty((self.height, self.width) if red else (self.height, self.width, 3), np.uint8)
+        window_depth = np.empty((self.height, self.width), np.float32)
+        offscreen._platform.make_current()
+        try:
+            renderer = offscreen._renderer
+            renderer.viewport_width, renderer.viewport_height = self.width, self.height
+            renderer.render(self._scene, flags)
+            gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, 0)
+            gl.glReadBuffer(gl.GL_FRONT)
+            gl.glPixelStorei(gl.GL_PACK_ALIGNMENT, 1)
+            gl.glReadPixels(0, 0, self.width, self.height, colour_format, gl.GL_UNSIGNED_BYTE, colour)
+            gl.glReadPixels(0, 0, self.width, self.height, gl.GL_DEPTH_COMPONENT, gl.GL_FLOAT, window_depth)
+        finally:
+            offscreen._platform.make_uncurrent()
+        window_depth = window_depth[::-1]
+        near, far = self.znear, self.zfar  # pyrender's read_depth_buf: window depth -> camera z, 1 -> nothing drawn
+        depth = (2.0 * near * far) / (far + near - (2.0 * window_depth - 1.0) * (far - near))
+        drawn = (window_depth != 1.0) & (depth > 0)
+        return np.ascontiguousarray(colour[::-1]), np.where(drawn, depth, np.inf).astype(np.float32)
 
     def _set_meshes(self, meshes: Sequence[SurfaceMesh], lit: bool) -> None:
         """Replace last frame's nodes (vertices change every frame; materials and textures are reused): the label
