@@ -104,12 +104,11 @@ def reached_by_other_parts(
     feature window, or reaches it by the next frame if both keep moving as in the last one."""
     if len(uv) == 0 or len(visible) == 0:
         return np.zeros(len(uv), bool)
-    neighbours = cKDTree(visible.uv).query_ball_point(uv, margin_px + most_px)
-    counts = np.fromiter((len(near) for near in neighbours), int, len(neighbours))
-    if counts.sum() == 0:
-        return np.zeros(len(uv), bool)
-    near = np.concatenate([np.asarray(n, dtype=int) for n in neighbours])
-    point = np.repeat(np.arange(len(uv)), counts)  # (k,) which point each neighbour is near
+    # Every (point, sample) pair within the farthest reach, a hair wider so that no pair the test below keeps is
+    # lost to the trees' own rounding: the test decides, by the same distances whatever the trees return.
+    reach = (margin_px + most_px) * (1 + 1e-9)
+    close = cKDTree(uv).sparse_distance_matrix(cKDTree(visible.uv), reach, output_type="ndarray")
+    point, near = close["i"], close["j"]  # (k,): which point, and which visible sample near it
     distance = np.linalg.norm(visible.uv[near] - uv[point], axis=1)
     relative = np.minimum(np.linalg.norm(visible_motion[near] - motion[point], axis=1), most_px)
     hit = (visible.part[near] != parts[point]) & (distance <= margin_px + relative)

@@ -57,3 +57,16 @@ def test_points_are_reached_within_the_margin_plus_the_relative_motion_of_anothe
         points, one_part, motion, VisibleSamples(one_part, np.arange(80), points), motion, margin, most
     )
     assert still.sum() <= reached.sum() and not own.any()
+
+
+def test_a_sample_exactly_at_the_farthest_reach_counts():
+    """Margin plus the most relative motion, 4 + 6 = 10 px, met exactly (a 6-8-10 triangle) by a sample moving
+    faster than the most: reached; a hair farther: not."""
+    margin, most = 4.0, 6.0
+    points, parts, motion = np.array([[50.0, 50.0], [10.0, 10.0]]), np.array([0, 0]), np.zeros((2, 2))
+    for offset, expected in ((np.array([6.0, 8.0]), True), (np.array([6.0, 8.0 + 1e-9]), False)):
+        samples = np.array([points[0] + offset, [200.0, 200.0]])
+        visible = VisibleSamples(np.array([1, 1]), np.arange(2), samples)
+        reached = reached_by_other_parts(points, parts, motion, visible, np.full((2, 2), 40.0), margin, most)
+        np.testing.assert_array_equal(reached, [expected, False])
+
