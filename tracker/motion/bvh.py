@@ -10,6 +10,7 @@ the joint's parent-frame axis composed intrinsically: ``Zrotation Yrotation Xrot
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -98,10 +99,24 @@ def axis_rotations(axis: int, degrees: np.ndarray) -> np.ndarray:
     return rotations
 
 
+CLIPS_KEPT = 32  # parsed clips a process keeps: checks before a run and the run itself read the same files
+
+
 def read_bvh(path: str | Path) -> BvhClip:
     """Parse a BVH file (a data path: `tracker.data.data_path`); any problem raises `BvhError` naming the file and
-    what is wrong."""
+    what is wrong. A file read before, unchanged since (its size and modification time), is not parsed again: the
+    same clip, its arrays read-only."""
     path = data_path(path)
+    try:
+        stat = path.stat()
+    except OSError as error:
+        raise BvhError(f"cannot read BVH file {path}: {error.strerror or error}") from None
+    return _parsed(path, stat.st_size, stat.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=CLIPS_KEPT)
+def _parsed(path: Path, size: int, modified_ns: int) -> BvhClip:
+    """The clip in ``path`` as it is with that ``size`` and ``modified_ns`` (the cache's key only)."""
     try:
         text = path.read_text()
     except OSError as error:
@@ -117,16 +132,10 @@ def read_bvh(path: str | Path) -> BvhClip:
     frames, frame_time, motion = _parse_motion(path, body, int(bounds[-1]))
     if frames != len(motion):
         raise BvhError(f"{path}: header says {frames} frames, the file holds {len(motion)} (truncated?)")
-    return BvhClip(
-        path,
-        tuple(names),
-        np.array(parents),
-        np.array(offsets, dtype=np.float64),
-        tuple(channels),
-        columns,
-        frame_time,
-        motion,
-    )
+    arrays = (np.array(parents), np.array(offsets, dtype=np.float64), motion, *columns)
+    for array in arrays:
+        array.flags.writeable = False  # shared by every reader of the file
+    return BvhClip(path, tuple(names), arrays[0], arrays[1], tuple(channels), columns, frame_time, motion)
 
 
 class _Tokens:
