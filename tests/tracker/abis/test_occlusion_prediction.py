@@ -69,4 +69,3 @@ def test_a_sample_exactly_at_the_farthest_reach_counts():
         visible = VisibleSamples(np.array([1, 1]), np.arange(2), samples)
         reached = reached_by_other_parts(points, parts, motion, visible, np.full((2, 2), 40.0), margin, most)
         np.testing.assert_array_equal(reached, [expected, False])
-
