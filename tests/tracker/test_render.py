@@ -1,3 +1,4 @@
+import contextlib
 import os
 import subprocess
 import sys
@@ -8,6 +9,7 @@ import pytest
 from tracker.geometry.cameras import look_at
 from tracker.models.dsq import DSQShape, dsq_points, mesh_topology
 from tracker.render.mesh import SurfaceMesh, vertex_normals
+from tracker.render.offscreen import DEFAULT_BACKGROUND, SceneRenderer
 
 
 def rasterize(camera, vertices, faces):
@@ -66,14 +68,33 @@ def test_label_image_agrees_with_the_projected_mesh(arm, motion, rig, renderer):
         assert set(np.unique(views[camera.name].labels)) <= {0, 1, 2, 3}
 
 
-def test_depth_is_the_camera_z_of_the_nearest_surface(renderer):
+@pytest.mark.parametrize("size", [(320, 240), (81, 61)], ids=["320x240", "81x61"])
+def test_depth_is_the_camera_z_of_the_nearest_surface(renderer, size):
+    """Also at a width whose rows are no multiple of 4 bytes (read back unpadded), where the z-buffer render reads
+    the same depth and labels as the lit and labelled one."""
+    width, height = size
     camera = look_at(
-        "c", np.array([0.2, -2.5, 0.3]), np.zeros(3), np.array([0, 0, 1.0]), width=320, height=240, focal_px=400.0
+        "c",
+        np.array([0.2, -2.5, 0.3]),
+        np.zeros(3),
+        np.array([0, 0, 1.0]),
+        width=width,
+        height=height,
+        focal_px=400.0 * width / 320,
     )
     center, radius = np.array([0.1, 0.2, -0.1]), 0.3
-    view = renderer.render([camera], [sphere_mesh(center, radius, resolution=(160, 192))])["c"]
+    mesh = sphere_mesh(center, radius, resolution=(160, 192))
+    with contextlib.ExitStack() as stack:
+        if size != (renderer.width, renderer.height):
+            renderer = stack.enter_context(SceneRenderer(width, height))
+        view = renderer.render([camera], [mesh])["c"]
+        zbuffer = renderer.render_depth_labels([camera], [mesh])["c"]
+    np.testing.assert_array_equal(zbuffer.depth, view.depth)
+    np.testing.assert_array_equal(zbuffer.labels, view.labels)
+    assert iou(view.labels == 1, rasterize(camera, mesh.vertices, mesh.faces)) >= 0.95
+    assert iou(view.labels == 1, np.any(view.rgb != DEFAULT_BACKGROUND, axis=2)) >= 0.95  # the same rows
     # Analytic depth: intersect each pixel's ray (through its centre) with the sphere.
-    us, vs = np.meshgrid(np.arange(320), np.arange(240))
+    us, vs = np.meshgrid(np.arange(width), np.arange(height))
     rays = np.stack([(us - camera.cx) / camera.fx, (vs - camera.cy) / camera.fy, np.ones_like(us, float)], -1)
     c = camera.world_to_camera(center[None])[0]
     b = rays @ c
