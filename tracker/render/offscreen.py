@@ -190,10 +190,9 @@ class SceneRenderer:
         finally:
             offscreen._platform.make_uncurrent()
         window_depth = window_depth[::-1]
-        near, far = self.znear, self.zfar  # pyrender's read_depth_buf: window depth -> camera z, 1 -> nothing drawn
+        near, far = self.znear, self.zfar  # pyrender's read_depth_buf: window depth -> camera z, 0 if nothing drawn
         depth = (2.0 * near * far) / (far + near - (2.0 * window_depth - 1.0) * (far - near))
-        drawn = (window_depth != 1.0) & (depth > 0)
-        return np.ascontiguousarray(colour[::-1]), np.where(drawn, depth, np.inf).astype(np.float32)
+        return np.ascontiguousarray(colour[::-1]), _metric_depth(np.where(window_depth < 1.0, depth, 0.0))
 
     def _set_meshes(self, meshes: Sequence[SurfaceMesh], lit: bool) -> None:
         """Replace last frame's nodes (vertices change every frame; materials and textures are reused): the label
