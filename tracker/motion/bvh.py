@@ -110,8 +110,12 @@ def read_bvh(path: str | Path) -> BvhClip:
     try:
         stat = path.stat()
     except OSError as error:
-        raise BvhError(f"cannot read BVH file {path}: {error.strerror or error}") from None
+        raise _unreadable(path, error) from None
     return _parsed(path, stat.st_size, stat.st_mtime_ns)
+
+
+def _unreadable(path: Path, error: OSError) -> BvhError:
+    return BvhError(f"cannot read BVH file {path}: {error.strerror or error}")
 
 
 @functools.lru_cache(maxsize=CLIPS_KEPT)
@@ -120,7 +124,7 @@ def _parsed(path: Path, size: int, modified_ns: int) -> BvhClip:
     try:
         text = path.read_text()
     except OSError as error:
-        raise BvhError(f"cannot read BVH file {path}: {error.strerror or error}") from None
+        raise _unreadable(path, error) from None
     except UnicodeDecodeError:
         raise BvhError(f"{path} is not a BVH file (not text)") from None
     head, _, body = text.partition("MOTION")
@@ -132,10 +136,10 @@ def _parsed(path: Path, size: int, modified_ns: int) -> BvhClip:
     frames, frame_time, motion = _parse_motion(path, body, int(bounds[-1]))
     if frames != len(motion):
         raise BvhError(f"{path}: header says {frames} frames, the file holds {len(motion)} (truncated?)")
-    arrays = (np.array(parents), np.array(offsets, dtype=np.float64), motion, *columns)
-    for array in arrays:
+    parents, offsets = np.array(parents), np.array(offsets, dtype=np.float64)
+    for array in (parents, offsets, motion, *columns):
         array.flags.writeable = False  # shared by every reader of the file
-    return BvhClip(path, tuple(names), arrays[0], arrays[1], tuple(channels), columns, frame_time, motion)
+    return BvhClip(path, tuple(names), parents, offsets, tuple(channels), columns, frame_time, motion)
 
 
 class _Tokens:
