@@ -2,8 +2,8 @@
 setup the mean ± std over clips.
 
 A clip is scored on the frames where every camera of every setup's rig saw the whole subject (``in_view_<view>``
-of each run's ``frames.parquet``: `tracker.sequence.wholly_in_view`), the same frames for every setup: a dancer who
-crosses the stage leaves a camera's view, and the error of a pose no camera could see measures nothing. Each
+of each run's ``frames.parquet``: `tracker.geometry.cameras.wholly_in_view`), the same frames for every setup: a
+dancer who crosses the stage leaves a camera's view, and the error of a pose no camera could see measures nothing. Each
 setup still tracks the clip whole (a frame it could not use, ``failed``, keeps the last estimate), so its scored
 frames after the subject comes back show whether it found him again.
 

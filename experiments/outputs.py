@@ -1,7 +1,7 @@
 """A run's tables and summary: each frame -> rows of ``frames.parquet``, the rows -> ``metrics.json``, ``timings.json``.
 
 Rows: one per frame and part, frame-major. Columns: ``frame``, ``part``, ``visible_px_<view>`` (label pixels),
-``in_view_<view>`` (the view holds the whole object: `tracker.sequence.wholly_in_view`), the stage timings
+``in_view_<view>`` (the view holds the whole object: `tracker.geometry.cameras.wholly_in_view`), the stage timings
 ``<stage>_ms`` (frame-level, repeated on each part's row), for runs that capture silhouettes ``silhouette_iou_<view>``
 (extracted silhouette vs render mask); the model's evaluation columns (truth, and with an estimate the estimate and
 its errors: `tracker.evaluation`); with a tracker's result its own columns (`tracker.protocol.StepResult`) and

@@ -42,7 +42,7 @@ class RenderedFrame:
     truth: ``(n_parts, n_params)`` truth parameters; meshes: the truth surfaces that were rendered;
     views: rendered images keyed by camera name; visible_px: per view, ``(n_parts,)`` label pixel counts
     (part k's count at index k); in_view: per view, whether the camera sees the whole object (some label pixels,
-    none on the image's border: `tracker.sequence.wholly_in_view`); timings_ms: stage name -> milliseconds.
+    none on the image's border: `tracker.geometry.cameras.wholly_in_view`); timings_ms: stage name -> milliseconds.
     """
 
     frame: int

@@ -11,7 +11,7 @@ from collections.abc import Iterator, Sequence
 
 import numpy as np
 
-from tracker.geometry.cameras import Camera
+from tracker.geometry.cameras import Camera, wholly_in_view
 from tracker.protocol import Model, RenderedFrame, Scene
 from tracker.render.nuisance import SensorNuisance
 from tracker.render.offscreen import RenderedView, SceneRenderer
@@ -68,14 +68,6 @@ def background_frames(
         )
         for name, view in empty.items()
     }
-
-
-def wholly_in_view(labels: np.ndarray) -> bool:
-    """Whether a label image holds the whole object: some of it, and none on the image's border (a silhouette cut
-    by the border, or an empty one, is not the object's whole outline)."""
-    labels = np.asarray(labels)
-    border = (labels[0], labels[-1], labels[:, 0], labels[:, -1])
-    return bool(labels.any()) and not any(edge.any() for edge in border)
 
 
 def label_areas(labels: np.ndarray, n_parts: int) -> np.ndarray:

@@ -212,7 +212,7 @@ def test_importing_the_core_needs_no_opengl():
     [(None, True), (0.0, False), (-200.0, False)],  # in the middle; cut by the left border; out of the image
 )
 def test_a_view_holds_the_whole_object_only_when_no_part_of_it_touches_the_border(rig, renderer, edge_u, whole):
-    from tracker.sequence import wholly_in_view
+    from tracker.geometry.cameras import wholly_in_view
 
     camera, depth, radius = rig[0], 2.0, 0.1
     x = 0.0 if edge_u is None else (edge_u - camera.cx) * depth / camera.fx  # the sphere's centre projects to u

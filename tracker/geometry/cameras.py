@@ -203,3 +203,11 @@ def opengl_camera(camera: Camera) -> OpenGLCamera:
     pose[:3, :3] = camera.rotation @ _CV_TO_GL_AXES
     pose[:3, 3] = camera.position
     return OpenGLCamera(fx=camera.fx, fy=camera.fy, cx=camera.cx + 0.5, cy=camera.cy + 0.5, pose=pose)
+
+
+def wholly_in_view(labels: np.ndarray) -> bool:
+    """Whether a label image holds the whole object: some of it, and none on the image's border (a silhouette cut
+    by the border, or an empty one, is not the object's whole outline)."""
+    labels = np.asarray(labels)
+    border = (labels[0], labels[-1], labels[:, 0], labels[:, -1])
+    return bool(labels.any()) and not any(edge.any() for edge in border)

@@ -1,6 +1,10 @@
 """One view's observed silhouette as the hybrid's silhouette fit (`tracker.hybrid.silhouette_fit`) reads it: its
 distance field outside the silhouette, with the field's gradient, and its edge points with their outward normals.
-Pixels are ``(u, v)``: column, row."""
+Pixels are ``(u, v)``: column, row; pixel ``(u, v)`` covers ``[u - 1/2, u + 1/2] x [v - 1/2, v + 1/2]``.
+
+A person partly out of the view is cut by the image's border: where the silhouette meets the border, the border is
+where the view ends, not his outline, so it gives no edge points; and a point beyond the image is seen by no pixel,
+so it reads no distance (0, no gradient)."""
 
 from __future__ import annotations
 
@@ -15,13 +19,14 @@ class ViewField:
     sampled bilinearly, and its edge points (at most ``edge_points``, evenly along the pixel list) with their outward
     normals. The fields are computed in a window of the image around the silhouette, ``MARGIN_PX`` wider on every
     side (beyond it, a point reads the window's border: further than the robust scale, so its direction is what
-    counts)."""
+    counts). The image's border is no edge, and beyond the image nothing is observed (see the module docstring)."""
 
     MARGIN_PX = 32
 
     def __init__(self, silhouette: np.ndarray, camera: Camera, edge_points: int) -> None:
         silhouette = np.asarray(silhouette, dtype=bool)
         self.camera = camera
+        self.image_size = np.array(silhouette.shape[::-1], dtype=np.float64)  # (width, height)
         rows, cols = np.nonzero(silhouette)
         low = np.maximum([rows.min(), cols.min()] if len(rows) else [0, 0], self.MARGIN_PX) - self.MARGIN_PX
         high = np.array([rows.max(), cols.max()]) + self.MARGIN_PX + 1 if len(rows) else np.array(silhouette.shape)
@@ -30,6 +35,9 @@ class ViewField:
         self.outside = distance_transform_edt(~window)
         self.gradient = np.stack(np.gradient(self.outside)[::-1])  # (d/du, d/dv), each (h, w)
         rows, cols = np.nonzero(window & ~binary_erosion(window))
+        on_border = (rows + low[0] == 0) | (rows + low[0] == silhouette.shape[0] - 1)
+        on_border |= (cols + low[1] == 0) | (cols + low[1] == silhouette.shape[1] - 1)
+        rows, cols = rows[~on_border], cols[~on_border]
         step = max(1, int(np.ceil(len(rows) / edge_points)))
         rows, cols = rows[::step], cols[::step]
         self.edge = np.stack([cols, rows], axis=1) + self.offset  # (n, 2) pixels (u, v)
@@ -39,11 +47,15 @@ class ViewField:
         self.edge_normals = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
 
     def sample(self, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``outside`` and its ``(n, 2)`` gradient at pixels ``uv`` (bilinear; beyond the window, its border's)."""
+        """``outside`` and its ``(n, 2)`` gradient at pixels ``uv`` (bilinear; beyond the window, its border's;
+        beyond the image, 0)."""
         local = uv - self.offset
         coordinates = np.stack([local[:, 1], local[:, 0]])
         value = map_coordinates(self.outside, coordinates, order=1, mode="nearest")
         gradient = np.stack([map_coordinates(g, coordinates, order=1, mode="nearest") for g in self.gradient], 1)
+        unseen = np.any((uv < -0.5) | (uv > self.image_size - 0.5), axis=1)
+        if unseen.any():
+            value[unseen], gradient[unseen] = 0.0, 0.0
         return value, gradient
 
     def inside_px(self, uv: np.ndarray) -> np.ndarray:

@@ -27,7 +27,10 @@ limbs (by centimetres between neighbouring postures). His silhouettes are
 scaled and moved as if he stood on a reference sample's spot (the last estimate's); the filter then scores each
 sample moved by whole pixels from where each view sees its own spot to where it sees the reference's
 (`spot_pixels`), as if he had been placed on that sample's spot, and the estimate is moved across the floor until
-its spot is his.
+its spot is his. A view that sees him cut by its image's border (not `wholly_in_view`: part of him out of it) sees a
+centroid pulled into the image; his spot is then where the rays of the views that see him whole cross, or, with one
+such view, the point of its ray nearest his last spot (it tells his bearing, not how far away he stands); with none,
+every view's.
 """
 
 from __future__ import annotations
@@ -39,7 +42,7 @@ import cv2
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from tracker.geometry.cameras import Camera
+from tracker.geometry.cameras import Camera, wholly_in_view
 from tracker.tbf.samples import LEVEL_RESOLUTIONS, PoseSampleSet, SampleViews
 
 FEET_BAND = 0.06  # the bottom this fraction of a silhouette's height holds the feet
@@ -257,6 +260,7 @@ class ViewsPlacement:
         self.cameras, self.samples, self.reference = tuple(cameras), samples, reference
         self.spots = sample_spots(self.cameras, samples) if spots is None else spots
         self.pixels = [camera.width / LEVEL_RESOLUTIONS[-1][0] for camera in self.cameras]
+        self.last_spot: np.ndarray | None = None  # where the person stood at the last frame placed
 
     def spot(self, sample: int) -> np.ndarray:
         """Where the rays through a sample's silhouette centroids cross."""
@@ -272,13 +276,28 @@ class ViewsPlacement:
                 return None
             centroids.append(np.array([u.mean(), v.mean()]))
         spot = self.spot(self.reference)
-        offset = np.array([*(nearest_to_rays(*centroid_rays(self.cameras, np.array(centroids))) - spot)[:2], 0.0])
+        self.last_spot = self.person_spot(centroid_rays(self.cameras, np.array(centroids)), observed)
+        offset = np.array([*(self.last_spot - spot)[:2], 0.0])
         placed = []
         for camera, pixel, mask in zip(self.cameras, self.pixels, observed, strict=True):
             (there, here), depths = camera.project(np.array([spot + offset, spot]))
             scale = float(depths[0] / depths[1])
             placed.append(scaled_onto(mask, scale, there / pixel, here / pixel))
         return placed, offset
+
+    def person_spot(self, rays: tuple[np.ndarray, np.ndarray], observed: Sequence[np.ndarray]) -> np.ndarray:
+        """Where the person stands, from each view's centroid ``rays``: the crossing of the views that see him
+        whole, or the point of the one such view's ray nearest his last spot (see the module docstring)."""
+        origins, directions = rays
+        whole = np.array([wholly_in_view(mask) for mask in observed])
+        if whole.all() or not whole.any():
+            return nearest_to_rays(origins, directions)
+        if whole.sum() >= 2:
+            return nearest_to_rays(origins[whole], directions[whole])
+        if self.last_spot is None:
+            return nearest_to_rays(origins, directions)
+        (origin,), (direction,) = origins[whole], directions[whole]
+        return origin + direction * ((self.last_spot - origin) @ direction) / (direction @ direction)
 
     def pose(self, sample: int, offset: np.ndarray) -> np.ndarray:
         """The estimate: sample ``sample`` moved across the floor until its spot is the person's (``offset`` from

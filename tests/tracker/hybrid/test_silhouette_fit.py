@@ -6,6 +6,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from tracker.evaluation.body import joint_errors_mm
+from tracker.geometry.cameras import wholly_in_view
 from tracker.geometry.rigs import View, cameras
 from tracker.hybrid.feature_pairs import FeaturePairs, FeaturePairSettings, ViewPairs
 from tracker.hybrid.silhouette_fit import FIT_JOINTS, FitSettings, SilhouetteFit, fit_columns, residual_rows
@@ -54,9 +55,16 @@ def perturbed(pose):
     return start
 
 
-def test_the_fit_recovers_a_perturbed_pose_from_three_rendered_silhouettes(body, pose, renderer):
+@pytest.mark.parametrize("aside_m", [0.0, 1.6])
+def test_the_fit_recovers_a_perturbed_pose_from_three_rendered_silhouettes(body, pose, renderer, aside_m):
+    """Also with the person 1.6 m aside, cut by every view's border (with the border taken for his outline and
+    points beyond the image pulled in, the fit ended at 19 / 17 mm here)."""
+    pose = pose.copy()
+    pose[0] += aside_m
     fit = SilhouetteFit(body, RIG, FitSettings(iterations=15))
-    fit.observe(silhouettes(renderer, body, pose, RIG))
+    views = silhouettes(renderer, body, pose, RIG)
+    assert not any(wholly_in_view(view) for view in views) == (aside_m > 0)
+    fit.observe(views)
     start = perturbed(pose)
     refined, cost = fit.refine(start)
     assert cost == fit.fit_cost(refined)  # the cost it returns is its pose's

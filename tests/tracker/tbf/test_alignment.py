@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from tracker.geometry.cameras import look_at
+from tracker.geometry.cameras import look_at, wholly_in_view
 from tracker.geometry.rigs import View, cameras
 from tracker.motion.posture import arms_pose
 from tracker.tbf.alignment import (
@@ -197,3 +197,28 @@ def test_several_views_place_a_walking_person_without_a_reference(body, tmp_path
     _, offset = placement.place(seen)
     np.testing.assert_allclose(placement.pose(6, offset)[:2], person[:2], atol=0.03)
     assert placement.reference == 6
+
+
+def test_views_that_see_the_person_cut_by_their_border_do_not_place_him(body, tmp_path):
+    """A person stepped aside out of the front view's image in part: his spot is where the views that see him
+    whole cross; with one such view, the point of its ray nearest his last spot. Every view's rays (the front's
+    centroid pulled into its image) put him further off."""
+    rig = cameras(
+        views=(View("front", (0.0, -4.5, 0.9)), View("side", (4.5, 0.0, 0.9)), View("oblique", (3.182, -3.182, 0.9)))
+    )
+    postures = np.array([arms_pose(body, (swing, 10.0, 0.0), (0.0, 8.0, 0.0), yaw_deg=-90.0) for swing in (0, 60)])
+    samples = SampleViews(
+        tuple(load_or_build(body, camera, postures, tmp_path / "samples", progress=False) for camera in rig)
+    )
+    for step, whole_views in (((-1.75, 0.3), 2), ((-1.3, -1.2), 1)):
+        person = postures[1].copy()
+        person[:2] += step
+        seen = [_silhouette(body, camera, person, tmp_path / f"seen{step}{camera.name}") for camera in rig]
+        assert sum(wholly_in_view(view) for view in seen) == whole_views
+        placement = ViewsPlacement(rig, samples, reference=1)
+        placement.last_spot = placement.spot(1) + [*step, 0.0] + [0.05, -0.05, 0.0]  # a frame ago, 7 cm away
+        _, offset = placement.place(seen)
+        np.testing.assert_allclose(offset[:2], step, atol=0.04)
+        centroids = [np.argwhere(view)[:, ::-1].mean(axis=0) for view in seen]
+        every = nearest_to_rays(*centroid_rays(rig, np.array(centroids))) - placement.spot(1)
+        assert np.linalg.norm(every[:2] - step) > 2 * np.linalg.norm(offset[:2] - step), (every, offset)
