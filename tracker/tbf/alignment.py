@@ -30,7 +30,9 @@ sample moved by whole pixels from where each view sees its own spot to where it 
 its spot is his. A view that sees him cut by its image's border (not `wholly_in_view`: part of him out of it) sees a
 centroid pulled into the image; his spot is then where the rays of the views that see him whole cross, or, with one
 such view, the point of its ray nearest his last spot (it tells his bearing, not how far away he stands); with none,
-every view's.
+every view's. Placed, such a view's silhouette is cut where its image ended; beyond that line the reference sample's
+silhouette stands in for what the view did not see (the last estimate's posture, as the motion prior expects it),
+so that no sample is scored against a body cut off.
 """
 
 from __future__ import annotations
@@ -276,20 +278,31 @@ class ViewsPlacement:
                 return None
             centroids.append(np.array([u.mean(), v.mean()]))
         spot = self.spot(self.reference)
-        self.last_spot = self.person_spot(centroid_rays(self.cameras, np.array(centroids)), observed)
+        whole = np.array([wholly_in_view(mask) for mask in observed])
+        self.last_spot = self.person_spot(centroid_rays(self.cameras, np.array(centroids)), whole)
         offset = np.array([*(self.last_spot - spot)[:2], 0.0])
         placed = []
-        for camera, pixel, mask in zip(self.cameras, self.pixels, observed, strict=True):
+        for view, (camera, pixel, mask) in enumerate(zip(self.cameras, self.pixels, observed, strict=True)):
             (there, here), depths = camera.project(np.array([spot + offset, spot]))
             scale = float(depths[0] / depths[1])
             placed.append(scaled_onto(mask, scale, there / pixel, here / pixel))
+            if not whole[view]:  # beyond where the image ended: the reference's silhouette
+                seen = scaled_onto(np.ones_like(mask), scale, there / pixel, here / pixel)
+                placed[-1] |= self.reference_silhouette(view, mask.shape) & ~seen
         return placed, offset
 
-    def person_spot(self, rays: tuple[np.ndarray, np.ndarray], observed: Sequence[np.ndarray]) -> np.ndarray:
+    def reference_silhouette(self, view: int, shape: tuple[int, int]) -> np.ndarray:
+        """The reference sample's silhouette in view ``view``, ``shape`` (the finest level's image)."""
+        stack = self.samples.sets[view].silhouettes(LEVEL_RESOLUTIONS[-1])
+        u0, v0, u1, v1 = stack.window
+        silhouette = np.zeros(shape, bool)
+        silhouette[v0:v1, u0:u1] = stack.mask(self.reference)
+        return silhouette
+
+    def person_spot(self, rays: tuple[np.ndarray, np.ndarray], whole: np.ndarray) -> np.ndarray:
         """Where the person stands, from each view's centroid ``rays``: the crossing of the views that see him
-        whole, or the point of the one such view's ray nearest his last spot (see the module docstring)."""
+        ``whole``, or the point of the one such view's ray nearest his last spot (see the module docstring)."""
         origins, directions = rays
-        whole = np.array([wholly_in_view(mask) for mask in observed])
         if whole.all() or not whole.any():
             return nearest_to_rays(origins, directions)
         if whole.sum() >= 2:
