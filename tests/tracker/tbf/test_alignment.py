@@ -220,7 +220,7 @@ def test_views_that_see_the_person_cut_by_their_border_do_not_place_him(body, tm
         placed, offset = placement.place(seen)
         np.testing.assert_allclose(offset[:2], step, atol=0.04)
         # Placed on the reference's spot, each view (where its image ended, the reference's own) is the reference.
-        for silhouette, stack, view in zip(placed, samples.silhouettes((320, 240)), seen, strict=True):
+        for silhouette, stack in zip(placed, samples.silhouettes((320, 240)), strict=True):
             sample = np.zeros_like(silhouette)
             u0, v0, u1, v1 = stack.window
             sample[v0:v1, u0:u1] = stack.mask(1)
