@@ -4,7 +4,8 @@ Pixels are ``(u, v)``: column, row; pixel ``(u, v)`` covers ``[u - 1/2, u + 1/2]
 
 A person partly out of the view is cut by the image's border: where the silhouette meets the border, the border is
 where the view ends, not his outline, so it gives no edge points; and a point beyond the image is seen by no pixel,
-so it reads no distance (0, no gradient)."""
+so it reads no distance (0, no gradient). A view that lost him altogether reads no distance anywhere: it says only
+that he is not in its image, which the views that see him place him by."""
 
 from __future__ import annotations
 
@@ -32,7 +33,7 @@ class ViewField:
         high = np.array([rows.max(), cols.max()]) + self.MARGIN_PX + 1 if len(rows) else np.array(silhouette.shape)
         self.offset = np.array([low[1], low[0]], dtype=np.float64)  # the window's corner, (u, v)
         window = silhouette[low[0] : high[0], low[1] : high[1]]
-        self.outside = distance_transform_edt(~window)
+        self.outside = distance_transform_edt(~window) if window.any() else np.zeros(window.shape)  # none: no term
         self.gradient = np.stack(np.gradient(self.outside)[::-1])  # (d/du, d/dv), each (h, w)
         rows, cols = np.nonzero(window & ~binary_erosion(window))
         on_border = (rows + low[0] == 0) | (rows + low[0] == silhouette.shape[0] - 1)

@@ -32,7 +32,8 @@ centroid pulled into the image; his spot is then where the rays of the views tha
 such view, the point of its ray nearest his last spot (it tells his bearing, not how far away he stands); with none,
 every view's. Placed, such a view's silhouette is cut where its image ended; beyond that line the reference sample's
 silhouette stands in for what the view did not see (the last estimate's posture, as the motion prior expects it),
-so that no sample is scored against a body cut off.
+so that no sample is scored against a body cut off. A view that lost him altogether is one such view: the others
+place him, and it says only that he is not in its image.
 """
 
 from __future__ import annotations
@@ -270,16 +271,18 @@ class ViewsPlacement:
 
     def place(self, observed: Sequence[np.ndarray]) -> tuple[list[np.ndarray], np.ndarray] | None:
         """Each view's silhouette (finest level) as if the person stood on the reference's spot, and his offset
-        from it across the floor (None: someone is out of a view)."""
+        from it across the floor (None: the views that see him do not tell where he stands)."""
         centroids = []
         for mask in observed:
             v, u = np.nonzero(mask)
-            if not len(u):
-                return None
-            centroids.append(np.array([u.mean(), v.mean()]))
+            centroids.append(np.array([u.mean(), v.mean()]) if len(u) else np.full(2, np.nan))
+        seen = np.array([mask.any() for mask in observed])
         spot = self.spot(self.reference)
         whole = np.array([wholly_in_view(mask) for mask in observed])
-        self.last_spot = self.person_spot(centroid_rays(self.cameras, np.array(centroids)), whole)
+        person = self.person_spot(centroid_rays(self.cameras, np.array(centroids)), whole, seen)
+        if person is None:
+            return None
+        self.last_spot = person
         offset = np.array([*(self.last_spot - spot)[:2], 0.0])
         placed = []
         for view, (camera, pixel, mask) in enumerate(zip(self.cameras, self.pixels, observed, strict=True)):
@@ -299,18 +302,22 @@ class ViewsPlacement:
         silhouette[v0:v1, u0:u1] = stack.mask(self.reference)
         return silhouette
 
-    def person_spot(self, rays: tuple[np.ndarray, np.ndarray], whole: np.ndarray) -> np.ndarray:
+    def person_spot(
+        self, rays: tuple[np.ndarray, np.ndarray], whole: np.ndarray, seen: np.ndarray
+    ) -> np.ndarray | None:
         """Where the person stands, from each view's centroid ``rays``: the crossing of the views that see him
-        ``whole``, or the point of the one such view's ray nearest his last spot (see the module docstring)."""
+        ``whole`` (with none, of those that see some of him: ``seen``), or the point of the one such view's ray
+        nearest his last spot (see the module docstring); None when the views cannot tell."""
         origins, directions = rays
-        if whole.all() or not whole.any():
-            return nearest_to_rays(origins, directions)
-        if whole.sum() >= 2:
-            return nearest_to_rays(origins[whole], directions[whole])
-        if self.last_spot is None:
-            return nearest_to_rays(origins, directions)
-        (origin,), (direction,) = origins[whole], directions[whole]
-        return origin + direction * ((self.last_spot - origin) @ direction) / (direction @ direction)
+        usable = whole if whole.any() else seen
+        if usable.sum() >= 2:
+            return nearest_to_rays(origins[usable], directions[usable])
+        if usable.sum() == 1 and self.last_spot is not None:
+            (origin,), (direction,) = origins[usable], directions[usable]
+            return origin + direction * ((self.last_spot - origin) @ direction) / (direction @ direction)
+        if seen.sum() >= 2:
+            return nearest_to_rays(origins[seen], directions[seen])
+        return None
 
     def pose(self, sample: int, offset: np.ndarray) -> np.ndarray:
         """The estimate: sample ``sample`` moved across the floor until its spot is the person's (``offset`` from

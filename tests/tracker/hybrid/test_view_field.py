@@ -24,3 +24,10 @@ def test_a_silhouette_cut_by_the_border_has_no_edge_there_and_nothing_beyond_the
     # Below the block, further than the window reaches, a point in the image still reads a distance.
     value, _ = field.sample(np.array([[10.0, 59.0]]))
     assert value[0] == 10.0
+
+
+def test_a_view_that_lost_the_person_reads_nothing():
+    camera = cameras(width=80, height=60)[0]
+    field = ViewField(np.zeros((60, 80), bool), camera, edge_points=100)
+    value, gradient = field.sample(np.array([[10.0, 10.0], [40.0, 30.0], [-5.0, 3.0]]))
+    assert len(field.edge) == 0 and not value.any() and not gradient.any()
