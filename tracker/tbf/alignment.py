@@ -19,7 +19,8 @@ estimate's root (its height stays the sample's, whose feet are on the floor). Th
 vertical by the person's bearing from the camera against the sample's: off the camera's axis a person is seen
 from the side by that angle. At a camera 0.9 m high and 4.5 m away one pixel row of the feet spans 5 cm of floor,
 and the toes or the heels are lowest by the stance: the depth is the weak part. (Scaling by the silhouettes'
-areas instead did worse: a wrong arm posture changes the area.)
+areas instead did worse: a wrong arm posture changes the area.) A silhouette cut by the image's border (part of him
+out of view) is completed, where the image ended, by the reference's (`completed`).
 
 From two or more calibrated views (`ViewsPlacement`) the person stands where the rays through his silhouettes'
 centroids cross (his spot), and each sample where its own cross (`sample_spots`): a posture's spot moves with its
@@ -112,6 +113,24 @@ def scaled_onto(mask: np.ndarray, scale: float, source: Sequence[float], target:
     return cv2.warpAffine(mask.astype(np.float32), warp, mask.shape[::-1], flags=cv2.INTER_LINEAR) >= 0.5
 
 
+def completed(
+    placed: np.ndarray, reference: np.ndarray, scale: float, source: Sequence[float], target: Sequence[float]
+) -> np.ndarray:
+    """A silhouette cut by its image's border, ``placed`` (`scaled_onto` by ``scale``, ``source``, ``target``),
+    with ``reference``'s silhouette where the image did not reach: a body cut off is no posture of the samples."""
+    seen = scaled_onto(np.ones_like(placed), scale, source, target)
+    return placed | (reference & ~seen)
+
+
+def image_silhouette(samples: PoseSampleSet, sample: int, shape: tuple[int, int]) -> np.ndarray:
+    """A sample's silhouette in the whole image of the finest level (``shape``), not cropped to the set's window."""
+    stack = samples.silhouettes(LEVEL_RESOLUTIONS[-1])
+    u0, v0, u1, v1 = stack.window
+    silhouette = np.zeros(shape, bool)
+    silhouette[v0:v1, u0:u1] = stack.mask(sample)
+    return silhouette
+
+
 @dataclass(frozen=True)
 class Placement:
     """One frame's placement of the observed person: his silhouette in the samples' frame."""
@@ -158,7 +177,8 @@ class GroundPlacement:
 
     def place(self, observed: np.ndarray) -> Placement | None:
         """The observed silhouette (finest level) scaled and moved onto the reference sample's feet (None: nobody
-        in view, the feet cut by the image's bottom edge, or either's feet above the horizon)."""
+        in view, the feet cut by the image's bottom edge, or either's feet above the horizon); cut by the image's
+        border, completed by the reference's silhouette beyond it (`completed`)."""
         feet = feet_anchor(observed)
         if feet is None or feet[1] >= observed.shape[0] - 1:
             return None
@@ -168,7 +188,12 @@ class GroundPlacement:
             return None
         depths = self.camera.world_to_camera(np.array([ground, reference_ground]))[:, 2]
         scale = float(depths[0] / depths[1])
-        return Placement(scaled_onto(observed, scale, feet, (a, b)), scale, feet, (a, b))
+        placed = scaled_onto(observed, scale, feet, (a, b))
+        if not wholly_in_view(observed):
+            placed = completed(
+                placed, image_silhouette(self.samples, self.reference, observed.shape), scale, feet, (a, b)
+            )
+        return Placement(placed, scale, feet, (a, b))
 
     def pose(self, sample: int, placement: Placement) -> np.ndarray:
         """The estimate: sample ``sample`` placed where the observed silhouette says (see the module docstring);
@@ -289,18 +314,10 @@ class ViewsPlacement:
             (there, here), depths = camera.project(np.array([spot + offset, spot]))
             scale = float(depths[0] / depths[1])
             placed.append(scaled_onto(mask, scale, there / pixel, here / pixel))
-            if not whole[view]:  # beyond where the image ended: the reference's silhouette
-                seen = scaled_onto(np.ones_like(mask), scale, there / pixel, here / pixel)
-                placed[-1] |= self.reference_silhouette(view, mask.shape) & ~seen
+            if not whole[view]:
+                reference = image_silhouette(self.samples.sets[view], self.reference, mask.shape)
+                placed[-1] = completed(placed[-1], reference, scale, there / pixel, here / pixel)
         return placed, offset
-
-    def reference_silhouette(self, view: int, shape: tuple[int, int]) -> np.ndarray:
-        """The reference sample's silhouette in view ``view``, ``shape`` (the finest level's image)."""
-        stack = self.samples.sets[view].silhouettes(LEVEL_RESOLUTIONS[-1])
-        u0, v0, u1, v1 = stack.window
-        silhouette = np.zeros(shape, bool)
-        silhouette[v0:v1, u0:u1] = stack.mask(self.reference)
-        return silhouette
 
     def person_spot(
         self, rays: tuple[np.ndarray, np.ndarray], whole: np.ndarray, seen: np.ndarray

@@ -14,7 +14,9 @@ from tracker.tbf.alignment import (
     centroid_rays,
     feet_anchor,
     ground_point,
+    image_silhouette,
     nearest_to_rays,
+    scaled_onto,
     shifted,
     world_offset,
 )
@@ -123,6 +125,22 @@ def test_ground_placement_finds_where_a_walking_person_stands(body, tmp_path):
         sample[v0:v1, u0:u1] = samples.silhouettes((320, 240)).mask(index)
         iou = np.count_nonzero(placed.silhouette & sample) / np.count_nonzero(placed.silhouette | sample)
         assert iou > 0.85, iou  # scaled and moved onto the sample's spot, the silhouettes agree
+    # Stepped aside until the image's left border cuts his arm: completed there by the reference's silhouette.
+    person = postures[5].copy()
+    bearing = np.arctan2(4.5, -1.55) - np.pi / 2  # turned to the camera, as above
+    person[3:6] = (Rotation.from_euler("z", bearing) * Rotation.from_rotvec(person[3:6])).as_rotvec()
+    person[:2] += (-1.55, 0.0)
+    seen = _silhouette(body, camera, person, tmp_path / "aside")
+    assert seen[:, 0].any() and not seen[-1].any()
+    placement = GroundPlacement(camera, samples, reference=5)
+    placed = placement.place(seen)
+    sample = image_silhouette(samples, 5, seen.shape)
+    as_cut = scaled_onto(seen, placed.scale, placed.feet, placed.reference_feet)
+
+    def iou(mask):
+        return np.count_nonzero(mask & sample) / np.count_nonzero(mask | sample)
+
+    assert iou(placed.silhouette) > 0.9 and iou(as_cut) < iou(placed.silhouette) - 0.03  # measured 0.93, 0.89
 
 
 def _silhouette(body, camera, pose, folder):
