@@ -28,13 +28,17 @@ limbs (by centimetres between neighbouring postures). His silhouettes are
 scaled and moved as if he stood on a reference sample's spot (the last estimate's); the filter then scores each
 sample moved by whole pixels from where each view sees its own spot to where it sees the reference's
 (`spot_pixels`), as if he had been placed on that sample's spot, and the estimate is moved across the floor until
-its spot is his. A view that sees him cut by its image's border (not `wholly_in_view`: part of him out of it) sees a
-centroid pulled into the image; his spot is then where the rays of the views that see him whole cross, or, with one
-such view, the point of its ray nearest his last spot (it tells his bearing, not how far away he stands); with none,
-every view's. Placed, such a view's silhouette is cut where its image ended; beyond that line the reference sample's
-silhouette stands in for what the view did not see (the last estimate's posture, as the motion prior expects it),
-so that no sample is scored against a body cut off. A view that lost him altogether is one such view: the others
-place him, and it says only that he is not in its image.
+its spot is his.
+
+A view that sees him cut by its image's border (not `wholly_in_view`: part of him out of it) sees a centroid pulled
+into the image. When two views see him whole, his spot is where their rays cross; else every view's that sees him
+(with the point of one such view's ray nearest his last spot instead, tried on the validation clip martial_09, he
+was held where he had been while he walked along that view's ray, 15-20 cm off; every view's rays, a cut one among
+them, were within a few cm). A view that lost him altogether gives no ray; with one view left, his spot is the point
+of its ray nearest his last spot. Placed, a cut silhouette ends where its image ended; beyond that line the
+reference sample's silhouette stands in for what the view did not see (`completed`: the last estimate's posture,
+as the motion prior expects it), so that no sample is scored against a body cut off; a view that lost him says only
+that he is not in its image.
 """
 
 from __future__ import annotations
@@ -323,17 +327,15 @@ class ViewsPlacement:
         self, rays: tuple[np.ndarray, np.ndarray], whole: np.ndarray, seen: np.ndarray
     ) -> np.ndarray | None:
         """Where the person stands, from each view's centroid ``rays``: the crossing of the views that see him
-        ``whole`` (with none, of those that see some of him: ``seen``), or the point of the one such view's ray
-        nearest his last spot (see the module docstring); None when the views cannot tell."""
+        ``whole`` when two do, else of those that see some of him (``seen``), or the point of the one such view's
+        ray nearest his last spot (see the module docstring); None when no view sees him."""
         origins, directions = rays
-        usable = whole if whole.any() else seen
+        usable = whole if whole.sum() >= 2 else seen
         if usable.sum() >= 2:
             return nearest_to_rays(origins[usable], directions[usable])
         if usable.sum() == 1 and self.last_spot is not None:
             (origin,), (direction,) = origins[usable], directions[usable]
             return origin + direction * ((self.last_spot - origin) @ direction) / (direction @ direction)
-        if seen.sum() >= 2:
-            return nearest_to_rays(origins[seen], directions[seen])
         return None
 
     def pose(self, sample: int, offset: np.ndarray) -> np.ndarray:
