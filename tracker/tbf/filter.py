@@ -1,7 +1,8 @@
 """Silhouette tree-based filtering (paper 2, sections 5.3 and 6).
 
 Per frame, given the observed silhouette P_o (one per view with several cameras: a node's likelihood is the
-product of its views' likelihoods, its log-likelihood the sum of theirs, each view with its own sigma):
+product of its views' likelihoods, its log-likelihood the sum of theirs, each view with its own sigma; a view that
+lost the person, None, has no say):
     prior     eq 14 at every sample from the previous posterior (`PosePrior`, sparse), occlusion flags of the
               previous estimate widening the occluded parts' sigmas (DM2);
     levels    from the top: the nodes under the surviving nodes of the level above are scored by their
@@ -120,9 +121,9 @@ class TreeFilter:
             tuple(settings.likelihood_sigma * neighbour_step(view, cost, level.resolution) for view in samples.sets)
             for level in tree.levels
         ]
-        # Pruning keeps nodes within this of the level's best log-posterior: prune_fraction per view, as each view
-        # adds its own log-likelihood (one view: the paper's).
-        self.prune_log = len(samples.sets) * np.log(max(settings.prune_fraction, TINY))
+        # Pruning keeps nodes within this of the level's best log-posterior per view that sees the person:
+        # prune_fraction per view, as each view adds its own log-likelihood (one view: the paper's).
+        self.prune_log = np.log(max(settings.prune_fraction, TINY))
         self._posterior: np.ndarray | None = None
         self._reference: int | None = None  # with spot pixels: the sample whose spot this frame's observation is on
         self._previous_flags: np.ndarray | None = None
@@ -140,10 +141,13 @@ class TreeFilter:
         self._previous_flags = self._occluded[self.initial_sample]
         self._first = True
 
-    def step(self, observed: np.ndarray | tuple[np.ndarray, ...], reference: int | None = None) -> FilterResult:
+    def step(self, observed: np.ndarray | tuple[np.ndarray | None, ...], reference: int | None = None) -> FilterResult:
         """One frame: ``observed`` is the ``(h, w)`` bool silhouette at the finest level's resolution, or one per
-        view in the views' order (with ``spot_pixels``: placed on sample ``reference``'s spot)."""
+        view in the views' order (with ``spot_pixels``: placed on sample ``reference``'s spot); None for a view
+        that lost the person (at least one must see him)."""
         observed = (observed,) if isinstance(observed, np.ndarray) else tuple(observed)
+        if all(view is None for view in observed):
+            raise ValueError("no view sees the person")
         if (self.spot_pixels is None) != (reference is None):
             raise ValueError("a filter with spot pixels scores from a reference sample's spot, and only such a filter")
         self._reference = reference
@@ -213,13 +217,17 @@ class TreeFilter:
             nodes, mass = nodes[mass > 0], mass[mass > 0]
             if len(nodes) == 0:
                 raise RuntimeError("the prior gives no sample any weight")
-            level_scorers = [scorer() for scorer in scorers[k]]  # a view's failure raises here, in order
+            level_scorers = [None if scorer is None else scorer() for scorer in scorers[k]]  # a failure raises here
             scored = None if len(nodes) == len(level) else nodes
-            distances = [self.scores_from(scorer, k, view, scored) for view, scorer in enumerate(level_scorers)]
+            distances = [
+                None if scorer is None else self.scores_from(scorer, k, view, scored)
+                for view, scorer in enumerate(level_scorers)
+            ]
             self.last_evaluated.append(nodes)
             log_likelihood = self.log_likelihood(k, distances)
             log_posterior = log_likelihood + np.log(mass)
-            keep = log_posterior >= log_posterior.max() + self.prune_log
+            seeing = sum(d is not None for d in distances)
+            keep = log_posterior >= log_posterior.max() + seeing * self.prune_log
             evaluated.append(len(nodes))
             kept.append(int(keep.sum()))
             survivors, node_likelihood = nodes[keep], log_likelihood[keep]
@@ -236,13 +244,17 @@ class TreeFilter:
         resolution = tuple(self.tree.levels[level].resolution)
         return observed if observed.shape[::-1] == resolution else resize_silhouette(observed, *resolution)
 
-    def _scorers(self, observed: tuple[np.ndarray, ...]) -> list[list[Callable[[], ObservationScorer]]]:
-        """Per level, each view's `ObservationScorer` of the observation at the level's resolution, to ask for when
-        the descent reaches it: made then, unless a worker thread, starting from the finest level's, has made it
-        already (`tracker.threads.TwoEndedJobs`)."""
-        levels, views = range(len(self.tree.levels)), range(len(observed))
+    def _scorers(self, observed: tuple[np.ndarray | None, ...]) -> list[list[Callable[[], ObservationScorer] | None]]:
+        """Per level, each view's `ObservationScorer` of the observation at the level's resolution (None for a view
+        that lost the person), to ask for when the descent reaches it: made then, unless a worker thread, starting
+        from the finest level's, has made it already (`tracker.threads.TwoEndedJobs`)."""
+        levels, views = range(len(self.tree.levels)), [v for v, seen in enumerate(observed) if seen is not None]
         jobs = TwoEndedJobs([functools.partial(self._scorer, k, v, observed[v]) for k in levels for v in views])
-        return [[functools.partial(jobs.result, k * len(views) + v) for v in views] for k in levels]
+        job = {(k, v): n for n, (k, v) in enumerate((k, v) for k in levels for v in views)}
+        return [
+            [functools.partial(jobs.result, job[k, v]) if (k, v) in job else None for v in range(len(observed))]
+            for k in levels
+        ]
 
     def _scorer(self, level: int, view: int, observed: np.ndarray) -> ObservationScorer:
         """View ``view``'s observation's scorer at ``level`` (``observed`` at any level's resolution)."""
@@ -276,12 +288,20 @@ class TreeFilter:
         return np.rint(pixels[reference] - pixels[samples]).astype(np.int64)
 
     def score_samples(
-        self, level: int, observations: tuple[np.ndarray, ...], samples: np.ndarray, reference: int | None = None
-    ) -> list[np.ndarray]:
-        """Per view, the distances of its observation (at ``level``'s resolution) to ``samples``; with spot
-        pixels, each moved from its spot to that of sample ``reference`` (the observation's)."""
+        self,
+        level: int,
+        observations: tuple[np.ndarray | None, ...],
+        samples: np.ndarray,
+        reference: int | None = None,
+    ) -> list[np.ndarray | None]:
+        """Per view, the distances of its observation (at ``level``'s resolution) to ``samples`` (None for a view
+        that lost the person); with spot pixels, each moved from its spot to that of sample ``reference`` (the
+        observation's)."""
         scores = []
         for view, (observation, stack) in enumerate(zip(observations, self._stacks[level], strict=True)):
+            if observation is None:
+                scores.append(None)
+                continue
             scorer = self._scorer(level, view, observation)
             scores.append(
                 scorer.scores_of_runs(stack.runs, samples)
@@ -290,8 +310,12 @@ class TreeFilter:
             )
         return scores
 
-    def log_likelihood(self, level: int, distances: list[np.ndarray]) -> np.ndarray:
+    def log_likelihood(self, level: int, distances: list[np.ndarray | None]) -> np.ndarray:
         """Eq 10 at ``level`` from each view's distances: the sum over views of ``-d^2 / 2 sigma^2``, the log of the
-        product of the views' likelihoods."""
-        terms = (-0.5 * (d / sigma) ** 2 for d, sigma in zip(distances, self.level_sigmas[level], strict=True))
+        product of the views' likelihoods (a view that lost the person, None, left out)."""
+        terms = (
+            -0.5 * (d / sigma) ** 2
+            for d, sigma in zip(distances, self.level_sigmas[level], strict=True)
+            if d is not None
+        )
         return functools.reduce(operator.add, terms)  # in the views' order

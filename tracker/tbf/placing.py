@@ -37,10 +37,11 @@ Resize = Callable[[np.ndarray], np.ndarray]  # a silhouette at the finest level'
 
 @dataclass(frozen=True, eq=False)
 class Placed:
-    """One frame's placing: the silhouettes the filter sees (finest level where placed), the sample whose spot they
-    were placed on (several views; None otherwise), and how (the mode's own record, for `estimate` and `columns`)."""
+    """One frame's placing: the silhouettes the filter sees (finest level where placed; None for a view that lost
+    the person while another sees him), the sample whose spot they were placed on (several views; None otherwise),
+    and how (the mode's own record, for `estimate` and `columns`)."""
 
-    silhouettes: tuple[np.ndarray, ...]
+    silhouettes: tuple[np.ndarray | None, ...]
     reference: int | None = None
     how: Any = None
 

@@ -249,7 +249,10 @@ class TbfTracker(Tracker):
             return False
         width, height = self.tree.levels[-1].resolution
         packed, reference = self._seen[frame]
-        seen = tuple(np.unpackbits(view, count=width * height).reshape(height, width) > 0 for view in packed)
+        seen = tuple(
+            None if view is None else np.unpackbits(view, count=width * height).reshape(height, width) > 0
+            for view in packed
+        )
         finest = len(self.tree.levels) - 1
         distances = self.filter.score_samples(finest, seen, np.array([sample, other]), reference)
         likelihood = self.filter.log_likelihood(finest, distances)
@@ -275,7 +278,10 @@ class TbfTracker(Tracker):
                 failure=f"{error}",
             )
         finest = len(self.tree.levels) - 1
-        packed = [np.packbits(self.filter.observation_at(finest, view)) for view in placed.silhouettes]
+        packed = [
+            None if view is None else np.packbits(self.filter.observation_at(finest, view))
+            for view in placed.silhouettes
+        ]
         self._seen[observation.frame] = (packed, placed.reference)
         self._estimate = self.estimate_of(self.placing.estimate(found.sample, found.pose, placed))
         result = TbfResult.of(

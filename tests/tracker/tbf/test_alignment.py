@@ -14,9 +14,7 @@ from tracker.tbf.alignment import (
     centroid_rays,
     feet_anchor,
     ground_point,
-    image_silhouette,
     nearest_to_rays,
-    scaled_onto,
     shifted,
     world_offset,
 )
@@ -125,22 +123,6 @@ def test_ground_placement_finds_where_a_walking_person_stands(body, tmp_path):
         sample[v0:v1, u0:u1] = samples.silhouettes((320, 240)).mask(index)
         iou = np.count_nonzero(placed.silhouette & sample) / np.count_nonzero(placed.silhouette | sample)
         assert iou > 0.85, iou  # scaled and moved onto the sample's spot, the silhouettes agree
-    # Stepped aside until the image's left border cuts his arm: completed there by the reference's silhouette.
-    person = postures[5].copy()
-    bearing = np.arctan2(4.5, -1.55) - np.pi / 2  # turned to the camera, as above
-    person[3:6] = (Rotation.from_euler("z", bearing) * Rotation.from_rotvec(person[3:6])).as_rotvec()
-    person[:2] += (-1.55, 0.0)
-    seen = _silhouette(body, camera, person, tmp_path / "aside")
-    assert seen[:, 0].any() and not seen[-1].any()
-    placement = GroundPlacement(camera, samples, reference=5)
-    placed = placement.place(seen)
-    sample = image_silhouette(samples, 5, seen.shape)
-    as_cut = scaled_onto(seen, placed.scale, placed.feet, placed.reference_feet)
-
-    def iou(mask):
-        return np.count_nonzero(mask & sample) / np.count_nonzero(mask | sample)
-
-    assert iou(placed.silhouette) > 0.9 and iou(as_cut) < iou(placed.silhouette) - 0.03  # measured 0.93, 0.89
 
 
 def _silhouette(body, camera, pose, folder):
@@ -220,8 +202,8 @@ def test_several_views_place_a_walking_person_without_a_reference(body, tmp_path
 def test_views_that_see_the_person_cut_by_their_border_do_not_place_him(body, tmp_path):
     """A person stepped aside out of the front view's image in part: his spot is where the two views that see him
     whole cross; every view's rays (the front's centroid pulled into its image) put him further off. Out of the
-    front view altogether, the other two place him, and the front view's placed silhouette is the reference's; out
-    of all but one, the point of its ray nearest his last spot."""
+    front view altogether, the other two place him and the front view gives the filter nothing; out of all but one,
+    the point of its ray nearest his last spot."""
     rig = cameras(
         views=(View("front", (0.0, -4.5, 0.9)), View("side", (4.5, 0.0, 0.9)), View("oblique", (3.182, -3.182, 0.9)))
     )
@@ -243,13 +225,7 @@ def test_views_that_see_the_person_cut_by_their_border_do_not_place_him(body, tm
         placement.last_spot = placement.spot(1) + [*step, 0.0] + [0.05, -0.05, 0.0]  # a frame ago, 7 cm away
         placed, offset = placement.place(seen)
         np.testing.assert_allclose(offset[:2], step, atol=0.04)
-        # Placed on the reference's spot, each view (where its image ended, the reference's own) is the reference.
-        for silhouette, stack in zip(placed, samples.silhouettes((320, 240)), strict=True):
-            sample = np.zeros_like(silhouette)
-            u0, v0, u1, v1 = stack.window
-            sample[v0:v1, u0:u1] = stack.mask(1)
-            iou = np.count_nonzero(silhouette & sample) / np.count_nonzero(silhouette | sample)
-            assert iou > 0.8, iou  # measured 0.81-0.92; the cut views without the reference: 0.54
+        assert [view is None for view in placed] == [camera.name in lost for camera in rig]  # the filter leaves it out
         if lost:
             # With the oblique view lost too, the side view alone: on its ray, as near his last spot as it goes.
             _, offset = placement.place([seen[0], seen[1], np.zeros_like(seen[2])])

@@ -108,3 +108,22 @@ def test_without_pruning_the_two_views_find_every_held_samples_leaf(views):
         filter_.start(np.asarray(views.poses[0]))
         observed = tuple(full_image(stack, held, (320, 240)) for stack in views.silhouettes((320, 240)))
         assert leaf_of[filter_.step(observed).sample] == leaf_of[held], held
+
+
+def test_a_view_that_lost_the_person_has_no_say(views):
+    """Given None for the side view, the two views' filter steps as a filter of the front view alone over the same
+    tree: the same posterior and estimate frame after frame (its likelihood and its pruning one view's)."""
+    tree = build_tree(views, THRESHOLDS)
+    settings = FilterSettings(likelihood_sigma=0.5)
+    both = TreeFilter(views, tree, COSTS.defaults("nwxor"), OccludedWiderWalk(), settings)
+    front = TreeFilter(SampleViews(views.sets[:1]), tree, COSTS.defaults("nwxor"), OccludedWiderWalk(), settings)
+    for filter_ in (both, front):
+        filter_.start(np.asarray(views.poses[0]))
+    stack = views.silhouettes((320, 240))[0]
+    for held in (3, 17, 30):
+        observed = full_image(stack, held, (320, 240))
+        lost, alone = both.step((observed, None)), front.step((observed,))
+        assert lost.sample == alone.sample and lost.nodes_kept == alone.nodes_kept
+        np.testing.assert_allclose(both.posterior, front.posterior, rtol=1e-12, atol=1e-300)
+    with pytest.raises(ValueError, match="no view sees the person"):
+        both.step((None, None))
