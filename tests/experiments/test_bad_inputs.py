@@ -316,6 +316,22 @@ def test_a_subject_leaving_the_view_gives_failed_frames_and_the_run_goes_on(tmp_
     assert recorded["/metrics/tree/entropy"] == sorted(set(per_frame["frame"]) - set(failed["frame"]))
 
 
+def test_a_view_that_loses_the_subject_does_not_stop_the_others(tmp_path):
+    # Three cameras: a fighter (a dictionary clip) leaves some views' images, then all of them; a frame fails only
+    # when no view sees him.
+    clip = [f"scene.path={MOCAP_DIR.parent / 'mocap_daz' / 'martial_04.bvh'}", "scene.fps=6"]
+    walk = [*clip, "frames=45", "rig=body_multi", "tracker.align=ground"]
+    result, run_dir = _run(
+        tmp_path, *BODY_TBF, "scene=bvh", *walk, f"tracker.cache_dir={tmp_path}/c", "record.images=false", *SMALL_GRID
+    )
+    assert result.returncode == 0, result.stderr
+    _, frames, _ = _outputs_readable(run_dir)
+    seen = frames.groupby("frame")[["visible_px_front", "visible_px_side", "visible_px_oblique"]].sum() > 0
+    failed = frames.drop_duplicates("frame").set_index("frame")["failure"] != ""
+    assert (seen.any(axis=1) & ~seen.all(axis=1)).sum() >= 3  # frames some views lost him in, others not
+    assert failed.equals(~seen.any(axis=1)), (failed, seen)
+
+
 def test_a_damaged_cache_is_rebuilt_not_used(tmp_path):
     cache = tmp_path / "c"
     arguments = [*BODY_TBF, "frames=2", f"tracker.cache_dir={cache}", "record.images=false", *SMALL_GRID]

@@ -144,10 +144,14 @@ class TreeFilter:
     def step(self, observed: np.ndarray | tuple[np.ndarray | None, ...], reference: int | None = None) -> FilterResult:
         """One frame: ``observed`` is the ``(h, w)`` bool silhouette at the finest level's resolution, or one per
         view in the views' order (with ``spot_pixels``: placed on sample ``reference``'s spot); None for a view
-        that lost the person (at least one must see him)."""
+        that lost the person (at least one must see him; a view whose silhouette is too small to show at the top
+        level is one, while another's shows)."""
         observed = (observed,) if isinstance(observed, np.ndarray) else tuple(observed)
         if all(view is None for view in observed):
             raise ValueError("no view sees the person")
+        if len(observed) > 1:  # a view whose silhouette vanishes at the top level has lost him too, if one has not
+            seeing = tuple(None if v is None or not self.observation_at(0, v).any() else v for v in observed)
+            observed = seeing if any(v is not None for v in seeing) else observed
         if (self.spot_pixels is None) != (reference is None):
             raise ValueError("a filter with spot pixels scores from a reference sample's spot, and only such a filter")
         self._reference = reference

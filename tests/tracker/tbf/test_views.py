@@ -111,8 +111,9 @@ def test_without_pruning_the_two_views_find_every_held_samples_leaf(views):
 
 
 def test_a_view_that_lost_the_person_has_no_say(views):
-    """Given None for the side view, the two views' filter steps as a filter of the front view alone over the same
-    tree: the same posterior and estimate frame after frame (its likelihood and its pruning one view's)."""
+    """Given None for the side view (or specks that vanish at the top level), the two views' filter steps as a filter
+    of the front view alone over the same tree: the same posterior and estimate frame after frame (its likelihood
+    and its pruning one view's)."""
     tree = build_tree(views, THRESHOLDS)
     settings = FilterSettings(likelihood_sigma=0.5)
     both = TreeFilter(views, tree, COSTS.defaults("nwxor"), OccludedWiderWalk(), settings)
@@ -120,9 +121,11 @@ def test_a_view_that_lost_the_person_has_no_say(views):
     for filter_ in (both, front):
         filter_.start(np.asarray(views.poses[0]))
     stack = views.silhouettes((320, 240))[0]
-    for held in (3, 17, 30):
+    specks = np.zeros((240, 320), bool)
+    specks[100, 100] = specks[140, 200] = True  # two pixels: nothing at the top level's resolution
+    for held, other in ((3, None), (17, specks), (30, None)):
         observed = full_image(stack, held, (320, 240))
-        lost, alone = both.step((observed, None)), front.step((observed,))
+        lost, alone = both.step((observed, other)), front.step((observed,))
         assert lost.sample == alone.sample and lost.nodes_kept == alone.nodes_kept
         np.testing.assert_allclose(both.posterior, front.posterior, rtol=1e-12, atol=1e-300)
     with pytest.raises(ValueError, match="no view sees the person"):
