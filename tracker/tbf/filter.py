@@ -149,9 +149,7 @@ class TreeFilter:
         observed = (observed,) if isinstance(observed, np.ndarray) else tuple(observed)
         if all(view is None for view in observed):
             raise ValueError("no view sees the person")
-        if len(observed) > 1:  # a view whose silhouette vanishes at the top level has lost him too, if one has not
-            seeing = tuple(None if v is None or not self.observation_at(0, v).any() else v for v in observed)
-            observed = seeing if any(v is not None for v in seeing) else observed
+        observed = self.seeing(observed)
         if (self.spot_pixels is None) != (reference is None):
             raise ValueError("a filter with spot pixels scores from a reference sample's spot, and only such a filter")
         self._reference = reference
@@ -192,6 +190,14 @@ class TreeFilter:
             entropy=float(-(nonzero * np.log(nonzero)).sum()),
             timings_ms=timings,
         )
+
+    def seeing(self, observed: tuple[np.ndarray | None, ...]) -> tuple[np.ndarray | None, ...]:
+        """The views' observations as the filter takes them: with several views, one whose silhouette vanishes at
+        the top level (a few pixels at the image's edge) has lost the person too (None), unless none would see him."""
+        if len(observed) == 1:
+            return observed
+        seeing = tuple(None if view is None or not self.observation_at(0, view).any() else view for view in observed)
+        return seeing if any(view is not None for view in seeing) else observed
 
     @property
     def posterior(self) -> np.ndarray:

@@ -266,8 +266,9 @@ class TbfTracker(Tracker):
         start = time.perf_counter()
         placed = self.placing.place([observation.silhouettes[camera.name] for camera in self.cameras])
         self.last_observation = placed.silhouettes  # what the filter sees (benchmarks score it again)
+        observed = self.filter.seeing(placed.silhouettes)
         try:
-            found = self.filter.step(placed.silhouettes, placed.reference)
+            found = self.filter.step(observed, placed.reference)
         except EmptySilhouette as error:  # nobody in view: keep the last estimate, say why
             return TbfResult.of(
                 self.part_names,
@@ -278,10 +279,7 @@ class TbfTracker(Tracker):
                 failure=f"{error}",
             )
         finest = len(self.tree.levels) - 1
-        packed = [
-            None if view is None else np.packbits(self.filter.observation_at(finest, view))
-            for view in placed.silhouettes
-        ]
+        packed = [None if view is None else np.packbits(self.filter.observation_at(finest, view)) for view in observed]
         self._seen[observation.frame] = (packed, placed.reference)
         self._estimate = self.estimate_of(self.placing.estimate(found.sample, found.pose, placed))
         result = TbfResult.of(
