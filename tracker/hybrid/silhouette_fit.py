@@ -123,7 +123,7 @@ def residual_rows(camera: Camera, points: np.ndarray, directions: np.ndarray, le
     rows = np.empty((len(points), 3 + 3 * len(levers.axes)))
     rows[:, :3] = levers.weight_sums[:, None] * pulled
     turns = np.cross(levers.levers, pulled[:, None, :]).transpose(1, 0, 2)  # (K, n, 3): L x g
-    rows[:, 3:] = (turns @ levers.axes.transpose(0, 2, 1)).transpose(1, 0, 2).reshape(len(points), -1)
+    rows[:, 3:] = (turns @ levers.axes.transpose(0, 2, 1)).transpose(1, 0, 2).reshape(rows[:, 3:].shape)
     return rows
 
 

@@ -73,6 +73,21 @@ def test_the_fit_recovers_a_perturbed_pose_from_three_rendered_silhouettes(body,
     assert after["absolute"] < 0.3 * before["absolute"] and after["aligned"] < 0.6 * before["aligned"], (before, after)
 
 
+def test_a_view_that_lost_the_person_adds_nothing_to_the_fit(body, pose, renderer):
+    """One of three views empty (the person out of its image): the fit and its cost are those of the other two."""
+    views = silhouettes(renderer, body, pose, RIG)
+    three, two = (
+        SilhouetteFit(body, RIG, FitSettings(iterations=3)),
+        SilhouetteFit(body, RIG[:2], FitSettings(iterations=3)),
+    )
+    three.observe([*views[:2], np.zeros_like(views[2])])
+    two.observe(views[:2])
+    start = perturbed(pose)
+    (refined, cost), (expected, expected_cost) = three.refine(start), two.refine(start)
+    np.testing.assert_array_equal(refined, expected)
+    assert cost == expected_cost and np.abs(refined - start).max() > 1e-3
+
+
 def test_the_held_joints_keep_the_candidates_rotations(body, pose, renderer):
     """The hip bones (held by default) keep the rotation the candidate has, even one no clip gives them; with
     nothing held the same fit turns them."""
