@@ -265,8 +265,8 @@ class TbfTracker(Tracker):
             raise ValueError("tracker=tbf needs the frame's silhouette (the capture stage of a body scene)")
         start = time.perf_counter()
         placed = self.placing.place([observation.silhouettes[camera.name] for camera in self.cameras])
-        self.last_observation = placed.silhouettes  # what the filter sees (benchmarks score it again)
         observed = self.filter.seeing(placed.silhouettes)
+        self.last_observation = observed  # what the filter sees (benchmarks score it again)
         try:
             found = self.filter.step(observed, placed.reference)
         except EmptySilhouette as error:  # nobody in view: keep the last estimate, say why
