@@ -319,8 +319,8 @@ def test_a_subject_leaving_the_view_gives_failed_frames_and_the_run_goes_on(tmp_
 def test_a_view_that_loses_the_subject_does_not_stop_the_others(tmp_path):
     # Three cameras: a fighter (a dictionary clip) leaves some views' images, then all of them; a frame fails only
     # when no view sees him.
-    clip = [f"scene.path={MOCAP_DIR.parent / 'mocap_daz' / 'martial_04.bvh'}", "scene.fps=6"]
-    walk = [*clip, "frames=45", "rig=body_multi", "tracker.align=ground"]
+    clip = [f"scene.path={MOCAP_DIR.parent / 'mocap_daz' / 'martial_04.bvh'}", "scene.fps=4"]
+    walk = [*clip, "frames=30", "rig=body_multi", "tracker.align=ground"]
     result, run_dir = _run(
         tmp_path, *BODY_TBF, "scene=bvh", *walk, f"tracker.cache_dir={tmp_path}/c", "record.images=false", *SMALL_GRID
     )
