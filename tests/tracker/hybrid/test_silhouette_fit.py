@@ -63,7 +63,7 @@ def test_the_fit_recovers_a_perturbed_pose_from_three_rendered_silhouettes(body,
     pose[0] += aside_m
     fit = SilhouetteFit(body, RIG, FitSettings(iterations=15))
     views = silhouettes(renderer, body, pose, RIG)
-    assert not any(wholly_in_view(view) for view in views) == (aside_m > 0)
+    assert all(not wholly_in_view(view) for view in views) == (aside_m > 0)  # aside: every view cuts him
     fit.observe(views)
     start = perturbed(pose)
     refined, cost = fit.refine(start)
