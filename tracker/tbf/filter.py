@@ -128,6 +128,7 @@ class TreeFilter:
         self._reference: int | None = None  # with spot pixels: the sample whose spot this frame's observation is on
         self._previous_flags: np.ndarray | None = None
         self.last_evaluated: list[np.ndarray] = []  # per level, the nodes the last step scored
+        self.observed: tuple[np.ndarray | None, ...] = ()  # the last step's observations as it took them (`_seeing`)
 
     def start(self, initial_pose: np.ndarray) -> None:
         """Frame 0's prior: a Gaussian around ``initial_pose`` (the paper: upright, facing the camera)."""
@@ -149,7 +150,7 @@ class TreeFilter:
         observed = (observed,) if isinstance(observed, np.ndarray) else tuple(observed)
         if all(view is None for view in observed):
             raise ValueError("no view sees the person")
-        observed = self.seeing(observed)
+        observed = self.observed = self._seeing(observed)
         if (self.spot_pixels is None) != (reference is None):
             raise ValueError("a filter with spot pixels scores from a reference sample's spot, and only such a filter")
         self._reference = reference
@@ -191,7 +192,7 @@ class TreeFilter:
             timings_ms=timings,
         )
 
-    def seeing(self, observed: tuple[np.ndarray | None, ...]) -> tuple[np.ndarray | None, ...]:
+    def _seeing(self, observed: tuple[np.ndarray | None, ...]) -> tuple[np.ndarray | None, ...]:
         """The views' observations as the filter takes them: with several views, one whose silhouette vanishes at
         the top level (a few pixels at the image's edge) has lost the person too (None), unless none would see him."""
         if len(observed) == 1:
@@ -258,13 +259,11 @@ class TreeFilter:
         """Per level, each view's `ObservationScorer` of the observation at the level's resolution (None for a view
         that lost the person), to ask for when the descent reaches it: made then, unless a worker thread, starting
         from the finest level's, has made it already (`tracker.threads.TwoEndedJobs`)."""
-        levels, views = range(len(self.tree.levels)), [v for v, seen in enumerate(observed) if seen is not None]
-        jobs = TwoEndedJobs([functools.partial(self._scorer, k, v, observed[v]) for k in levels for v in views])
-        job = {(k, v): n for n, (k, v) in enumerate((k, v) for k in levels for v in views)}
-        return [
-            [functools.partial(jobs.result, job[k, v]) if (k, v) in job else None for v in range(len(observed))]
-            for k in levels
-        ]
+        levels, views = range(len(self.tree.levels)), range(len(observed))
+        pairs = [(k, v) for k in levels for v in views if observed[v] is not None]
+        jobs = TwoEndedJobs([functools.partial(self._scorer, k, v, observed[v]) for k, v in pairs])
+        job = {pair: n for n, pair in enumerate(pairs)}
+        return [[functools.partial(jobs.result, job[k, v]) if (k, v) in job else None for v in views] for k in levels]
 
     def _scorer(self, level: int, view: int, observed: np.ndarray) -> ObservationScorer:
         """View ``view``'s observation's scorer at ``level`` (``observed`` at any level's resolution)."""

@@ -240,6 +240,12 @@ class TbfTracker(Tracker):
             ],
         }
 
+    @property
+    def last_observation(self) -> tuple[np.ndarray | None, ...]:
+        """What the filter saw at the last step, per view (None: a view that had lost the person): benchmarks
+        score it again."""
+        return self.filter.observed
+
     def prefers(self, frame: int, sample: int, other: int) -> bool:
         """Whether the silhouettes the filter saw at ``frame`` are at least as likely under ``sample`` as under
         ``other`` (by the run's cost at the finest level; with several views, the product of their likelihoods, each
@@ -265,10 +271,8 @@ class TbfTracker(Tracker):
             raise ValueError("tracker=tbf needs the frame's silhouette (the capture stage of a body scene)")
         start = time.perf_counter()
         placed = self.placing.place([observation.silhouettes[camera.name] for camera in self.cameras])
-        observed = self.filter.seeing(placed.silhouettes)
-        self.last_observation = observed  # what the filter sees (benchmarks score it again)
         try:
-            found = self.filter.step(observed, placed.reference)
+            found = self.filter.step(placed.silhouettes, placed.reference)
         except EmptySilhouette as error:  # nobody in view: keep the last estimate, say why
             return TbfResult.of(
                 self.part_names,
@@ -279,7 +283,10 @@ class TbfTracker(Tracker):
                 failure=f"{error}",
             )
         finest = len(self.tree.levels) - 1
-        packed = [None if view is None else np.packbits(self.filter.observation_at(finest, view)) for view in observed]
+        packed = [
+            None if view is None else np.packbits(self.filter.observation_at(finest, view))
+            for view in self.filter.observed
+        ]
         self._seen[observation.frame] = (packed, placed.reference)
         self._estimate = self.estimate_of(self.placing.estimate(found.sample, found.pose, placed))
         result = TbfResult.of(
