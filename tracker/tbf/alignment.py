@@ -280,7 +280,7 @@ class ViewsPlacement:
         for mask in observed:
             v, u = np.nonzero(mask)
             centroids.append(np.array([u.mean(), v.mean()]) if len(u) else np.full(2, np.nan))
-        seen = np.array([mask.any() for mask in observed])
+        seen = ~np.isnan(np.array(centroids)[:, 0])
         spot = self.spot(self.reference)
         whole = np.array([wholly_in_view(mask) for mask in observed])
         person = self.person_spot(centroid_rays(self.cameras, np.array(centroids)), whole, seen)
