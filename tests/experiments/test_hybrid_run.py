@@ -41,14 +41,13 @@ def test_a_hybrid_run_refines_the_dictionarys_proposal(hybrid_run):
     timings = json.loads((hybrid_run / "timings.json").read_text())
     assert timings["estimate_refine_ms_median"] > 0 and timings["estimate_level1_ms_median"] > 0
     table = pd.read_parquet(hybrid_run / "frames.parquet").drop_duplicates("frame")
-    # then the previous refined pose, from frame 1 on, or from frame 0 where the preset starts from the given pose
-    proposals, given = metrics["config"]["tracker"]["proposals"], metrics["config"]["tracker"]["start_from"]
-    assert table["hybrid_choice"].between(0, proposals).all()
-    assert (
-        table["hybrid_choice"].iloc[0] <= proposals
-        if given == "initial"
-        else table["hybrid_choice"].iloc[0] < proposals
-    )
+    # then the previous refined pose moved on and as it was, from frame 1 on, or from frame 0 where the preset starts
+    # from the given pose
+    settings = metrics["config"]["tracker"]
+    proposals, given = settings["proposals"], settings["start_from"]
+    last = proposals + len(settings["turns_deg"]) + int(settings["extrapolate"])
+    assert table["hybrid_choice"].between(0, last).all()
+    assert table["hybrid_choice"].iloc[0] <= last if given == "initial" else table["hybrid_choice"].iloc[0] < proposals
     # Without pairs (frame 0) the fit never explains the silhouettes worse than the proposal; with them, it trades
     # some of the silhouettes' cost for the features'.
     assert table["fit_cost"].tolist()[0] <= table["fit_cost_proposal"].tolist()[0]
@@ -92,7 +91,7 @@ def test_started_from_the_given_pose_frame_0_is_refined_from_it(hybrid_cache):
         start_tracker(run)
         result = run.tracker.step(observations(run, 1)[0])
         errors[start_from] = joint_errors_mm(run.model, run.scene.params(run.model, 0), result.estimate)
-        assert result.frame_columns["hybrid_choice"] <= run.tracker.settings.proposals
+        assert result.frame_columns["hybrid_choice"] <= run.tracker.settings.proposals + 2  # 2 turns_deg
     assert errors["initial"]["absolute"] < 30.0 < errors["prior"]["absolute"]  # mm: the tracker's body is not his
 
 
@@ -124,7 +123,8 @@ def test_screen_best_screens_the_candidates_cheapest_as_proposed_and_the_last_po
     tracker = run.tracker
     for observation in observations(run, 2):
         result = tracker.step(observation)
-        assert result.frame_columns["screened"] == 2 and result.frame_columns["hybrid_choice"] <= 4
+        # of 4 proposals, 2 turned poses (the preset's turns_deg) and the last pose
+        assert result.frame_columns["screened"] == 2 and result.frame_columns["hybrid_choice"] <= 6
     last = tracker.refined
     rng = np.random.default_rng(0)
     candidates = [last + np.r_[np.zeros(3), rng.normal(0, 0.05 * k, len(last) - 3)] for k in range(1, 5)] + [last]
@@ -134,3 +134,34 @@ def test_screen_best_screens_the_candidates_cheapest_as_proposed_and_the_last_po
     tracker.refined = None  # no last pose: the two cheapest
     assert tracker.screened(candidates).tolist() == sorted(np.argsort(costs, kind="stable")[:2].tolist())
     assert tracker.screened(candidates[:2]).tolist() == [0, 1]
+
+
+def test_the_last_pose_moved_on_turns_about_the_vertical_and_repeats_its_last_change(hybrid_cache):
+    """``turns_deg``: the last refined pose's joints turned about the vertical through its root, nothing else moved;
+    ``extrapolate``: a body that turned 20 degrees and bent a joint by some angle is proposed turned and bent as much
+    again (none before a second refined pose)."""
+    from scipy.spatial.transform import Rotation
+
+    overrides = small_run(hybrid_cache, "experiment=hybrid_multi_view", "tracker.turns_deg=[-30,45]")
+    run = build(compose([*overrides, "tracker.extrapolate=true"]))
+    tracker, body = run.tracker, run.model
+    assert tracker.moved_on() == []
+    first = run.scene.params(run.model, 0)
+    tracker.refined = first
+    turned = tracker.moved_on()
+    assert len(turned) == 2  # no change seen yet: nothing to extrapolate
+    joints = body.joint_positions(first)
+    for angle, pose in zip((-30.0, 45.0), turned, strict=True):
+        spin = Rotation.from_euler("z", np.radians(angle)).as_matrix()
+        expected = (joints - first[:3]) @ spin.T + first[:3]
+        np.testing.assert_allclose(body.joint_positions(pose), expected, atol=1e-9)
+        np.testing.assert_array_equal(pose[6:], first[6:])
+    second = first.copy()  # turned by 20 degrees, one joint bent by 0.1 rad on each axis
+    second[3:6] = (Rotation.from_euler("z", np.radians(20.0)) * Rotation.from_rotvec(first[3:6])).as_rotvec()
+    second[12:15] += 0.1
+    tracker._before_refined, tracker.refined = first, second
+    onward = tracker.moved_on()[-1]
+    again = Rotation.from_euler("z", np.radians(40.0)) * Rotation.from_rotvec(first[3:6])
+    assert Rotation.from_rotvec(onward[3:6]).approx_equal(again, atol=1e-9)
+    np.testing.assert_allclose(onward[12:15], first[12:15] + 0.2, atol=1e-12)
+    np.testing.assert_array_equal(np.delete(onward, np.r_[3:6, 12:15]), np.delete(second, np.r_[3:6, 12:15]))

@@ -1,28 +1,29 @@
 """The hybrid tracker, ``tracker=hybrid``: paper 2 proposes, paper 1's way refines.
 
-Each frame, tree filtering (`tracker.tbf.tracker.TbfTracker`, all its settings) searches its dictionary of pose
-samples for the frame's silhouettes: a global search that recovers what a local fit loses. Its ``proposals`` most
-probable samples, placed where the person stands, and the last frame's refined pose are the candidates (at frame 0,
-with ``start_from=initial``, the pose the run gives, as AbIS starts; held where it stands); each is
-refined for ``screen_iterations`` (with ``screen_best``, only the ``screen_best`` whose silhouettes' cost is lowest as
-proposed, and the last refined pose) by the continuous fit of the tracker's own body to every view's silhouette
-(`tracker.hybrid.silhouette_fit`: the joints and the root by Levenberg-Marquardt with the skinning's analytic
-Jacobian, the root held near where tree filtering placed the person), and the one that then explains the views
-best (the lowest `SilhouetteFit.fit_cost`; of those whose root turned at most ``max_turn_deg`` from the last refined
-pose) is refined on to the estimate. ``feed`` of the filter's posterior is moved onto the sample nearest it, so the
-next frame's prior starts from it (a worker thread searches the samples for it between the frames,
-`tracker.threads`; the next step moves the posterior before its prior). The tracker never sees the truth; the
-evaluation judges its estimates, and its dictionary's floor, as tree filtering's.
+Each frame, tree filtering (`tracker.tbf.tracker.TbfTracker`, all its settings) searches its dictionary of pose samples
+for the frame's silhouettes: a global search that recovers what a local fit loses. Its ``proposals`` most probable
+samples, placed where the person stands, and the last frame's refined pose are the candidates, with that pose turned
+about the vertical by each of ``turns_deg`` and, with ``extrapolate``, moved on by its last change (at frame 0, with
+``start_from=initial``, the pose the run gives, as AbIS starts; held where it stands); each is refined for
+``screen_iterations`` (with ``screen_best``, only the ``screen_best`` whose silhouettes' cost is lowest as proposed, and
+the last refined pose) by the continuous fit of the tracker's own body to every view's silhouette
+(`tracker.hybrid.silhouette_fit`: the joints and the root by Levenberg-Marquardt with the skinning's analytic Jacobian,
+the root held near where tree filtering placed the person), and the one that then explains the views best (the lowest
+`SilhouetteFit.fit_cost`; of those whose root turned at most ``max_turn_deg`` from the last refined pose) is refined on
+to the estimate. ``feed`` of the filter's posterior is moved onto the sample nearest it, so the next frame's prior
+starts from it (a worker thread searches the samples for it between the frames, `tracker.threads`; the next step moves
+the posterior before its prior). The tracker never sees the truth; the evaluation judges its estimates, and its
+dictionary's floor, as tree filtering's.
 
 The fit also follows the skin's features (`tracker.hybrid.feature_pairs`): each frame's features are tied to the
 refined body, and the next frame's pairs ask those points to move with them. They guide each candidate's fit; the
 silhouettes alone choose between the candidates.
 
-Frame columns: ``hybrid_choice`` (the candidate kept: 0 the filter's best sample, then its next proposals, last
-the previous refined pose), ``screened`` (the candidates screened), ``fit_cost`` (the silhouettes' cost of the
-estimate), ``fit_cost_proposal`` (of the proposal before refining), ``feature_pairs`` (over the views) and
-``turned_away`` (the screened candidates ``max_turn_deg`` kept from the choice); the stage ``refine`` in the timings
-(the features' tracking with it).
+Frame columns: ``hybrid_choice`` (the candidate kept: 0 the filter's best sample, then its next proposals, the previous
+refined pose moved on (turned, extrapolated), last the previous refined pose as it was), ``screened`` (the candidates
+screened), ``fit_cost`` (the silhouettes' cost of the estimate), ``fit_cost_proposal`` (of the proposal before
+refining), ``feature_pairs`` (over the views) and ``turned_away`` (the screened candidates ``max_turn_deg`` kept from
+the choice); the stage ``refine`` in the timings (the features' tracking with it).
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ from dataclasses import dataclass, field, replace
 from typing import Annotated, ClassVar, Literal
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from tracker.geometry.cameras import Camera
 from tracker.geometry.rotations import rotation_angle_deg, rotation_vectors_to_matrices
@@ -72,6 +74,12 @@ class HybridSettings(TbfSettings):
     # Of the candidates, only this many are screened: those whose silhouettes' cost is lowest as proposed, the last
     # refined pose always among them (None: every candidate). A screen is most of a candidate's cost.
     screen_best: Annotated[int, Range(1, 100)] | None = None
+    # More candidates from the last refined pose, for motion faster than a frame's fit reaches and than the
+    # dictionary holds (a dancer's spin turns 30-45 degrees a frame at 15 fps): the pose turned about the vertical
+    # by each of ``turns_deg``, and with ``extrapolate`` the pose moved on by its last frame's change (the root's
+    # turn composed again, each joint's rotation vector stepped as much again).
+    turns_deg: tuple[Annotated[float, Range(-180.0, 180.0)], ...] = ()
+    extrapolate: bool = False
 
 
 class NearestSample:
@@ -104,6 +112,7 @@ class HybridTracker(TbfTracker):
     def __init__(self, settings: HybridSettings, cost: Cost, motion: RandomWalk) -> None:
         super().__init__(settings, cost, motion)
         self.refined: np.ndarray | None = None
+        self._before_refined: np.ndarray | None = None  # the refined pose of the frame before (`extrapolate`)
         self._feeding: TwoEndedJobs[int] | None = None  # the sample nearest the last refined pose, to come
 
     def start(self, model: BodyMesh, cameras: Sequence[Camera], initial: np.ndarray, rng: np.random.Generator) -> None:
@@ -112,7 +121,7 @@ class HybridTracker(TbfTracker):
         pairing = self.settings.fit.features
         self.features = FeaturePairs(self.body, self.cameras, pairing) if pairing.weight > 0 else None
         self.nearest = NearestSample(self.samples.poses)
-        self.refined, self._feeding, self._given_root = None, None, None
+        self.refined, self._feeding, self._given_root, self._before_refined = None, None, None, None
         if self.settings.start_from == "initial":
             given = np.asarray(initial, dtype=np.float64).copy()
             self.refined, self._feeding = given, TwoEndedJobs([lambda: self.nearest(given)])
@@ -144,18 +153,21 @@ class HybridTracker(TbfTracker):
         if found.failure is not None:
             if self.features is not None:
                 self.features.forget()
+            self._before_refined = None  # the last change spans the failed frame
             return found
         start = time.perf_counter()
         self.fit.observe([observation.silhouettes[camera.name] for camera in self.cameras], pairs)
         # where tree filtering placed the person this frame (the first one, started from the given pose: where it is)
         placed = found.estimate[:3] if self._given_root is None else self._given_root
         self._given_root = None
-        candidates = self.proposals(found, placed) + ([self.refined] if self.refined is not None else [])
+        candidates = self.proposals(found, placed) + self.moved_on()
+        candidates += [self.refined] if self.refined is not None else []
         kept = self.screened(candidates)
         screened = [self.fit.refine(candidates[k], self.settings.screen_iterations, placed) for k in kept]
         turned_away = self.turned_away([pose for pose, _ in screened])
         best = int(np.argmin(np.where(turned_away, np.inf, [cost for _, cost in screened])))
         choice = int(kept[best])
+        self._before_refined = self.refined
         self.refined, cost = self.fit.refine(screened[best][0], root=placed)
         self._estimate = self.refined
         if self.features is not None:
@@ -177,6 +189,26 @@ class HybridTracker(TbfTracker):
             timings_ms={**found.timings_ms, "refine": elapsed_ms(start) + pairing_ms},
             series={**found.series, "hybrid/fit_cost": cost, "hybrid/choice": float(choice)},
         )
+
+    def moved_on(self) -> list[np.ndarray]:
+        """The last refined pose turned about the vertical by each of ``turns_deg``, then with ``extrapolate`` moved
+        on by its last change (none before a pose was refined; extrapolated once two were)."""
+        if self.refined is None:
+            return []
+        last = self.refined
+        moved = []
+        for turn in self.settings.turns_deg:
+            turned = last.copy()
+            turned[3:6] = (Rotation.from_euler("z", np.radians(turn)) * Rotation.from_rotvec(last[3:6])).as_rotvec()
+            moved.append(turned)
+        if self.settings.extrapolate and self._before_refined is not None:
+            before = self._before_refined
+            onward = 2 * last - before
+            onward[:3] = last[:3]
+            root, root_before = Rotation.from_rotvec(last[3:6]), Rotation.from_rotvec(before[3:6])
+            onward[3:6] = (root * root_before.inv() * root).as_rotvec()
+            moved.append(onward)
+        return moved
 
     def screened(self, candidates: Sequence[np.ndarray]) -> np.ndarray:
         """The indices (ascending) of the candidates to screen (``screen_best``): the last refined pose, last in
