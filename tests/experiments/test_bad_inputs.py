@@ -134,6 +134,10 @@ AT_START = [
         r"^tracker\.align=feet: the arm stands on no floor, allowed none$",
     ),
     (
+        ["model=dsq_arm", "tracker=tbf", "cost=nwxor", "motion=dm2", "tracker.estimate=mean"],
+        r"^tracker\.estimate=mean: the arm's grid is not averaged, allowed map$",
+    ),
+    (
         ["model=body_mesh", "tracker=tbf", "motion=dm1"],
         r"^tracker=tbf needs cost: add cost=nwxor \(allowed cost=xor\|wxor\|nwxor\)$",
     ),

@@ -49,3 +49,36 @@ def test_eval_figures_writes_every_figure_of_a_body_run(tbf_run, tmp_path):
     subprocess.run([sys.executable, "-m", "eval.figures", str(run)], check=True, capture_output=True)
     assert {"views.png", "fig5_strip.png", "error_against_floor.png"} <= {path.name for path in run.iterdir()}
     assert "fig4c_swings.png" not in {path.name for path in run.iterdir()}
+
+
+def test_the_mean_estimate_averages_the_most_probable_samples_and_leaves_the_filter_as_it_was(tmp_path):
+    """``tracker.estimate=mean``: each joint's rotation the posterior-weighted mean (SciPy's, joint by joint) of the
+    ``mean_of`` most probable samples', the root placed as the most probable sample's; the filter steps as with
+    ``map`` (its prior comes from its posterior, not the estimate)."""
+    import numpy as np
+    from scipy.spatial.transform import Rotation
+
+    from experiments.bench.tbf import observations, start_tracker
+    from experiments.components import build, compose
+    from tests.experiments.test_hybrid_run import SMALL_DICTIONARY
+
+    overrides = ["experiment=tbf_multi_view", "scene.path=mocap/69_20.bvh", f"tracker.cache_dir={tmp_path}"]
+    runs = {way: build(compose([*overrides, *SMALL_DICTIONARY, f"tracker.estimate={way}"])) for way in ("map", "mean")}
+    observed = observations(runs["map"], 3)
+    for run in runs.values():
+        start_tracker(run)
+    averaged = 0
+    for observation in observed:
+        found = {way: run.tracker.step(observation) for way, run in runs.items()}
+        posterior = runs["mean"].tracker.filter.posterior
+        np.testing.assert_array_equal(posterior, runs["map"].tracker.filter.posterior)
+        top = np.argsort(-posterior, kind="stable")[:10]
+        top = top[posterior[top] > 0]
+        samples = runs["mean"].tracker.samples.poses[top]
+        mean, best = found["mean"].estimate, found["map"].estimate
+        np.testing.assert_array_equal(mean[:3], best[:3])
+        for joint in range(1, len(mean) // 3):
+            expected = Rotation.from_rotvec(samples[:, 3 * joint : 3 * joint + 3]).mean(posterior[top])
+            assert Rotation.from_rotvec(mean[3 * joint : 3 * joint + 3]).approx_equal(expected, atol=1e-9)
+        averaged += len(top) > 1 and not np.allclose(mean, best)
+    assert averaged  # some frame's estimate lies between the samples

@@ -4,6 +4,7 @@ from scipy.spatial.transform import Rotation
 
 from tracker.geometry.rotations import (
     euler_to_matrix,
+    mean_rotation_vectors,
     fit_rigid,
     invert_rigid,
     matrix_to_euler,
@@ -143,3 +144,16 @@ def test_the_right_jacobian_maps_a_small_step_of_the_vector_to_a_turn_in_the_rot
     for axis in np.eye(3):
         turned = rotation.T @ rotation_vector_to_matrix(vector + step * axis)  # Exp(J_r step e_k) to first order
         np.testing.assert_allclose(matrix_to_rotation_vector(turned) / step, right_jacobian(vector) @ axis, atol=1e-6)
+
+
+def test_the_batched_mean_of_rotation_vectors_is_scipys_weighted_mean_of_each():
+    rng = np.random.default_rng(3)
+    vectors, weights = rng.normal(0.0, 0.8, (6, 4, 3)), rng.random(6)
+    mean = mean_rotation_vectors(vectors, weights)
+    for joint in range(4):
+        expected = Rotation.from_rotvec(vectors[:, joint]).mean(weights)
+        assert Rotation.from_rotvec(mean[joint]).approx_equal(expected, atol=1e-12)
+    # one pose, or every pose the same: that pose
+    for poses in (vectors[:1], np.repeat(vectors[:1], 3, 0)):
+        mean = Rotation.from_rotvec(mean_rotation_vectors(poses, weights[: len(poses)]))
+        assert all(mean.approx_equal(Rotation.from_rotvec(vectors[0]), atol=1e-12))

@@ -10,6 +10,7 @@ Convention:
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from tracker.tol import LOG_MAP_ANGLE_RAD, SERIES_ANGLE_RAD, TINY, ZERO_LENGTH
 
@@ -74,6 +75,17 @@ def matrix_to_rotation_vector(rotation: np.ndarray) -> np.ndarray:
         axis *= np.where(skew >= 0, 1.0, -1.0) if np.any(skew) else np.sign(rotation[0] + TINY)
         return angle * axis / np.linalg.norm(axis)
     return angle / (2.0 * np.sin(angle)) * skew
+
+
+def mean_rotation_vectors(vectors: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """``(n, k, 3)`` rotation vectors (n poses of k rotations) and ``(n,)`` weights -> ``(k, 3)``: each rotation's
+    weighted chordal L2 mean over the poses (SciPy's ``Rotation.mean``: the unit quaternion q maximising
+    ``sum_i w_i (q . q_i)^2``, the principal eigenvector of ``sum_i w_i q_i q_i^T``), batched over the k."""
+    vectors = np.asarray(vectors, dtype=np.float64)
+    quaternions = Rotation.from_rotvec(vectors.reshape(-1, 3)).as_quat().reshape(*vectors.shape[:2], 4)
+    scatter = np.einsum("n,nka,nkb->kab", np.asarray(weights, dtype=np.float64), quaternions, quaternions)
+    _, eigenvectors = np.linalg.eigh(scatter)
+    return Rotation.from_quat(eigenvectors[:, :, -1]).as_rotvec()
 
 
 def rotation_angle_deg(a: np.ndarray, b: np.ndarray) -> float:

@@ -32,6 +32,12 @@ class TbfSettings:
     # (`tracker.tbf.tree.thresholds_for_shares`; the paper's experiment A: 0.203, 0.882, 0.971). Replaces thresholds.
     node_shares: tuple[Share, Share, Share] | None = None
     filter: FilterSettings = field(default_factory=FilterSettings)
+    # The estimate: the most probable sample (``map``, the paper's), or the mean of the joint rotations (the root's
+    # among them) of the ``mean_of`` most probable samples weighted by their posterior (``mean``, the body's samples
+    # only), placed where the most probable sample is: a pose that may lie between the samples. It does not change
+    # what the filter does next (its prior comes from its posterior).
+    estimate: Literal["map", "mean"] = "map"
+    mean_of: Annotated[int, Range(2, 10_000)] = 10
     initial_yaw_deg: Finite = -90.0  # the initial pose: upright, arms down, facing this way (the body faces -y)
     cache_dir: str = ".cache/tbf"  # sample sets and trees, keyed by everything that affects them
     # How much of a cached sample set is read to trust it: a sampled digest of each array, or every byte.
@@ -68,6 +74,8 @@ def check_settings(settings: TbfSettings, frames: int, key: str, model: str) -> 
         raise ValueError(f"{key}.build.backend=ray: Ray is not installed here (make ray installs it); allowed loky")
     if model == "dsq_arm" and settings.align != "none":
         raise ValueError(f"{key}.align={settings.align}: the arm stands on no floor, allowed none")
+    if model == "dsq_arm" and settings.estimate != "map":
+        raise ValueError(f"{key}.estimate={settings.estimate}: the arm's grid is not averaged, allowed map")
     for index, path, rate in clip_files(settings.samples, key):
         pattern = settings.samples.clips[index]
         read_body_clip(path, f"{key}.samples.clips[{index}]" + (f" ({pattern})" if path != pattern else ""), rate)

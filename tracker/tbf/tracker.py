@@ -27,6 +27,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from tracker.geometry.cameras import Camera
+from tracker.geometry.rotations import mean_rotation_vectors
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.dsq_arm import DSQArm
 from tracker.motion.posture import arms_pose
@@ -210,6 +211,15 @@ class TbfTracker(Tracker):
             return GroundPlaced(GroundPlacement(self.cameras[0], self.samples.sets[0], initial), at_finest)
         return AsSeen()
 
+    def mean_rotations(self) -> np.ndarray:
+        """The joint rotations of the ``mean_of`` most probable samples (those of nonzero posterior), averaged
+        weighted by their posterior (`mean_rotation_vectors`): a pose vector's entries from 3 on."""
+        posterior = self.filter.posterior
+        top = np.argsort(-posterior, kind="stable")[: self.settings.mean_of]
+        top = top[posterior[top] > 0]
+        rotations = np.asarray(self.samples.poses[top], dtype=np.float64)[:, 3:]
+        return mean_rotation_vectors(rotations.reshape(len(top), -1, 3), posterior[top]).ravel()
+
     def estimate_of(self, pose: np.ndarray) -> np.ndarray:
         """A sample's pose vector as the run's estimate: the body's pose vector itself, the arm's parameters."""
         return self.arm_grid.params(pose) if self.arm_grid is not None else pose.copy()
@@ -288,7 +298,10 @@ class TbfTracker(Tracker):
             for view in self.filter.observed
         ]
         self._seen[observation.frame] = (packed, placed.reference)
-        self._estimate = self.estimate_of(self.placing.estimate(found.sample, found.pose, placed))
+        estimate = self.placing.estimate(found.sample, found.pose, placed)
+        if self.settings.estimate == "mean":
+            estimate[3:] = self.mean_rotations()
+        self._estimate = self.estimate_of(estimate)
         result = TbfResult.of(
             self.part_names,
             found,
