@@ -4,10 +4,10 @@ from scipy.spatial.transform import Rotation
 
 from tracker.geometry.rotations import (
     euler_to_matrix,
-    mean_rotation_vectors,
     fit_rigid,
     invert_rigid,
     matrix_to_euler,
+    mean_rotation_vectors,
     rigid_transform,
     transform_points,
 )
