@@ -19,7 +19,7 @@ The fit also follows the skin's features (`tracker.hybrid.feature_pairs`): each 
 refined body, and the next frame's pairs ask those points to move with them. They guide each candidate's fit; the
 silhouettes alone choose between the candidates.
 
-Frame columns: ``hybrid_choice`` (the candidate kept: 0 the filter's best sample, then its next proposals, the previous
+Frame columns: ``hybrid_choice`` (the candidate kept: 0 the filter's estimate, then its next proposals, the previous
 refined pose moved on (turned, extrapolated), last the previous refined pose as it was), ``screened`` (the candidates
 screened), ``fit_cost`` (the silhouettes' cost of the estimate), ``fit_cost_proposal`` (of the proposal before
 refining), ``feature_pairs`` (over the views) and ``turned_away`` (the screened candidates ``max_turn_deg`` kept from
