@@ -1,12 +1,12 @@
 """The hybrid tracker, ``tracker=hybrid``: paper 2 proposes, paper 1's way refines.
 
 Each frame, tree filtering (`tracker.tbf.tracker.TbfTracker`, all its settings) searches its dictionary of pose samples
-for the frame's silhouettes: a global search that recovers what a local fit loses. Its ``proposals`` most probable
-samples, placed where the person stands, and the last frame's refined pose are the candidates, with that pose turned
-about the vertical by each of ``turns_deg`` and, with ``extrapolate``, moved on by its last change (at frame 0, with
-``start_from=initial``, the pose the run gives, as AbIS starts; held where it stands); each is refined for
-``screen_iterations`` (with ``screen_best``, only the ``screen_best`` whose silhouettes' cost is lowest as proposed, and
-the last refined pose) by the continuous fit of the tracker's own body to every view's silhouette
+for the frame's silhouettes: a global search that recovers what a local fit loses. Its estimate and next most probable
+samples, ``proposals`` in all, placed where the person stands, and the last frame's refined pose are the candidates,
+with that pose turned about the vertical by each of ``turns_deg`` and, with ``extrapolate``, moved on by its last change
+(at frame 0, with ``start_from=initial``, the pose the run gives, as AbIS starts; held where it stands); each is refined
+for ``screen_iterations`` (with ``screen_best``, only the ``screen_best`` whose silhouettes' cost is lowest as proposed,
+and the last refined pose) by the continuous fit of the tracker's own body to every view's silhouette
 (`tracker.hybrid.silhouette_fit`: the joints and the root by Levenberg-Marquardt with the skinning's analytic Jacobian,
 the root held near where tree filtering placed the person), and the one that then explains the views best (the lowest
 `SilhouetteFit.fit_cost`; of those whose root turned at most ``max_turn_deg`` from the last refined pose) is refined on

@@ -276,7 +276,7 @@ class TbfTracker(Tracker):
 
     def step(self, observation: Observation) -> TbfResult:
         """Place the frame's silhouettes (`placing`), filter them down the tree, and put the best sample where the
-        person stands."""
+        person stands (with ``estimate=mean``, its joints turned to the most probable samples' mean)."""
         if not observation.silhouettes:
             raise ValueError("tracker=tbf needs the frame's silhouette (the capture stage of a body scene)")
         start = time.perf_counter()
