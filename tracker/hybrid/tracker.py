@@ -41,6 +41,7 @@ from tracker.geometry.rotations import rotation_angle_deg, rotation_vectors_to_m
 from tracker.hybrid.feature_pairs import FeaturePairs
 from tracker.hybrid.silhouette_fit import FitSettings, SilhouetteFit
 from tracker.models.body_mesh import BodyMesh
+from tracker.models.body_skeleton import turned_about_vertical
 from tracker.protocol import Observation
 from tracker.ranges import Range
 from tracker.registry import TRACKERS, Fit
@@ -196,11 +197,7 @@ class HybridTracker(TbfTracker):
         if self.refined is None:
             return []
         last = self.refined
-        moved = []
-        for turn in self.settings.turns_deg:
-            turned = last.copy()
-            turned[3:6] = (Rotation.from_euler("z", np.radians(turn)) * Rotation.from_rotvec(last[3:6])).as_rotvec()
-            moved.append(turned)
+        moved = [turned_about_vertical(last, np.radians(turn)) for turn in self.settings.turns_deg]
         if self.settings.extrapolate and self._before_refined is not None:
             before = self._before_refined
             onward = 2 * last - before

@@ -90,3 +90,12 @@ def joint_quaternions(poses: np.ndarray) -> np.ndarray:
     poses = np.asarray(poses, dtype=np.float64)
     rotvecs = poses[..., 3:].reshape(*poses.shape[:-1], len(JOINT_NAMES), 3)
     return Rotation.from_rotvec(rotvecs.reshape(-1, 3)).as_quat().reshape(*rotvecs.shape[:-1], 4)
+
+
+def turned_about_vertical(poses: np.ndarray, angle: float) -> np.ndarray:
+    """A copy of pose vectors ``poses`` (``(..., POSE_SIZE)``) with the whole body turned in place by ``angle``
+    (radians, counter-clockwise seen from above) about the vertical through its root: joint 0's rotation
+    composed after the turn, the root's position and every other joint kept."""
+    turned = np.array(poses, dtype=np.float64)
+    turned[..., 3:6] = (Rotation.from_euler("z", angle) * Rotation.from_rotvec(turned[..., 3:6])).as_rotvec()
+    return turned

@@ -47,9 +47,9 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from tracker.geometry.cameras import Camera, wholly_in_view
+from tracker.models.body_skeleton import turned_about_vertical
 from tracker.tbf.samples import LEVEL_RESOLUTIONS, PoseSampleSet, SampleViews
 
 FEET_BAND = 0.06  # the bottom this fraction of a silhouette's height holds the feet
@@ -191,9 +191,8 @@ class GroundPlacement:
         seen = self.pixel * placement.to_observed(root_pixel[0] / self.pixel + shift)
         ray = np.array([(seen[0] - self.camera.cx) / self.camera.fx, (seen[1] - self.camera.cy) / self.camera.fy, 1.0])
         root = self.camera.position + self.camera.rotation @ (placement.scale * root_depth[0] * ray)
-        turn = Rotation.from_euler("z", self._bearing(root) - self._bearing(pose[:3]))
+        pose = turned_about_vertical(pose, self._bearing(root) - self._bearing(pose[:3]))
         pose[:2] = root[:2]  # the height stays the sample's: its feet are on the floor
-        pose[3:6] = (turn * Rotation.from_rotvec(pose[3:6])).as_rotvec()
         return pose
 
     def _bearing(self, point: np.ndarray) -> float:

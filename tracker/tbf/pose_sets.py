@@ -25,7 +25,7 @@ from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 from tracker.models.body_mesh import BodyMesh
-from tracker.models.body_skeleton import JOINT_NAMES, MIRROR_JOINTS, joint_quaternions
+from tracker.models.body_skeleton import JOINT_NAMES, MIRROR_JOINTS, joint_quaternions, turned_about_vertical
 from tracker.motion.mocap import MocapScene
 from tracker.motion.posture import arms_pose
 from tracker.tol import ZERO_LENGTH
@@ -112,9 +112,7 @@ def varied(
     of ``jitter_deg`` standard deviation per component (the root's position kept)."""
     out = []
     for turn in turns_deg:
-        turned = np.array(poses, dtype=np.float64)
-        spin = Rotation.from_euler("z", np.radians(turn))
-        turned[:, 3:6] = (spin * Rotation.from_rotvec(turned[:, 3:6])).as_rotvec()
+        turned = turned_about_vertical(poses, np.radians(turn))
         out.append(turned)
         for _ in range(copies):
             jittered = turned.copy()
