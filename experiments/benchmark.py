@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import sys
 from pathlib import Path
 
@@ -29,7 +28,7 @@ from eval.benchmark import benchmark_table, summary_table
 from eval.body_figures import error_against_floor, fig5_strip
 from eval.runs import markdown
 from experiments.benchmark_split import Row, Split, SplitError, load_split
-from experiments.cli_runs import write_text
+from experiments.cli_runs import exit_interrupted, run_child, write_text
 from experiments.components import compose
 from experiments.steps import Section, Step
 from tracker.motion.mocap import available_frames, read_clip
@@ -79,8 +78,7 @@ def run_row(row: Row, run_dir: Path, overrides: list[str]) -> None:
     if finished_with(run_dir, command):
         print(f"  kept: {run_dir}", flush=True)
         return
-    args = [sys.executable, "-m", "experiments.run", *command, f"hydra.run.dir={run_dir}"]
-    subprocess.run(args, check=False)
+    run_child([sys.executable, "-m", "experiments.run", *command, f"hydra.run.dir={run_dir}"])
 
 
 def frames_done(run_dir: Path) -> int:
@@ -151,7 +149,12 @@ def main(argv: list[str] | None = None) -> None:
         print(f"error: {error}", file=sys.stderr)
         sys.exit(2)
     rows = {name: row for name, row in split.rows.items() if not args.rows or name in args.rows}
-    print(run_benchmark(split, rows, args.reports, args.clips).console)
+    try:
+        print(run_benchmark(split, rows, args.reports, args.clips).console)
+    except (
+        KeyboardInterrupt
+    ) as interrupt:  # the run under way wrote its outputs, marked interrupted; run again to resume
+        exit_interrupted(interrupt)
 
 
 if __name__ == "__main__":

@@ -1,12 +1,18 @@
 """Running experiments through the real command line, as a user would: one run, or a Hydra multirun (one job per
-core), each failing loudly if a run did not finish."""
+core), each failing loudly if a run did not finish; a stop asked of the command is passed on to the run under way
+(`run_child`)."""
 
 from __future__ import annotations
 
 import json
+import os
+import signal
 import subprocess
 import sys
+import threading
+from collections.abc import Sequence
 from pathlib import Path
+from typing import NoReturn
 
 from tracker.atomic import atomic_path
 
@@ -17,9 +23,9 @@ LIGHT_RECORDING = ("record.images=false", "record.meshes_every=0", "record.param
 def run_experiment(name: str, run_dir: Path, *overrides: str) -> Path:
     """Run ``experiment=<name>`` into ``run_dir``; fail loudly if it failed."""
     command = [sys.executable, "-m", "experiments.run", f"experiment={name}", f"hydra.run.dir={run_dir}", *overrides]
-    ended = subprocess.run(command, check=False)
-    if ended.returncode != 0 and not (run_dir / "metrics.json").exists():  # it said why above; stop with one line
-        raise SystemExit(f"{run_dir}: the run ended with exit status {ended.returncode} (its log: {run_dir}/run.log)")
+    status = run_child(command)
+    if status != 0 and not (run_dir / "metrics.json").exists():  # it said why above; stop with one line
+        raise SystemExit(f"{run_dir}: the run ended with exit status {status} (its log: {run_dir}/run.log)")
     metrics = json.loads((run_dir / "metrics.json").read_text())
     if metrics["status"] != "ok":
         raise SystemExit(f"{run_dir}: {metrics['status']}")
@@ -30,9 +36,9 @@ def run_sweep(sweep_dir: Path, *overrides: str) -> None:
     """A Hydra multirun of ``overrides`` (``experiment=...`` among them) into ``sweep_dir`` (one folder per job);
     fail if a job failed."""
     command = [sys.executable, "-m", "experiments.run", "-m", f"hydra.sweep.dir={sweep_dir}", *overrides]
-    ended = subprocess.run(command, check=False)
-    if ended.returncode != 0:
-        raise SystemExit(f"{sweep_dir}: the sweep ended with exit status {ended.returncode}")
+    status = run_child(command)
+    if status != 0:
+        raise SystemExit(f"{sweep_dir}: the sweep ended with exit status {status}")
     for metrics_path in sorted(sweep_dir.glob("*/metrics.json")):
         status = json.loads(metrics_path.read_text())["status"]
         if status != "ok":
@@ -44,3 +50,39 @@ def write_text(path: Path, text: str) -> Path:
     with atomic_path(path) as temporary:
         temporary.write_text(text)
     return path
+
+
+def run_child(command: Sequence[str]) -> int:
+    """Run ``command`` (a run or a sweep of ours) to its end; its exit status. It leads a process group of its own, so
+    that a terminal's Ctrl-C or a scheduler's SIGTERM reaches this process alone, which passes it on to the child's
+    group as a terminal would: the run stops as it does on its own (after its current frame, its outputs written and
+    marked interrupted; a second signal stops it at once). This process waits for it, neither leaving it running nor
+    killing it, and then raises KeyboardInterrupt with the signal's name (`exit_interrupted`)."""
+    process = subprocess.Popen(list(command), process_group=0)
+    received: list[str] = []
+
+    def pass_on(number: int, _frame: object) -> None:
+        received.append(signal.Signals(number).name)
+        try:
+            os.killpg(process.pid, number)
+        except ProcessLookupError:  # it has just ended
+            pass
+
+    handled = (signal.SIGINT, signal.SIGTERM) if threading.current_thread() is threading.main_thread() else ()
+    previous = {number: signal.signal(number, pass_on) for number in handled}
+    try:
+        status = process.wait()
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+    if received:
+        raise KeyboardInterrupt(received[0])
+    return status
+
+
+def exit_interrupted(interrupt: KeyboardInterrupt) -> NoReturn:
+    """End a command stopped by a signal as a run ends: one line, ``interrupted by <signal>``, and the exit status
+    128 + its number (a KeyboardInterrupt that names no signal: SIGINT)."""
+    name = str(interrupt) if str(interrupt) in signal.Signals.__members__ else "SIGINT"
+    print(f"interrupted by {name}", file=sys.stderr)
+    sys.exit(128 + signal.Signals[name].value)

@@ -25,7 +25,7 @@ import pandas as pd
 from eval.runs import machine, markdown
 from experiments import benchmark, combinations, experiment_a, paper_1, real_motion
 from experiments.bench import scale
-from experiments.cli_runs import write_text
+from experiments.cli_runs import exit_interrupted, write_text
 from experiments.generated import README, markers, write_block
 from experiments.steps import Section, Step
 
@@ -117,7 +117,10 @@ def main(argv: list[str] | None = None) -> None:
         return readme_from_report()
     start = time.perf_counter()
     REPORTS.mkdir(exist_ok=True)
-    done = run_steps(args.scale)
+    try:
+        done = run_steps(args.scale)
+    except KeyboardInterrupt as interrupt:  # the run under way wrote its outputs, marked interrupted
+        exit_interrupted(interrupt)
     for _, section, _ in done:
         print(section.console)
     report = write_report(done, (time.perf_counter() - start) / 60, args.scale)

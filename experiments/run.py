@@ -23,6 +23,7 @@ from hydra.types import RunMode
 from omegaconf import DictConfig
 
 from experiments.checks import ConfigError
+from experiments.cli_runs import exit_interrupted
 from experiments.components import import_plugins
 from experiments.job import OutputsLost, finished_metrics, run_job
 from experiments.schemas import CONFIG_DIR, CONFIG_NAME
@@ -84,9 +85,7 @@ def main(argv: list[str] | None = None) -> None:
     try:
         hydra_main()
     except KeyboardInterrupt as interrupt:  # the run's outputs are written and say so (experiments.job)
-        name = str(interrupt) if str(interrupt) in signal.Signals.__members__ else "SIGINT"
-        print(f"interrupted by {name}", file=sys.stderr)
-        sys.exit(128 + signal.Signals[name].value)
+        exit_interrupted(interrupt)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """Ctrl-C and SIGTERM end a run with one line and nothing lost: sent to the whole process group (as a terminal does)
 while a sample set is built on worker processes, the workers stay silent, the run's outputs say it was interrupted,
 the shards built so far stay for the next run to resume from (`tests/tracker/tbf/test_samples.py`), and the exit
-status is the signal's."""
+status is the signal's; a benchmark passes a stop on to its run under way and waits for it."""
 
 import json
 import os
@@ -12,6 +12,7 @@ import sys
 import time
 
 import pytest
+import yaml
 
 
 @pytest.mark.parametrize("signal_name", ["SIGINT", "SIGTERM"])
@@ -94,3 +95,34 @@ def test_a_sweep_killed_at_ten_random_points_loses_nothing_and_does_nothing_twic
     statuses = {path.parent.name: json.loads(path.read_text())["status"] for path in sweep_dir.glob("*/metrics.json")}
     assert statuses == {str(job): "ok" for job in range(6)}
     assert all((sweep_dir / job / "metrics.json").stat().st_mtime_ns == stamp for job, stamp in finished.items())
+
+
+@pytest.mark.parametrize("to_group", [False, True], ids=["SIGTERM to the benchmark", "Ctrl-C to its group"])
+def test_a_stopped_benchmark_stops_its_run_under_way_and_waits_for_its_outputs(tmp_path, to_group):
+    """A scheduler's or a user's ``kill`` reaches the benchmark alone, a terminal's Ctrl-C its whole group: either
+    way the run under way stops after its frame and writes its outputs, marked interrupted, before the benchmark
+    ends with one line (not left running on its own, not killed before its outputs)."""
+    split = tmp_path / "split.yaml"
+    rows = {"abis": {"label": "AbIS", "experiment": "abis_body", "overrides": ["rig=body_multi"]}}
+    entries = {"dictionary": ["mocap_daz/martial_04.bvh"], "test": ["mocap/69_20.bvh"], "max_frames": 40}
+    split.write_text(yaml.safe_dump({**entries, "rows": rows}, sort_keys=False))
+    reports, run_dir = tmp_path / "reports", tmp_path / "reports" / "benchmark" / "69_20" / "abis"
+    command = [sys.executable, "-m", "experiments.benchmark", "--split", str(split), "--reports", str(reports)]
+    benchmark = subprocess.Popen(
+        command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True
+    )
+    deadline = time.monotonic() + 240
+    while not list(run_dir.glob(".run.rrd.*.tmp")) and time.monotonic() < deadline and benchmark.poll() is None:
+        time.sleep(0.2)
+    time.sleep(1.0)  # frames under way
+    stop = signal.SIGINT if to_group else signal.SIGTERM
+    if to_group:
+        os.killpg(benchmark.pid, stop)
+    else:
+        benchmark.send_signal(stop)
+    output, _ = benchmark.communicate(timeout=120)
+    assert benchmark.returncode == 128 + stop, output
+    assert "Traceback" not in output and output.strip().splitlines()[-1] == f"interrupted by {stop.name}", output
+    metrics = json.loads((run_dir / "metrics.json").read_text())  # written before the benchmark ended
+    assert metrics["status"] == f"failed: interrupted by {stop.name}" and 0 < metrics["frames_done"] < 40
+    assert not (reports / "benchmark.md").exists()  # no table of a benchmark cut short
