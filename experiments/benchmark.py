@@ -151,9 +151,7 @@ def main(argv: list[str] | None = None) -> None:
     rows = {name: row for name, row in split.rows.items() if not args.rows or name in args.rows}
     try:
         print(run_benchmark(split, rows, args.reports, args.clips).console)
-    except (
-        KeyboardInterrupt
-    ) as interrupt:  # the run under way wrote its outputs, marked interrupted; run again to resume
+    except KeyboardInterrupt as interrupt:  # the run under way wrote its outputs, marked interrupted: run it again
         exit_interrupted(interrupt)
 
 

@@ -58,25 +58,33 @@ def run_child(command: Sequence[str]) -> int:
     group as a terminal would: the run stops as it does on its own (after its current frame, its outputs written and
     marked interrupted; a second signal stops it at once). This process waits for it, neither leaving it running nor
     killing it, and then raises KeyboardInterrupt with the signal's name (`exit_interrupted`)."""
-    process = subprocess.Popen(list(command), process_group=0)
-    received: list[str] = []
+    received: list[int] = []
+    passed_on = 0
+    process: subprocess.Popen | None = None
 
-    def pass_on(number: int, _frame: object) -> None:
-        received.append(signal.Signals(number).name)
-        try:
-            os.killpg(process.pid, number)
-        except ProcessLookupError:  # it has just ended
-            pass
+    def pass_on(number: int | None = None, _frame: object = None) -> None:
+        nonlocal passed_on
+        if number is not None:
+            received.append(number)
+        while process is not None and passed_on < len(received):  # also those that came while it started
+            try:
+                os.killpg(process.pid, received[passed_on])
+            except ProcessLookupError:  # it has just ended
+                pass
+            passed_on += 1
 
     handled = (signal.SIGINT, signal.SIGTERM) if threading.current_thread() is threading.main_thread() else ()
     previous = {number: signal.signal(number, pass_on) for number in handled}
     try:
-        status = process.wait()
+        if not received:
+            process = subprocess.Popen(list(command), process_group=0)
+            pass_on()
+            status = process.wait()
     finally:
         for number, handler in previous.items():
             signal.signal(number, handler)
     if received:
-        raise KeyboardInterrupt(received[0])
+        raise KeyboardInterrupt(signal.Signals(received[0]).name)
     return status
 
 
