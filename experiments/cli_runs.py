@@ -67,11 +67,11 @@ def run_child(command: Sequence[str]) -> int:
         if number is not None:
             received.append(number)
         while process is not None and passed_on < len(received):  # also those that came while it started
+            passed_on += 1  # counted before it is sent: a signal landing here does not send it twice
             try:
-                os.killpg(process.pid, received[passed_on])
+                os.killpg(process.pid, received[passed_on - 1])
             except ProcessLookupError:  # it has just ended
                 pass
-            passed_on += 1
 
     handled = (signal.SIGINT, signal.SIGTERM) if threading.current_thread() is threading.main_thread() else ()
     previous = {number: signal.signal(number, pass_on) for number in handled}
