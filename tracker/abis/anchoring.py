@@ -43,9 +43,19 @@ class AnchorSettings:
     min_score: Score = 0.8  # normalised cross-correlation at the best offset
 
 
+def observed_patches(observed_gray: np.ndarray, points: np.ndarray, settings: AnchorSettings) -> np.ndarray:
+    """The ``(n, 2h + 1, 2h + 1)`` float64 patches of ``observed_gray`` (float32 grey) around ``points`` ``(n, 2)``,
+    sampled at their sub-pixel positions: what `texture_offsets` matches."""
+    side = 2 * settings.half_window_px + 1
+    if len(points) == 0:
+        return np.empty((0, side, side))
+    return np.stack([cv2.getRectSubPix(observed_gray, (side, side), (float(x), float(y))) for x, y in points]).astype(
+        np.float64
+    )
+
+
 def texture_offsets(
-    observed_gray: np.ndarray,
-    points: np.ndarray,
+    patches: np.ndarray,
     eta: np.ndarray,
     omega: np.ndarray,
     jacobian: np.ndarray,
@@ -54,13 +64,13 @@ def texture_offsets(
     search: bool | np.ndarray = True,
     texture_of: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """For features at ``points`` ``(n, 2)`` over the surface coordinates ``eta``, ``omega`` ``(n,)`` of the
-    estimate, whose pixels move by ``jacobian`` ``(n, 2, 2)`` (d(u, v) / d(eta, omega)): the offsets ``(n, 2)`` in
-    (eta, omega) to the material point the observed patch shows, and which matches were trusted ``(n,)``.
-    ``observed_gray`` and ``textures`` are float32 grey images; ``texture_of`` ``(n,)``: each point's texture (None:
+    """For features seen as ``patches`` (`observed_patches`, of any views) over the surface coordinates ``eta``,
+    ``omega`` ``(n,)`` of the estimate, whose pixels move by ``jacobian`` ``(n, 2, 2)`` (d(u, v) / d(eta, omega)):
+    the offsets ``(n, 2)`` in (eta, omega) to the material point the observed patch shows, and which matches were
+    trusted ``(n,)``. ``textures`` are float32 grey images; ``texture_of`` ``(n,)``: each point's texture (None:
     the first). ``search`` (one for all, or ``(n,)``): look over whole pixels first (a new pair); without, only
     refine from no offset (a pair anchored before, whose feature drifts by a fraction of a pixel per frame)."""
-    n = len(points)
+    n = len(patches)
     h, r = settings.half_window_px, settings.search_px
     offsets, trusted = np.zeros((n, 2)), np.zeros(n, bool)
     usable = np.abs(np.linalg.det(jacobian)) > 1e-9 if n else np.zeros(0, bool)
@@ -70,9 +80,7 @@ def texture_offsets(
     to_surface = np.linalg.inv(jacobian[chosen])  # pixels -> (eta, omega)
     texture_of = np.zeros(n, int) if texture_of is None else np.asarray(texture_of)
     synthesise = _Synthesiser(textures, texture_of[chosen], eta[chosen], omega[chosen], to_surface)
-    patches = np.stack(
-        [cv2.getRectSubPix(observed_gray, (2 * h + 1, 2 * h + 1), (float(x), float(y))) for x, y in points[chosen]]
-    ).astype(np.float64)
+    patches = patches[chosen]
     shift = np.zeros((len(chosen), 2))
     searched = np.flatnonzero(np.broadcast_to(search, (n,))[chosen])
     if len(searched):  # whole pixels: the best normalised cross-correlation over the search window

@@ -17,13 +17,15 @@ from collections.abc import Callable, Mapping, Sequence
 import cv2
 import numpy as np
 
-from tracker.abis.anchoring import texture_offsets
+from tracker.abis.anchoring import observed_patches, texture_offsets
 from tracker.abis.correspondences import (
     POLE_MARGIN_RAD,
     Pairs,
+    PixelsAt,
     pair_features,
     pixel_jacobian,
     refine_surface_coordinates,
+    surface_pixels,
 )
 from tracker.abis.fitting import Prior, fit_part
 from tracker.abis.frame_steps import AbisSequence, feature_rows
@@ -152,8 +154,7 @@ class ArmAbis(AbisSequence):
         world: np.ndarray,
     ) -> Pairs:
         """Each unpaired feature with the nearest visible grid sample of its region's part (any part's, without
-        regions) not taken, then moved exactly under the feature; those that do not come within
-        ``refined_tolerance_px`` of it are dropped."""
+        regions) not taken, at the sample's surface coordinates (`_settled` moves them under the feature)."""
         grid, radius = self.model.sample_grid, self.settings.pairing_radius_px
         if regions is None:  # bottom-up: any unpaired feature with the nearest facing sample of any part
             new = pair_features(
@@ -175,65 +176,91 @@ class ArmAbis(AbisSequence):
                         taken=pairs,
                     )
                 )
-        keep = np.zeros(len(new), bool)
-        for part in np.unique(new.parts):  # move each new pair's point exactly under its feature
-            mine = new.parts == part
-            new.eta[mine], new.omega[mine], distance = refine_surface_coordinates(
-                self._surface(part, world),
-                camera,
-                new.eta[mine],
-                new.omega[mine],
-                feature_rows(features, new.feature_ids[mine]),
-            )
-            keep[mine] = distance <= self.settings.refined_tolerance_px
-        return new.subset(keep)
+        return new
 
-    def _held(self, camera: Camera, features: FeatureFrame, pairs: Pairs, new: Pairs, world: np.ndarray) -> Pairs:
+    def _settled(
+        self, matched: Mapping[str, Pairs], features: Mapping[str, FeatureFrame], world: np.ndarray
+    ) -> dict[str, Pairs]:
+        """Every view's new pairs, each point moved exactly under its feature (all views and parts in one batch);
+        those that do not come within ``refined_tolerance_px`` of it are dropped."""
+        names = list(matched)
+        new = Pairs.joined([matched[name] for name in names])
+        if len(new) == 0:
+            return dict(matched)
+        views = np.repeat(np.arange(len(names)), [len(matched[name]) for name in names])
+        targets = np.concatenate([feature_rows(features[name], matched[name].feature_ids) for name in names])
+        new.eta[:], new.omega[:], distance = refine_surface_coordinates(
+            self._pixels_at(new.parts, views, world), new.eta, new.omega, targets
+        )
+        keep = distance <= self.settings.refined_tolerance_px
+        return {name: new.subset(keep & (views == index)) for index, name in enumerate(names)}
+
+    def _held(
+        self,
+        features: Mapping[str, FeatureFrame],
+        kept: Mapping[str, Pairs],
+        new: Mapping[str, Pairs],
+        world: np.ndarray,
+    ) -> dict[str, Pairs]:
         """The kept and new pairs; with ``anchor``, every new pair and the others in turn (by feature id) anchored
         to the material point its feature shows, by the model's texture, against the features' drift."""
-        held = pairs.extend(new)
+        held = {name: pairs.extend(new[name]) for name, pairs in kept.items()}
         if self.settings.anchor is not None:
-            is_new = np.r_[np.zeros(len(pairs), bool), np.ones(len(new), bool)]
-            every = self.settings.reanchor_every
-            due = is_new | ((held.feature_ids % every == self._frame % every) if every else False)
-            self._anchor(held, due, is_new, camera, features, world)
+            every, due, search = self.settings.reanchor_every, {}, {}
+            for name, pairs in held.items():
+                search[name] = np.r_[np.zeros(len(kept[name]), bool), np.ones(len(new[name]), bool)]
+                due[name] = search[name] | ((pairs.feature_ids % every == self._frame % every) if every else False)
+            self._anchor(held, due, search, features, world)
         return held
+
+    def _pixels_at(self, parts: np.ndarray, views: np.ndarray, world: np.ndarray) -> PixelsAt:
+        """Pixels of points on the estimate's ``parts`` seen by the cameras ``views`` (indices, ``(n,)`` each)."""
+        surfaces = [self._surface(part, world) for part in range(len(self.model.parts))]
+        return surface_pixels(surfaces, self.cameras, parts, views)
 
     def _anchor(
         self,
-        pairs: Pairs,
-        due: np.ndarray,
-        search: np.ndarray,
-        camera: Camera,
-        features: FeatureFrame,
+        pairs: Mapping[str, Pairs],
+        due: Mapping[str, np.ndarray],
+        search: Mapping[str, np.ndarray],
+        features: Mapping[str, FeatureFrame],
         world: np.ndarray,
     ) -> None:
-        """Move the ``due`` pairs' surface coordinates (in place) to the material point their feature shows, as
-        matched against the model's texture around where the estimate puts each pair (`tracker.abis.anchoring`;
-        ``search``: over whole pixels first, for new pairs)."""
-        mine = np.flatnonzero(due)
-        parts = pairs.parts[mine]
+        """Move every view's ``due`` pairs' surface coordinates (in place) to the material point their feature shows,
+        as matched against the model's texture around where the estimate puts each pair (`tracker.abis.anchoring`;
+        ``search``: over whole pixels first, for new pairs). All views' pairs in one batch."""
+        names = list(pairs)
+        mine = {name: np.flatnonzero(due[name]) for name in names}
+        if not any(len(rows) for rows in mine.values()):
+            return
+        parts = np.concatenate([pairs[name].parts[mine[name]] for name in names])
+        eta = np.concatenate([pairs[name].eta[mine[name]] for name in names])
+        omega = np.concatenate([pairs[name].omega[mine[name]] for name in names])
+        views = np.repeat(np.arange(len(names)), [len(mine[name]) for name in names])
         # The observed patch around the feature against the texture around the pair's point, as the estimate maps
-        # it: the match is in the material, whatever the estimate's offset in the image. Every part's at once.
-        jacobian = np.zeros((len(mine), 2, 2))
-        for part in np.unique(parts):
-            on_part = parts == part
-            jacobian[on_part] = pixel_jacobian(
-                self._surface(part, world), camera, pairs.eta[mine[on_part]], pairs.omega[mine[on_part]]
-            )
+        # it: the match is in the material, whatever the estimate's offset in the image.
+        patches = np.concatenate(
+            [
+                observed_patches(
+                    features[name].gray.astype(np.float32),  # the feature tracker's own grey
+                    feature_rows(features[name], pairs[name].feature_ids[mine[name]]),
+                    self.settings.anchor,
+                )
+                for name in names
+            ]
+        )
         offsets, _ = texture_offsets(
-            features.gray.astype(np.float32),  # the feature tracker's own grey
-            feature_rows(features, pairs.feature_ids[mine]),
-            pairs.eta[mine],
-            pairs.omega[mine],
-            jacobian,
+            patches,
+            eta,
+            omega,
+            pixel_jacobian(self._pixels_at(parts, views, world), eta, omega),
             self._textures,
             self.settings.anchor,
-            search[mine],
+            np.concatenate([search[name][mine[name]] for name in names]),
             texture_of=parts,
         )
-        pairs.eta[mine] = np.clip(
-            pairs.eta[mine] + offsets[:, 0], -np.pi / 2 + POLE_MARGIN_RAD, np.pi / 2 - POLE_MARGIN_RAD
-        )  # as `refine_surface_coordinates` keeps them
-        omega = pairs.omega[mine] + offsets[:, 1]
-        pairs.omega[mine] = np.where(np.abs(omega) > np.pi, (omega + np.pi) % (2 * np.pi) - np.pi, omega)
+        eta = np.clip(eta + offsets[:, 0], -np.pi / 2 + POLE_MARGIN_RAD, np.pi / 2 - POLE_MARGIN_RAD)  # as
+        omega = omega + offsets[:, 1]  # `refine_surface_coordinates` keeps them
+        omega = np.where(np.abs(omega) > np.pi, (omega + np.pi) % (2 * np.pi) - np.pi, omega)
+        for index, name in enumerate(names):
+            pairs[name].eta[mine[name]], pairs[name].omega[mine[name]] = eta[views == index], omega[views == index]

@@ -9,7 +9,7 @@ frame 0. A sample takes at most one feature per view: the nearest wins (the pape
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, fields
 from typing import Self
 
@@ -41,12 +41,13 @@ class PairTable:
         return type(self)(**{spec.name: getattr(self, spec.name)[keep] for spec in fields(self)})
 
     def extend(self, other: Self) -> Self:
-        return type(self)(
-            **{
-                spec.name: np.concatenate([getattr(self, spec.name), getattr(other, spec.name)])
-                for spec in fields(self)
-            }
-        )
+        return self.joined([self, other])
+
+    @classmethod
+    def joined(cls, tables: Sequence[Self]) -> Self:
+        """The rows of ``tables`` (at least one) one after another."""
+        columns = {spec.name: [getattr(table, spec.name) for table in tables] for spec in fields(cls)}
+        return cls(**{name: np.concatenate(values) for name, values in columns.items()})
 
     def count_by_part(self, n_parts: int) -> np.ndarray:
         return np.bincount(self.parts, minlength=n_parts)
@@ -104,46 +105,81 @@ def pair_features(
     )
 
 
+PixelsAt = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+"""``(rows, eta, omega) -> (k, 2)``: the pixels of a batch's points ``rows`` put at surface coordinates (eta,
+omega), each ``(k,)``; `surface_pixels` makes one."""
+
+
+def surface_pixels(
+    surfaces: Sequence[Callable[[np.ndarray, np.ndarray], np.ndarray]],
+    cameras: Sequence[Camera],
+    parts: np.ndarray | None = None,
+    views: np.ndarray | None = None,
+) -> PixelsAt:
+    """A batch of points on ``surfaces`` (each (eta, omega) -> world points ``(n, 3)``) seen by ``cameras``:
+    ``parts`` and ``views`` ``(n,)`` say on which surface each point lies and which camera sees it (None: the
+    first). Each surface and each camera is evaluated once a call, over all its points."""
+
+    def groups(of: np.ndarray | None, rows: np.ndarray) -> list[tuple[int, np.ndarray | slice]]:
+        if of is None:
+            return [(0, slice(None))]
+        chosen = of[rows]
+        return [(index, chosen == index) for index in np.unique(chosen)]
+
+    def pixels_at(rows: np.ndarray, eta: np.ndarray, omega: np.ndarray) -> np.ndarray:
+        points = np.empty((len(rows), 3))
+        for part, mine in groups(parts, rows):
+            points[mine] = surfaces[part](eta[mine], omega[mine])
+        pixels = np.empty((len(rows), 2))
+        for view, mine in groups(views, rows):
+            pixels[mine] = cameras[view].project(points[mine])[0]
+        return pixels
+
+    return pixels_at
+
+
 def refine_surface_coordinates(
-    surface: Callable[[np.ndarray, np.ndarray], np.ndarray],
-    camera: Camera,
+    pixels_at: PixelsAt,
     eta: np.ndarray,
     omega: np.ndarray,
     targets: np.ndarray,
     iterations: int = 5,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Move surface coordinates so that ``surface(eta, omega)`` (world points) projects onto ``targets`` pixels.
+    """Move surface coordinates so that each point (``pixels_at``, `surface_pixels`) projects onto its ``targets``
+    pixel.
 
     Gauss-Newton on each pair's (eta, omega), derivatives by central differences, steps damped and capped at
     0.2 rad, eta kept off the poles (where omega is degenerate). Returns eta, omega and the final pixel distances.
     """
     eta, omega = eta.astype(np.float64).copy(), omega.astype(np.float64).copy()
-
-    def pixels(e, w):
-        return camera.project(surface(e, w))[0]
-
+    rows = np.arange(len(eta))
     for _ in range(iterations):
-        residual = pixels(eta, omega) - targets
-        jacobian = pixel_jacobian(surface, camera, eta, omega)
+        pixels, jacobian = _pixels_and_jacobian(pixels_at, rows, eta, omega)
+        residual = pixels - targets
         normal = np.einsum("kji,kjl->kil", jacobian, jacobian) + GAUSS_NEWTON_DAMPING * np.eye(2)
         delta = -np.linalg.solve(normal, np.einsum("kji,kj->ki", jacobian, residual)[..., None])[..., 0]
         delta = np.clip(delta, -0.2, 0.2)
         eta = np.clip(eta + delta[:, 0], -np.pi / 2 + POLE_MARGIN_RAD, np.pi / 2 - POLE_MARGIN_RAD)
         omega = (omega + delta[:, 1] + np.pi) % (2 * np.pi) - np.pi
-    return eta, omega, np.linalg.norm(pixels(eta, omega) - targets, axis=1)
+    return eta, omega, np.linalg.norm(pixels_at(rows, eta, omega) - targets, axis=1)
 
 
-def pixel_jacobian(
-    surface: Callable[[np.ndarray, np.ndarray], np.ndarray], camera: Camera, eta: np.ndarray, omega: np.ndarray
-) -> np.ndarray:
-    """``(k, 2, 2)``: how the pixels of ``surface(eta, omega)`` move with (eta, omega), by central differences;
+def pixel_jacobian(pixels_at: PixelsAt, eta: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    """``(k, 2, 2)``: how the pixels of the points (``pixels_at``) move with (eta, omega), by central differences;
     rows (u, v), columns (d/d eta, d/d omega)."""
+    return _pixels_and_jacobian(pixels_at, np.arange(len(eta)), eta, omega)[1]
+
+
+def _pixels_and_jacobian(
+    pixels_at: PixelsAt, rows: np.ndarray, eta: np.ndarray, omega: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The points' pixels ``(k, 2)`` and `pixel_jacobian`: the points and their four displaced copies in one
+    evaluation."""
     step = DIFFERENCE_STEP_RAD
-    # The four displaced points of every pair in one evaluation and one projection.
-    eta_all = np.concatenate([eta + step, eta - step, eta, eta])
-    omega_all = np.concatenate([omega, omega, omega + step, omega - step])
-    eta_plus, eta_minus, omega_plus, omega_minus = camera.project(surface(eta_all, omega_all))[0].reshape(4, -1, 2)
-    return np.stack([(eta_plus - eta_minus) / (2 * step), (omega_plus - omega_minus) / (2 * step)], axis=2)
+    eta_all = np.concatenate([eta, eta + step, eta - step, eta, eta])
+    omega_all = np.concatenate([omega, omega, omega, omega + step, omega - step])
+    at, eta_plus, eta_minus, omega_plus, omega_minus = pixels_at(np.tile(rows, 5), eta_all, omega_all).reshape(5, -1, 2)
+    return at, np.stack([(eta_plus - eta_minus) / (2 * step), (omega_plus - omega_minus) / (2 * step)], axis=2)
 
 
 def sample_keys(parts: np.ndarray, samples: np.ndarray) -> np.ndarray:

@@ -142,7 +142,8 @@ class AbisSequence:
     parts fitted (2), the new estimate's visibility (3), each view's pairs kept, discarded and made (4), and the
     frame's counts and result. The selection (`tracker.abis.selection`) decides what is seen; a model's sequence
     says how it fits (`_fit`), sees (`_visibility`), where its pairs' points are and how its samples move
-    (`_pair_points`, `_sample_motion`), and how new pairs form and are kept (`_new_pairs`, `_held`). It is built at
+    (`_pair_points`, `_sample_motion`), and how new pairs form and are kept (`_new_pairs` in each view; `_settled`,
+    `_held` for all views at once: at a few pairs a view, a step's fixed cost outweighs its work). It is built at
     `AbisTracker.start` with frame 0's estimate and its empty pair table."""
 
     def __init__(
@@ -185,13 +186,21 @@ class AbisSequence:
         start = time.perf_counter()  # 3. visibility of the new estimate
         zbuffers, visible, points, posed = self._visibility()
         timings["visibility"] = elapsed_ms(start)
-        start = time.perf_counter()  # 4. pair upkeep
-        views = {}
+        start = time.perf_counter()  # 4. pair upkeep: each view's pairs kept and new ones matched, then all views'
+        kept, discarded, matched = {}, {}, {}  # new pairs made ready and held at once (one batch, not one a view)
         for camera in self.cameras:
             name = camera.name
             motion = self._motion.step(camera, points) if self.selection.uses_model_image else None
-            discarded = self._upkeep(camera, features[name], zbuffers[name], visible[name], motion, posed, counts[name])
-            states = feature_states(self._pairs[name].feature_ids, features[name], discarded)
+            kept[name], discarded[name], matched[name] = self._upkeep(
+                camera, features[name], zbuffers[name], visible[name], motion, posed, counts[name]
+            )
+        new = self._settled(matched, features, posed)
+        for name in names:
+            counts[name][:, NEW] = new[name].count_by_part(n_parts)
+        self._pairs = self._held(features, kept, new, posed)
+        views = {}
+        for name in names:
+            states = feature_states(self._pairs[name].feature_ids, features[name], discarded[name])
             views[name] = ViewResult(features[name], states, visible[name])
         timings["pairing"] = elapsed_ms(start)
         if failure is None and all(len(pairs) == 0 for pairs in self._pairs.values()):
@@ -219,11 +228,12 @@ class AbisSequence:
         motion: np.ndarray | None,
         posed: Any,
         counts: np.ndarray,
-    ) -> np.ndarray:
+    ) -> tuple[PairTable, np.ndarray, PairTable]:
         """Step 4 in one view: the pairs the selection no longer sees are discarded for occlusion, those off their
-        feature as false; the unpaired features pair with visible samples (new); all counted into ``counts``
-        ``(parts, 5)``. ``motion``: every sample's image motion over the last frame (with the model image);
-        ``posed``: what `_visibility` posed. Returns the discarded features' ids."""
+        feature as false (counted into ``counts`` ``(parts, 5)``); the unpaired features are matched with visible
+        samples. ``motion``: every sample's image motion over the last frame (with the model image); ``posed``:
+        what `_visibility` posed. Returns the pairs kept, the discarded features' ids and the new pairs matched
+        (`_settled` makes them ready)."""
         pairs = self._pairs[camera.name]
         moving = self.selection.uses_model_image
         seen, uv = self.selection.seen(
@@ -238,10 +248,7 @@ class AbisSequence:
         pairs, discarded = discard(pairs, seen, uv, features, self.settings.max_residual_px, counts)
         unpaired = ~np.isin(features.ids, pairs.feature_ids) & ~np.isin(features.ids, discarded)
         regions = self.selection.regions(zbuffer, features.points)
-        new = self._new_pairs(camera, features, unpaired, regions, visible, pairs, posed)
-        counts[:, NEW] = new.count_by_part(len(self.part_names))
-        self._pairs[camera.name] = self._held(camera, features, pairs, new, posed)
-        return discarded
+        return pairs, discarded, self._new_pairs(camera, features, unpaired, regions, visible, pairs, posed)
 
     def _fit(self, features: Mapping[str, FeatureFrame]) -> tuple[np.ndarray, np.ndarray, np.ndarray, str | None]:
         """Step 2: every part fitted top-down against the current pairs: the estimate, per part eq 8's cost and
@@ -273,9 +280,22 @@ class AbisSequence:
         posed: Any,
     ) -> PairTable:
         """New pairs of the ``unpaired`` features (a mask) with samples of the part whose region holds each
-        (``regions``, -1 none; None: any part), none taken by ``pairs`` already."""
+        (``regions``, -1 none; None: any part), none taken by ``pairs`` already (`_settled` then sees them)."""
         raise NotImplementedError
 
-    def _held(self, camera: Camera, features: FeatureFrame, pairs: PairTable, new: PairTable, posed: Any) -> PairTable:
-        """The view's pairs after the frame: those kept and the new ones."""
-        return pairs.extend(new)
+    def _settled(
+        self, matched: Mapping[str, PairTable], features: Mapping[str, FeatureFrame], posed: Any
+    ) -> dict[str, PairTable]:
+        """Every view's new pairs (``matched``: view -> `_new_pairs`'), ready to be held: as matched, unless a model
+        refines them (all views at once)."""
+        return dict(matched)
+
+    def _held(
+        self,
+        features: Mapping[str, FeatureFrame],
+        kept: Mapping[str, PairTable],
+        new: Mapping[str, PairTable],
+        posed: Any,
+    ) -> dict[str, PairTable]:
+        """Every view's pairs after the frame (view -> table): those kept and the new ones."""
+        return {name: pairs.extend(new[name]) for name, pairs in kept.items()}
