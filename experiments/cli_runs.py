@@ -10,9 +10,9 @@ import signal
 import subprocess
 import sys
 import threading
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import NoReturn
+from typing import IO, NoReturn
 
 from tracker.atomic import atomic_path
 
@@ -52,12 +52,19 @@ def write_text(path: Path, text: str) -> Path:
     return path
 
 
-def run_child(command: Sequence[str]) -> int:
-    """Run ``command`` (a run or a sweep of ours) to its end; its exit status. It leads a process group of its own, so
-    that a terminal's Ctrl-C or a scheduler's SIGTERM reaches this process alone, which passes it on to the child's
-    group as a terminal would: the run stops as it does on its own (after its current frame, its outputs written and
-    marked interrupted; a second signal stops it at once). This process waits for it, neither leaving it running nor
-    killing it, and then raises KeyboardInterrupt with the signal's name (`exit_interrupted`)."""
+def run_child(
+    command: Sequence[str],
+    stdout: IO[bytes] | int | None = None,
+    stderr: IO[bytes] | int | None = None,
+    started: Callable[[subprocess.Popen], object] | None = None,
+) -> int:
+    """Run ``command`` (a run, a sweep or a measuring process of ours) to its end; its exit status. It leads a
+    process group of its own, so that a terminal's Ctrl-C or a scheduler's SIGTERM reaches this process alone, which
+    passes it on to the child's group as a terminal would: a run stops as it does on its own (after its current frame,
+    its outputs written and marked interrupted; a second signal stops it at once). This process waits for it, neither
+    leaving it running nor killing it, and then raises KeyboardInterrupt with the signal's name (`exit_interrupted`).
+    ``stdout``, ``stderr``: where the child's outputs go (as `subprocess.Popen` takes them; None: this process's);
+    ``started`` is called with the child once it runs (to watch it)."""
     received: list[int] = []
     passed_on = 0
     process: subprocess.Popen | None = None
@@ -77,8 +84,10 @@ def run_child(command: Sequence[str]) -> int:
     previous = {number: signal.signal(number, pass_on) for number in handled}
     try:
         if not received:
-            process = subprocess.Popen(list(command), process_group=0)
+            process = subprocess.Popen(list(command), stdout=stdout, stderr=stderr, process_group=0)
             pass_on()
+            if started is not None:
+                started(process)
             status = process.wait()
     finally:
         for number, handler in previous.items():

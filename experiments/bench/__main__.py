@@ -16,6 +16,7 @@ import importlib
 import logging
 
 from experiments.bench.common import json_line
+from experiments.cli_runs import exit_interrupted
 
 TARGETS = ("render", "abis", "silhouettes", "samples", "tbf", "scale")
 
@@ -47,7 +48,10 @@ def main() -> None:
     args = parser.parse_intermixed_args()  # overrides may come after options
     args.width, args.height = (int(v) for v in args.size.lower().split("x"))
     logging.basicConfig(level=logging.INFO, format="%(message)s")
-    figures = importlib.import_module(f"experiments.bench.{args.target}").run(args)
+    try:
+        figures = importlib.import_module(f"experiments.bench.{args.target}").run(args)
+    except KeyboardInterrupt as interrupt:  # a measuring process under way was stopped and waited for
+        exit_interrupted(interrupt)
     if args.json:
         print(json_line(args.target, figures), flush=True)
 

@@ -31,7 +31,7 @@ import psutil
 
 from eval.runs import markdown
 from experiments.bench.tbf import observations, start_tracker, stepped_ms
-from experiments.cli_runs import write_text
+from experiments.cli_runs import run_child, write_text
 from experiments.components import build, compose
 from experiments.steps import Section, Step
 
@@ -88,21 +88,25 @@ class PeakMemory:
 
 
 def run_cell(experiment: str, frames: int, overrides: list[str]) -> dict[str, float]:
-    """`measure_cell` in a process of its own (a fresh interpreter), with its peak memory in GiB."""
+    """`measure_cell` in a process of its own (a fresh interpreter), with its peak memory in GiB. A stop asked of
+    this process is passed on to it, and waited for (`run_child`)."""
     command = [sys.executable, "-m", "experiments.bench", "scale", "--cell", f"--frames={frames}"]
-    process = subprocess.Popen(
-        [*command, f"--experiments={experiment}", *overrides], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL
-    )
-    memory = PeakMemory(process.pid)
-    output, _ = process.communicate()
-    peak_gib, anonymous_gib = memory.close()
-    if process.returncode != 0:
-        raise SystemExit(f"scale: experiment={experiment} {' '.join(overrides)} failed ({process.returncode})")
-    return {
-        **json.loads(output.decode().strip().splitlines()[-1]),
-        "peak_gib": peak_gib,
-        "anonymous_gib": anonymous_gib,
-    }
+    watched: list[PeakMemory] = []
+    with tempfile.TemporaryFile() as output:
+        try:
+            status = run_child(
+                [*command, f"--experiments={experiment}", *overrides],
+                stdout=output,
+                stderr=subprocess.DEVNULL,
+                started=lambda process: watched.append(PeakMemory(process.pid)),
+            )
+        finally:
+            peak_gib, anonymous_gib = watched[0].close() if watched else (0.0, 0.0)
+        output.seek(0)
+        last_line = output.read().decode().strip().splitlines()[-1:]
+    if status != 0 or not last_line:
+        raise SystemExit(f"scale: experiment={experiment} {' '.join(overrides)} failed ({status})")
+    return {**json.loads(last_line[0]), "peak_gib": peak_gib, "anonymous_gib": anonymous_gib}
 
 
 def disk_gib(folder: Path) -> float:

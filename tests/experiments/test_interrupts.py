@@ -1,7 +1,7 @@
 """Ctrl-C and SIGTERM end a run with one line and nothing lost: sent to the whole process group (as a terminal does)
 while a sample set is built on worker processes, the workers stay silent, the run's outputs say it was interrupted,
 the shards built so far stay for the next run to resume from (`tests/tracker/tbf/test_samples.py`), and the exit
-status is the signal's; a benchmark passes a stop on to its run under way and waits for it."""
+status is the signal's; a benchmark passes a stop on to its run (or measuring process) under way and waits for it."""
 
 import json
 import os
@@ -11,6 +11,7 @@ import subprocess
 import sys
 import time
 
+import psutil
 import pytest
 import yaml
 
@@ -126,3 +127,29 @@ def test_a_stopped_benchmark_stops_its_run_under_way_and_waits_for_its_outputs(t
     metrics = json.loads((run_dir / "metrics.json").read_text())  # written before the benchmark ended
     assert metrics["status"] == f"failed: interrupted by {stop.name}" and metrics["frames_done"] < 69
     assert not (reports / "benchmark.md").exists()  # no table of a benchmark cut short
+
+
+def test_a_stopped_scaling_benchmark_stops_its_measuring_process_and_leaves_no_cache(tmp_path):
+    """``kill`` of ``python -m experiments.bench scale`` (or of ``make reproduce`` in its scaling step) while a cell
+    builds its dictionary: the cell's process and its build workers end with it, and its fresh cache is removed."""
+    command = [sys.executable, "-m", "experiments.bench", "scale", "--experiments", "tbf_table4c", "--turns", "1"]
+    bench = subprocess.Popen(
+        [*command, "--frames", "2"],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        start_new_session=True,
+    )
+    deadline = time.monotonic() + 120
+    while not psutil.Process(bench.pid).children() and time.monotonic() < deadline and bench.poll() is None:
+        time.sleep(0.1)
+    time.sleep(2.0)  # the cell is building its dictionary
+    measuring = psutil.Process(bench.pid).children(recursive=True)
+    assert measuring, "no measuring process was seen"
+    bench.send_signal(signal.SIGTERM)  # to the benchmark alone
+    output, _ = bench.communicate(timeout=120)
+    assert bench.returncode == 128 + signal.SIGTERM, output
+    assert "Traceback" not in output and output.strip().splitlines()[-1] == "interrupted by SIGTERM", output
+    assert not [process for process in measuring if process.is_running()], "a measuring process was left running"
+    assert not list((tmp_path / ".cache").glob("scale_*")) and not (tmp_path / "reports").exists()
