@@ -69,10 +69,7 @@ class ModelImage:
         """Which pairs (their ``parts`` and world ``points``, moving ``motion`` px a frame) the view still sees,
         and their pixels: visible in the z-buffer, and no other part's visible sample (moving ``visible_motion``)
         about to reach them."""
-        seen, uv = np.zeros(len(parts), bool), np.zeros((len(parts), 2))
-        for part in np.unique(parts):
-            mine = parts == part
-            seen[mine], uv[mine] = visible_mask(camera, zbuffer, part, points[mine])
+        seen, uv = visible_mask(camera, zbuffer, parts, points)
         seen[seen] = ~reached_by_other_parts(
             uv[seen],
             parts[seen],
@@ -124,11 +121,7 @@ class BackFaces:
         visible_motion: None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Pairs whose point projects inside the image, and their pixels: nothing is discarded for occlusion."""
-        seen, uv = np.zeros(len(parts), bool), np.zeros((len(parts), 2))
-        for part in np.unique(parts):
-            mine = parts == part
-            seen[mine], uv[mine] = in_image(camera, points[mine])
-        return seen, uv
+        return in_image(camera, points)
 
     def regions(self, zbuffer: None, points: np.ndarray) -> None:
         """No region: a feature may pair with any part."""

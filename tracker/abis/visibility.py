@@ -38,8 +38,10 @@ class VisibleSamples:
         return len(self.part)
 
 
-def visible_mask(camera: Camera, zbuffer: DepthLabels, part: int, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Which of part ``part``'s world points ``(n, 3)`` the view sees, and their pixels ``(n, 2)``.
+def visible_mask(
+    camera: Camera, zbuffer: DepthLabels, parts: np.ndarray, points: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Which world points ``(n, 3)``, each on its part ``parts`` ``(n,)``, the view sees, and their pixels ``(n, 2)``.
 
     Part j must have label ``j + 1`` in ``zbuffer`` (the convention of `tracker.models.dsq_arm`).
     """
@@ -48,7 +50,7 @@ def visible_mask(camera: Camera, zbuffer: DepthLabels, part: int, points: np.nda
     inside = np.all(np.isfinite(pixel), axis=1)
     inside[inside] &= np.all((pixel[inside] >= 0) & (pixel[inside] <= [camera.width - 1, camera.height - 1]), 1)
     rows, columns = pixel[inside, 1].astype(int), pixel[inside, 0].astype(int)
-    own_part = zbuffer.labels[rows, columns] == part + 1
+    own_part = zbuffer.labels[rows, columns] == parts[inside] + 1
     nearest = z[inside] <= zbuffer.depth[rows, columns] + VISIBILITY_DEPTH_M
     seen = np.zeros(len(points), bool)
     seen[np.flatnonzero(inside)[own_part & nearest]] = True
@@ -56,15 +58,14 @@ def visible_mask(camera: Camera, zbuffer: DepthLabels, part: int, points: np.nda
 
 
 def visible_samples(camera: Camera, zbuffer: DepthLabels, samples_world: Sequence[np.ndarray]) -> VisibleSamples:
-    """Samples of every part (``samples_world[j]`` is part j's ``(n_j, 3)`` world points) visible in ``camera``."""
-    parts, indices, uvs = [], [], []
-    for part, points in enumerate(samples_world):
-        seen, uv = visible_mask(camera, zbuffer, part, points)
-        chosen = np.flatnonzero(seen)
-        parts.append(np.full(len(chosen), part))
-        indices.append(chosen)
-        uvs.append(uv[chosen])
-    return VisibleSamples(np.concatenate(parts), np.concatenate(indices), np.concatenate(uvs).reshape(-1, 2))
+    """Samples of every part (``samples_world[j]`` is part j's ``(n_j, 3)`` world points) visible in ``camera``,
+    part after part (all parts' in one projection)."""
+    counts = [len(points) for points in samples_world]
+    parts = np.repeat(np.arange(len(counts)), counts)
+    seen, uv = visible_mask(camera, zbuffer, parts, np.concatenate(samples_world).reshape(-1, 3))
+    chosen = np.flatnonzero(seen)
+    first = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(int)  # each part's first row
+    return VisibleSamples(parts[chosen], chosen - first[parts[chosen]], uv[chosen])
 
 
 def occlusion_edges(labels: np.ndarray, margin_px: int) -> np.ndarray:
