@@ -188,11 +188,13 @@ class AbisSequence:
         timings["visibility"] = elapsed_ms(start)
         start = time.perf_counter()  # 4. pair upkeep: each view's pairs kept and new ones matched, then all views'
         kept, discarded, matched = {}, {}, {}  # new pairs made ready and held at once (one batch, not one a view)
-        for camera in self.cameras:
+        held = [self._pairs[name] for name in names]
+        on_estimate = np.split(self._pair_points(held[0].joined(held), posed), np.cumsum([len(t) for t in held])[:-1])
+        for camera, pair_points in zip(self.cameras, on_estimate, strict=True):
             name = camera.name
             motion = self._motion.step(camera, points) if self.selection.uses_model_image else None
             kept[name], discarded[name], matched[name] = self._upkeep(
-                camera, features[name], zbuffers[name], visible[name], motion, posed, counts[name]
+                camera, features[name], zbuffers[name], visible[name], motion, posed, pair_points, counts[name]
             )
         new = self._settled(matched, features, posed)
         for name in names:
@@ -227,20 +229,22 @@ class AbisSequence:
         visible: VisibleSamples,
         motion: np.ndarray | None,
         posed: Any,
+        pair_points: np.ndarray,
         counts: np.ndarray,
     ) -> tuple[PairTable, np.ndarray, PairTable]:
         """Step 4 in one view: the pairs the selection no longer sees are discarded for occlusion, those off their
         feature as false (counted into ``counts`` ``(parts, 5)``); the unpaired features are matched with visible
         samples. ``motion``: every sample's image motion over the last frame (with the model image); ``posed``:
-        what `_visibility` posed. Returns the pairs kept, the discarded features' ids and the new pairs matched
-        (`_settled` makes them ready)."""
+        what `_visibility` posed; ``pair_points``: the view's pairs' world points on it (`_pair_points`, all views'
+        at once). Returns the pairs kept, the discarded features' ids and the new pairs matched (`_settled` makes
+        them ready)."""
         pairs = self._pairs[camera.name]
         moving = self.selection.uses_model_image
         seen, uv = self.selection.seen(
             camera,
             zbuffer,
             pairs.parts,
-            self._pair_points(pairs, posed),
+            pair_points,
             self._sample_motion(pairs.parts, pairs.samples, motion) if moving else None,
             visible,
             self._sample_motion(visible.part, visible.sample, motion) if moving else None,
