@@ -9,6 +9,9 @@ from tracker.geometry.rotations import (
     matrix_to_euler,
     mean_rotation_vectors,
     rigid_transform,
+    rotation_x,
+    rotation_y,
+    rotation_z,
     transform_points,
 )
 
@@ -17,6 +20,15 @@ def test_euler_matches_scipy_extrinsic_xyz():
     rng = np.random.default_rng(0)
     for r in rng.uniform(-np.pi, np.pi, size=(20, 3)):
         np.testing.assert_allclose(euler_to_matrix(r), Rotation.from_euler("xyz", r).as_matrix(), atol=1e-12)
+
+
+def test_a_rotation_asked_again_is_a_fresh_matrix_of_the_same_bits():
+    r = np.array([0.3, -0.7, 1.1])
+    first = euler_to_matrix(r)
+    first[0, 0] = 99.0  # the caller's own array: the next call does not see it
+    again = euler_to_matrix(r.tolist())
+    assert again[0, 0] != 99.0
+    np.testing.assert_array_equal(again, rotation_z(1.1) @ rotation_y(-0.7) @ rotation_x(0.3))
 
 
 def test_wrong_reading_of_the_convention_differs():
