@@ -155,28 +155,17 @@ class ArmAbis(AbisSequence):
     ) -> Pairs:
         """Each unpaired feature with the nearest visible grid sample of its region's part (any part's, without
         regions) not taken, at the sample's surface coordinates (`_settled` moves them under the feature)."""
-        grid, radius = self.model.sample_grid, self.settings.pairing_radius_px
-        if regions is None:  # bottom-up: any unpaired feature with the nearest facing sample of any part
-            new = pair_features(
-                features.ids[unpaired], features.points[unpaired], visible, radius, grid.eta, grid.omega, taken=pairs
-            )
-        else:  # only features inside a part's region pair, and only with samples of that part
-            new = Pairs.empty()
-            for part in range(len(self.model.parts)):
-                candidates, own = unpaired & (regions == part), visible.part == part
-                offered = VisibleSamples(visible.part[own], visible.sample[own], visible.uv[own])
-                new = new.extend(
-                    pair_features(
-                        features.ids[candidates],
-                        features.points[candidates],
-                        offered,
-                        radius,
-                        grid.eta,
-                        grid.omega,
-                        taken=pairs,
-                    )
-                )
-        return new
+        grid = self.model.sample_grid
+        return pair_features(  # without regions, bottom-up: any unpaired feature with the nearest facing sample
+            features.ids[unpaired],
+            features.points[unpaired],
+            visible,
+            self.settings.pairing_radius_px,
+            grid.eta,
+            grid.omega,
+            taken=pairs,
+            feature_parts=None if regions is None else regions[unpaired],  # only with samples of the region's part
+        )
 
     def _settled(
         self, matched: Mapping[str, Pairs], features: Mapping[str, FeatureFrame], world: np.ndarray

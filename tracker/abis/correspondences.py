@@ -74,12 +74,19 @@ def pair_features(
     grid_eta: np.ndarray,
     grid_omega: np.ndarray,
     taken: Pairs | None = None,
+    feature_parts: np.ndarray | None = None,
 ) -> Pairs:
     """Pair features with the nearest visible sample within ``radius_px``, each sample at most once.
 
-    Samples already in ``taken`` are not offered again. The pairs' surface coordinates start at their samples'
-    (``grid_eta``, ``grid_omega``); `refine_surface_coordinates` then moves them under the features.
+    Samples already in ``taken`` are not offered again. With ``feature_parts`` ``(n,)``, a feature pairs only with
+    a sample of its part (-1: none), and the pairs come part after part, as if each part were paired alone (but for
+    which of two samples at exactly the same distance from a feature is taken). The
+    pairs' surface coordinates start at their samples' (``grid_eta``, ``grid_omega``); `refine_surface_coordinates`
+    then moves them under the features.
     """
+    if feature_parts is not None:
+        own = feature_parts >= 0
+        feature_ids, feature_points, feature_parts = feature_ids[own], feature_points[own], feature_parts[own]
     if len(feature_ids) == 0 or len(visible) == 0:
         return Pairs.empty()
     available = np.ones(len(visible), bool)
@@ -88,13 +95,20 @@ def pair_features(
     candidates = np.flatnonzero(available)
     if len(candidates) == 0:
         return Pairs.empty()
-    distance, nearest = cKDTree(visible.uv[candidates]).query(feature_points, distance_upper_bound=radius_px)
+    samples_at, features_at = visible.uv[candidates], feature_points
+    if feature_parts is not None:  # each part on a plane of its own, farther from the others' than the radius:
+        apart = 2 * radius_px + 1  # a distance within a part is the same sum, plus 0
+        samples_at = np.column_stack([samples_at, visible.part[candidates] * apart])
+        features_at = np.column_stack([features_at, feature_parts * apart])
+    distance, nearest = cKDTree(samples_at).query(features_at, distance_upper_bound=radius_px)
     within = np.isfinite(distance)
     order = np.argsort(distance[within], kind="stable")  # nearest first: it wins a contested sample
     features = np.flatnonzero(within)[order]
     chosen = candidates[nearest[within][order]]
     _, first = np.unique(chosen, return_index=True)
     winners = np.sort(first)
+    if feature_parts is not None:
+        winners = winners[np.argsort(visible.part[chosen[winners]], kind="stable")]
     samples = visible.sample[chosen[winners]]
     return Pairs(
         feature_ids[features[winners]],
