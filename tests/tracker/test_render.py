@@ -91,6 +91,8 @@ def test_depth_is_the_camera_z_of_the_nearest_surface(renderer, size):
         zbuffer = renderer.render_depth_labels([camera], [mesh])["c"]
     np.testing.assert_array_equal(zbuffer.depth, view.depth)
     np.testing.assert_array_equal(zbuffer.labels, view.labels)
+    rows, columns = np.random.default_rng(0).integers(0, [height, width], (500, 2)).T  # on and off the sphere
+    np.testing.assert_array_equal(zbuffer.depth_at(rows, columns), view.depth[rows, columns])  # read where needed
     assert iou(view.labels == 1, rasterize(camera, mesh.vertices, mesh.faces)) >= 0.95
     assert iou(view.labels == 1, np.any(view.rgb != DEFAULT_BACKGROUND, axis=2)) >= 0.95  # the same rows
     # Analytic depth: intersect each pixel's ray (through its centre) with the sphere.

@@ -51,7 +51,7 @@ def visible_mask(
     inside[inside] &= np.all((pixel[inside] >= 0) & (pixel[inside] <= [camera.width - 1, camera.height - 1]), 1)
     rows, columns = pixel[inside, 1].astype(int), pixel[inside, 0].astype(int)
     own_part = zbuffer.labels[rows, columns] == parts[inside] + 1
-    nearest = z[inside] <= zbuffer.depth[rows, columns] + VISIBILITY_DEPTH_M
+    nearest = z[inside] <= zbuffer.depth_at(rows, columns) + VISIBILITY_DEPTH_M
     seen = np.zeros(len(points), bool)
     seen[np.flatnonzero(inside)[own_part & nearest]] = True
     return seen, uv

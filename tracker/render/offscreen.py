@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import functools
 import time
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -34,10 +34,20 @@ class RenderedView:
 
 @dataclass(frozen=True, eq=False)
 class DepthLabels:
-    """A z-buffer render: depth and labels as in `RenderedView`, no colour."""
+    """A z-buffer render: labels as in `RenderedView`, no colour, and the depth as the pass read it back (``raw``),
+    made metric only where it is read (`depth_at`; `depth`: the whole image, as in `RenderedView`)."""
 
-    depth: np.ndarray
     labels: np.ndarray
+    raw: np.ndarray  # (h, w), top row first
+    to_metric: Callable[[np.ndarray], np.ndarray] = field(repr=False)  # raw depths -> metric (inf: none), any shape
+
+    def depth_at(self, rows: np.ndarray, columns: np.ndarray) -> np.ndarray:
+        """The metric depth at pixels ``(rows, columns)``: the same values as `depth` there."""
+        return self.to_metric(self.raw[rows, columns])
+
+    @functools.cached_property
+    def depth(self) -> np.ndarray:
+        return self.to_metric(self.raw)
 
 
 DEFAULT_BACKGROUND = (40, 40, 48)  # RGB, 8-bit
@@ -107,9 +117,10 @@ class SceneRenderer:
         for camera in cameras:
             self._set_camera(camera)
             start = time.perf_counter()
-            rgb, depth = self._lit_pass()
+            rgb, raw, to_metric = self._lit_pass()
+            depth = to_metric(raw)
             lit = time.perf_counter()
-            labels, _ = self._label_pass()
+            labels, _, _ = self._label_pass()
             pass_ms["rgb_depth"] += 1e3 * (lit - start)
             pass_ms["labels"] += 1e3 * (time.perf_counter() - lit)
             views[camera.name] = RenderedView(rgb=rgb, depth=depth, labels=labels)
@@ -124,8 +135,7 @@ class SceneRenderer:
         views = {}
         for camera in cameras:
             self._set_camera(camera)
-            labels, depth = self._label_pass()
-            views[camera.name] = DepthLabels(depth=depth, labels=labels)
+            views[camera.name] = DepthLabels(*self._label_pass())
         return views
 
     def _set_camera(self, camera: Camera) -> None:
@@ -139,8 +149,8 @@ class SceneRenderer:
         )
         self._scene.set_pose(self._camera_node, gl.pose)
 
-    def _lit_pass(self) -> tuple[np.ndarray, np.ndarray]:
-        """RGB and metric depth, lit and textured: the lit nodes drawn, the label node hidden."""
+    def _lit_pass(self) -> tuple[np.ndarray, np.ndarray, Callable[[np.ndarray], np.ndarray]]:
+        """RGB and depth (`_draw`), lit and textured: the lit nodes drawn, the label node hidden."""
         if self._label_node is not None:
             self._label_node.mesh.is_visible = False
         try:
@@ -149,8 +159,8 @@ class SceneRenderer:
             if self._label_node is not None:
                 self._label_node.mesh.is_visible = True
 
-    def _label_pass(self) -> tuple[np.ndarray, np.ndarray]:
-        """Labels (0 on the background) and metric depth: the label node drawn unlit on black, the lit nodes
+    def _label_pass(self) -> tuple[np.ndarray, np.ndarray, Callable[[np.ndarray], np.ndarray]]:
+        """Labels (0 on the background) and depth (`_draw`): the label node drawn unlit on black, the lit nodes
         hidden."""
         background, self._scene.bg_color = self._scene.bg_color, np.array([0.0, 0.0, 0.0, 1.0])
         for node in self._lit_nodes:
@@ -162,9 +172,10 @@ class SceneRenderer:
             for node in self._lit_nodes:
                 node.mesh.is_visible = True
 
-    def _draw(self, flags, colour_format: int) -> tuple[np.ndarray, np.ndarray]:
+    def _draw(self, flags, colour_format: int) -> tuple[np.ndarray, np.ndarray, Callable[[np.ndarray], np.ndarray]]:
         """The scene drawn from the camera: its colour buffer (``GL_RGB``: ``(h, w, 3)``, ``GL_RED``: ``(h, w)``,
-        uint8) and its metric depth, both top row first.
+        uint8) and its depth as read back, both top row first, with what makes that depth metric (any pixels of it:
+        a pass whose depth is read at a few pixels converts those alone).
 
         Without framebuffers (OSMesa) pyrender draws to the window's buffer and reads back RGB and a depth it makes
         metric with boolean masks; this reads only the channels asked for, into arrays of its own, and makes the
@@ -174,7 +185,7 @@ class SceneRenderer:
         red = colour_format == gl.GL_RED
         if offscreen._platform.supports_framebuffers():
             colour, depth = offscreen.render(self._scene, flags=flags)
-            return np.ascontiguousarray(colour[:, :, 0] if red else colour), _metric_depth(depth)
+            return np.ascontiguousarray(colour[:, :, 0] if red else colour), depth, _metric_depth
         colour = np.empty((self.height, self.width) if red else (self.height, self.width, 3), np.uint8)
         window_depth = np.empty((self.height, self.width), np.float32)
         offscreen._platform.make_current()
@@ -189,10 +200,11 @@ class SceneRenderer:
             gl.glReadPixels(0, 0, self.width, self.height, gl.GL_DEPTH_COMPONENT, gl.GL_FLOAT, window_depth)
         finally:
             offscreen._platform.make_uncurrent()
-        window_depth = window_depth[::-1]
-        near, far = self.znear, self.zfar  # pyrender's read_depth_buf: window depth -> camera z, 0 if nothing drawn
-        depth = (2.0 * near * far) / (far + near - (2.0 * window_depth - 1.0) * (far - near))
-        return np.ascontiguousarray(colour[::-1]), _metric_depth(np.where(window_depth < 1.0, depth, 0.0))
+        return (
+            np.ascontiguousarray(colour[::-1]),
+            window_depth[::-1],
+            functools.partial(_metric_window_depth, near=self.znear, far=self.zfar),
+        )
 
     def _set_meshes(self, meshes: Sequence[SurfaceMesh], lit: bool) -> None:
         """Replace last frame's nodes (vertices change every frame; materials and textures are reused): the label
@@ -272,6 +284,13 @@ def _node_in_order(node_class: type) -> type:
             return self.order
 
     return NodeInOrder
+
+
+def _metric_window_depth(window_depth: np.ndarray, near: float, far: float) -> np.ndarray:
+    """OpenGL's window depth (1 where nothing was drawn) as metric depth, ``inf`` where nothing was drawn:
+    pyrender's read_depth_buf's formula (camera z, 0 where nothing was drawn), then `_metric_depth`."""
+    depth = (2.0 * near * far) / (far + near - (2.0 * window_depth - 1.0) * (far - near))
+    return _metric_depth(np.where(window_depth < 1.0, depth, 0.0))
 
 
 def _metric_depth(depth: np.ndarray) -> np.ndarray:
