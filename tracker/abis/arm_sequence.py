@@ -172,7 +172,7 @@ class ArmAbis(AbisSequence):
     ) -> dict[str, Pairs]:
         """Every view's new pairs, each point moved exactly under its feature (all views and parts in one batch);
         those that do not come within ``refined_tolerance_px`` of it are dropped."""
-        names = list(matched)
+        names = [camera.name for camera in self.cameras]  # a pair's view: its camera's index
         new = Pairs.joined([matched[name] for name in names])
         if len(new) == 0:
             return dict(matched)
@@ -218,7 +218,7 @@ class ArmAbis(AbisSequence):
         """Move every view's ``due`` pairs' surface coordinates (in place) to the material point their feature shows,
         as matched against the model's texture around where the estimate puts each pair (`tracker.abis.anchoring`;
         ``search``: over whole pixels first, for new pairs). All views' pairs in one batch."""
-        names = list(pairs)
+        names = [camera.name for camera in self.cameras]  # a pair's view: its camera's index
         mine = {name: np.flatnonzero(due[name]) for name in names}
         if not any(len(rows) for rows in mine.values()):
             return
@@ -248,8 +248,9 @@ class ArmAbis(AbisSequence):
             np.concatenate([search[name][mine[name]] for name in names]),
             texture_of=parts,
         )
-        eta = np.clip(eta + offsets[:, 0], -np.pi / 2 + POLE_MARGIN_RAD, np.pi / 2 - POLE_MARGIN_RAD)  # as
-        omega = omega + offsets[:, 1]  # `refine_surface_coordinates` keeps them
+        # Kept in range as `refine_surface_coordinates` keeps them.
+        eta = np.clip(eta + offsets[:, 0], -np.pi / 2 + POLE_MARGIN_RAD, np.pi / 2 - POLE_MARGIN_RAD)
+        omega = omega + offsets[:, 1]
         omega = np.where(np.abs(omega) > np.pi, (omega + np.pi) % (2 * np.pi) - np.pi, omega)
         for index, name in enumerate(names):
             pairs[name].eta[mine[name]], pairs[name].omega[mine[name]] = eta[views == index], omega[views == index]

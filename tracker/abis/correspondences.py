@@ -80,9 +80,9 @@ def pair_features(
 
     Samples already in ``taken`` are not offered again. With ``feature_parts`` ``(n,)``, a feature pairs only with
     a sample of its part (-1: none), and the pairs come part after part, as if each part were paired alone (but for
-    which of two samples at exactly the same distance from a feature is taken). The
-    pairs' surface coordinates start at their samples' (``grid_eta``, ``grid_omega``); `refine_surface_coordinates`
-    then moves them under the features.
+    which of two samples at exactly the same distance from a feature is taken). The pairs' surface coordinates
+    start at their samples' (``grid_eta``, ``grid_omega``); `refine_surface_coordinates` then moves them under the
+    features.
     """
     if feature_parts is not None:
         own = feature_parts >= 0
