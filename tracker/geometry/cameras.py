@@ -112,7 +112,8 @@ def _pixels(p: np.ndarray, fx, fy, cx, cy) -> tuple[np.ndarray, np.ndarray]:
     z = p[:, 2]
     in_front = z > MIN_DEPTH_M
     safe_z = np.where(in_front, z, 1.0)
-    uv = np.stack([fx * p[:, 0] / safe_z + cx, fy * p[:, 1] / safe_z + cy], axis=1)
+    uv = np.empty((len(p), 2))  # filled by column: np.stack's own cost outweighs the arithmetic at a few points
+    uv[:, 0], uv[:, 1] = fx * p[:, 0] / safe_z + cx, fy * p[:, 1] / safe_z + cy
     uv[~in_front] = np.nan
     return uv, z
 
@@ -121,9 +122,10 @@ def _projection_jacobian(p: np.ndarray, fx, fy, axes: np.ndarray) -> np.ndarray:
     """``(n, 2, 3)`` d pixels / d world point at camera-frame points ``p`` ``(n, 3)``; ``axes`` the rotation
     transposed, ``(3, 3)`` of one camera or ``(n, 3, 3)`` each point's (``fx``, ``fy`` then ``(n, 1)``)."""
     x, y, z = p[:, 0:1], p[:, 1:2], p[:, 2:3]
-    du = fx * (axes[..., 0, :] * z - x * axes[..., 2, :]) / z**2
-    dv = fy * (axes[..., 1, :] * z - y * axes[..., 2, :]) / z**2
-    return np.stack([du, dv], axis=1)
+    jacobian = np.empty((len(p), 2, 3))
+    jacobian[:, 0] = fx * (axes[..., 0, :] * z - x * axes[..., 2, :]) / z**2
+    jacobian[:, 1] = fy * (axes[..., 1, :] * z - y * axes[..., 2, :]) / z**2
+    return jacobian
 
 
 def look_at(

@@ -112,7 +112,10 @@ def superquadric_points(q: np.ndarray, eta: np.ndarray, omega: np.ndarray) -> np
 def _superquadric(q: np.ndarray, trig: SurfaceTrig) -> np.ndarray:
     a, a1, a2, a3, eps1, eps2 = q[:6]
     c_eta, s_eta, c_omega, s_omega = trig.signed_powers(eps1, eps2)
-    return a * np.stack([a1 * c_eta * c_omega, a2 * c_eta * s_omega, a3 * s_eta], axis=1)
+    points = np.empty((len(c_eta), 3))  # filled by column: np.stack's own cost outweighs the arithmetic
+    points[:, 0], points[:, 1], points[:, 2] = a1 * c_eta * c_omega, a2 * c_eta * s_omega, a3 * s_eta
+    points *= a
+    return points
 
 
 def deform(q: np.ndarray, e: np.ndarray) -> np.ndarray:
@@ -121,9 +124,11 @@ def deform(q: np.ndarray, e: np.ndarray) -> np.ndarray:
     t1, t2, b1, b2, b3 = q[6:11]
     half_length = a * a3
     z = e[:, 2]
-    s1 = (t1 * z / half_length + 1.0) * e[:, 0] + b1 * np.cos((z + b2) / half_length * math.pi * b3)
-    s2 = (t2 * z / half_length + 1.0) * e[:, 1]
-    return np.stack([s1, s2, z], axis=1)
+    deformed = np.empty_like(e)
+    deformed[:, 0] = (t1 * z / half_length + 1.0) * e[:, 0] + b1 * np.cos((z + b2) / half_length * math.pi * b3)
+    deformed[:, 1] = (t2 * z / half_length + 1.0) * e[:, 1]
+    deformed[:, 2] = z
+    return deformed
 
 
 def dsq_points(q: np.ndarray, eta: np.ndarray, omega: np.ndarray) -> np.ndarray:
