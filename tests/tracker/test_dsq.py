@@ -109,6 +109,17 @@ def test_full_bending_shifts_the_middle_by_b1_and_the_ends_by_minus_b1():
     np.testing.assert_allclose(pole_point(q, top=False), [-0.07, 0.0, -0.4], atol=1e-12)
 
 
+def test_a_pole_asked_again_is_a_fresh_point_of_the_same_bits_whatever_the_pose():
+    q = DSQShape(a=0.4, a1=0.3, a2=0.3, t1=0.2, b1=0.07, b2=0.01, b3=0.8).to_params()
+    first = pole_point(q, top=True)
+    first[0] = 9.0  # the caller's own array: the next call does not see it
+    posed = q.copy()
+    posed[11:] = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6]  # c and r: the pole is in the part's own frame
+    again = pole_point(posed, top=True)
+    np.testing.assert_array_equal(again, dsq_points(q, np.array([np.pi / 2]), np.zeros(1))[0])
+    assert not np.array_equal(pole_point(q, top=False), again)
+
+
 @pytest.mark.parametrize("eps", [0.0, 1e-9, 1e-3])
 def test_no_nan_near_box_limit_and_at_the_poles(eps):
     q = DSQShape(a=1.0, a1=0.5, a2=0.4, a3=0.8, eps1=eps, eps2=eps, t1=0.3, b1=0.1, b3=0.5).to_params()

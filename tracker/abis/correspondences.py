@@ -23,6 +23,7 @@ COUNT_NAMES = ("tracked", "new", "discarded_occlusion", "discarded_error", "lost
 # Refining a pair's surface coordinates: the central-difference step, Gauss-Newton's damping, and how far eta
 # keeps off the poles (where omega is degenerate), all in radians of eta and omega.
 DIFFERENCE_STEP_RAD, GAUSS_NEWTON_DAMPING, POLE_MARGIN_RAD = 1e-5, 1e-6, 1e-3
+_DAMPING = GAUSS_NEWTON_DAMPING * np.eye(2)
 
 
 @dataclass(frozen=True, eq=False)
@@ -170,7 +171,7 @@ def refine_surface_coordinates(
     for _ in range(iterations):
         pixels, jacobian = _pixels_and_jacobian(pixels_at, rows, eta, omega)
         residual = pixels - targets
-        normal = np.einsum("kji,kjl->kil", jacobian, jacobian) + GAUSS_NEWTON_DAMPING * np.eye(2)
+        normal = np.einsum("kji,kjl->kil", jacobian, jacobian) + _DAMPING
         delta = -np.linalg.solve(normal, np.einsum("kji,kj->ki", jacobian, residual)[..., None])[..., 0]
         delta = np.clip(delta, -0.2, 0.2)
         eta = np.clip(eta + delta[:, 0], -np.pi / 2 + POLE_MARGIN_RAD, np.pi / 2 - POLE_MARGIN_RAD)

@@ -16,6 +16,9 @@ from scipy.spatial.transform import Rotation
 
 from tracker.tol import LOG_MAP_ANGLE_RAD, SERIES_ANGLE_RAD, TINY, ZERO_LENGTH
 
+_IDENTITY = np.eye(3)
+_IDENTITY.flags.writeable = False
+
 
 def rotation_x(angle: float) -> np.ndarray:
     c, s = np.cos(angle), np.sin(angle)
@@ -52,8 +55,8 @@ def rotation_vector_to_matrix(vector: np.ndarray) -> np.ndarray:
     angle = np.linalg.norm(vector)
     cross = cross_matrix(vector)
     if angle < ZERO_LENGTH:
-        return np.eye(3) + cross
-    return np.eye(3) + np.sin(angle) / angle * cross + (1 - np.cos(angle)) / angle**2 * (cross @ cross)
+        return _IDENTITY + cross
+    return _IDENTITY + np.sin(angle) / angle * cross + (1 - np.cos(angle)) / angle**2 * (cross @ cross)
 
 
 def rotation_vectors_to_matrices(vectors: np.ndarray) -> np.ndarray:
@@ -65,7 +68,7 @@ def rotation_vectors_to_matrices(vectors: np.ndarray) -> np.ndarray:
     safe = np.where(small, 1.0, angle)
     first = np.where(small, 1.0 - angle**2 / 6, np.sin(safe) / safe)
     second = np.where(small, 0.5 - angle**2 / 24, (1 - np.cos(safe)) / safe**2)
-    return np.eye(3) + first * cross + second * (cross @ cross)
+    return _IDENTITY + first * cross + second * (cross @ cross)
 
 
 def matrices_to_rotation_vectors(rotations: np.ndarray) -> np.ndarray:
@@ -126,7 +129,7 @@ def right_jacobian(vectors: np.ndarray) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         first = np.where(small, 0.5 - angle**2 / 24, (1 - np.cos(angle)) / angle**2)
         second = np.where(small, 1.0 / 6 - angle**2 / 120, (angle - np.sin(angle)) / angle**3)
-    return np.eye(3) - first * cross + second * (cross @ cross)
+    return _IDENTITY - first * cross + second * (cross @ cross)
 
 
 def local_rotation_derivatives(rotation: np.ndarray) -> np.ndarray:
@@ -163,7 +166,7 @@ def matrix_to_euler(rotation: np.ndarray, near: np.ndarray | None = None) -> np.
     tracked rotation's angles then move continuously, also past ``|r2| = pi/2``.
     """
     m = np.asarray(rotation, dtype=np.float64)
-    r2 = np.arcsin(np.clip(-m[2, 0], -1.0, 1.0))
+    r2 = np.arcsin(min(max(-m[2, 0], -1.0), 1.0))  # np.clip's value, without its cost on one number
     if np.hypot(m[2, 1], m[2, 2]) < ZERO_LENGTH:  # cos(r2) == 0: only r3 - r1 (or r3 + r1) is defined
         angles = np.array([0.0, r2, np.arctan2(-m[0, 1], m[1, 1])])
     else:
@@ -171,9 +174,13 @@ def matrix_to_euler(rotation: np.ndarray, near: np.ndarray | None = None) -> np.
     if near is None:
         return angles
     near = np.asarray(near, dtype=np.float64)
-    branches = np.stack([angles, angles * [1, -1, 1] + [np.pi, np.pi, np.pi]])
+    branches = np.empty((2, 3))
+    branches[0], branches[1] = angles, angles * _OTHER_BRANCH_SIGNS + _OTHER_BRANCH_TURNS
     branches = near + (branches - near + np.pi) % (2 * np.pi) - np.pi  # each angle nearest to near's
     return branches[np.argmin(np.sum((branches - near) ** 2, axis=1))]
+
+
+_OTHER_BRANCH_SIGNS, _OTHER_BRANCH_TURNS = np.array([1.0, -1.0, 1.0]), np.full(3, np.pi)  # (r1 + pi, pi - r2, r3 + pi)
 
 
 def rigid_transform(rotation: np.ndarray, translation: np.ndarray) -> np.ndarray:

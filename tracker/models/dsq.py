@@ -144,8 +144,15 @@ def dsq_points_at(q: np.ndarray, trig: SurfaceTrig) -> np.ndarray:
 
 def pole_point(q: np.ndarray, top: bool) -> np.ndarray:
     """The deformed pole at eta = +pi/2 (``top``) or -pi/2: where a part meets its child or parent."""
+    return _pole_point(np.asarray(q, dtype=np.float64)[: len(SHAPE_NAMES)].tobytes(), top).copy()
+
+
+@lru_cache(maxsize=64)
+def _pole_point(shape: bytes, top: bool) -> np.ndarray:
+    """`pole_point` of the shape parameters in ``shape`` (float64 bytes), kept for the shapes last asked: AbIS's arm
+    asks for a part's joint again after each part's fit (14 calls a frame, most for a shape already asked)."""
     eta = np.array([math.pi / 2 if top else -math.pi / 2])
-    return dsq_points(q, eta, np.zeros(1))[0]
+    return dsq_points(np.frombuffer(shape, dtype=np.float64), eta, np.zeros(1))[0]
 
 
 @dataclass(frozen=True, eq=False)
