@@ -188,8 +188,9 @@ class AbisSequence:
         timings["visibility"] = elapsed_ms(start)
         start = time.perf_counter()  # 4. pair upkeep: each view's pairs kept and new ones matched, then all views'
         kept, discarded, matched = {}, {}, {}  # new pairs made ready and held at once (one batch, not one a view)
-        held = [self._pairs[name] for name in names]
-        on_estimate = np.split(self._pair_points(held[0].joined(held), posed), np.cumsum([len(t) for t in held])[:-1])
+        before = [self._pairs[name] for name in names]  # the pairs carried into step 4, their points posed at once
+        ends = np.cumsum([len(pairs) for pairs in before])[:-1]
+        on_estimate = np.split(self._pair_points(before[0].joined(before), posed), ends)
         for camera, pair_points in zip(self.cameras, on_estimate, strict=True):
             name = camera.name
             motion = self._motion.step(camera, points) if self.selection.uses_model_image else None
