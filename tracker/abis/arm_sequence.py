@@ -26,6 +26,7 @@ from tracker.abis.correspondences import (
     pixel_jacobian,
     refine_surface_coordinates,
     surface_pixels,
+    surface_points,
 )
 from tracker.abis.fitting import Prior, fit_part
 from tracker.abis.frame_steps import AbisSequence, feature_rows
@@ -134,11 +135,7 @@ class ArmAbis(AbisSequence):
 
     def _pair_points(self, pairs: Pairs, world: np.ndarray) -> np.ndarray:
         """The pairs' surface points on the estimate, part by part (``world``: the parts' world transforms)."""
-        points = np.zeros((len(pairs), 3))
-        for part in range(len(self.model.parts)):
-            mine = pairs.parts == part
-            points[mine] = self._surface(part, world)(pairs.eta[mine], pairs.omega[mine])
-        return points
+        return surface_points(self._surfaces(world), pairs.parts, pairs.eta, pairs.omega)
 
     def _sample_motion(self, parts: np.ndarray, samples: np.ndarray, motion: np.ndarray) -> np.ndarray:
         return motion[self._sample_offsets[parts] + samples]  # the grid samples, part after part
@@ -204,8 +201,11 @@ class ArmAbis(AbisSequence):
 
     def _pixels_at(self, parts: np.ndarray, views: np.ndarray, world: np.ndarray) -> PixelsAt:
         """Pixels of points on the estimate's ``parts`` seen by the cameras ``views`` (indices, ``(n,)`` each)."""
-        surfaces = [self._surface(part, world) for part in range(len(self.model.parts))]
-        return surface_pixels(surfaces, self.cameras, parts, views)
+        return surface_pixels(self._surfaces(world), self.cameras, parts, views)
+
+    def _surfaces(self, world: np.ndarray) -> list[Callable[[np.ndarray, np.ndarray], np.ndarray]]:
+        """Every part's surface on the estimate (`_surface`), in part order."""
+        return [self._surface(part, world) for part in range(len(self.model.parts))]
 
     def _anchor(
         self,

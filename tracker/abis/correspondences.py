@@ -125,6 +125,21 @@ PixelsAt = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
 omega), each ``(k,)``; `surface_pixels` makes one."""
 
 
+def surface_points(
+    surfaces: Sequence[Callable[[np.ndarray, np.ndarray], np.ndarray]],
+    parts: np.ndarray,
+    eta: np.ndarray,
+    omega: np.ndarray,
+) -> np.ndarray:
+    """World points ``(n, 3)`` at surface coordinates (eta, omega) ``(n,)``, each on its part's surface
+    (``surfaces[parts[k]]``: (eta, omega) -> world points), every part's evaluated once."""
+    points = np.empty((len(parts), 3))
+    for part in np.unique(parts):
+        mine = parts == part
+        points[mine] = surfaces[part](eta[mine], omega[mine])
+    return points
+
+
 def surface_pixels(
     surfaces: Sequence[Callable[[np.ndarray, np.ndarray], np.ndarray]],
     cameras: Sequence[Camera],
@@ -135,18 +150,13 @@ def surface_pixels(
     ``parts`` and ``views`` ``(n,)`` say on which surface each point lies and which camera sees it (None: the
     first). Each surface and each camera is evaluated once a call, over all its points."""
 
-    def groups(of: np.ndarray | None, rows: np.ndarray) -> list[tuple[int, np.ndarray | slice]]:
-        if of is None:
-            return [(0, slice(None))]
-        chosen = of[rows]
-        return [(index, chosen == index) for index in np.unique(chosen)]
-
     def pixels_at(rows: np.ndarray, eta: np.ndarray, omega: np.ndarray) -> np.ndarray:
-        points = np.empty((len(rows), 3))
-        for part, mine in groups(parts, rows):
-            points[mine] = surfaces[part](eta[mine], omega[mine])
-        pixels = np.empty((len(rows), 2))
-        for view, mine in groups(views, rows):
+        points = surface_points(surfaces, np.zeros(len(rows), int) if parts is None else parts[rows], eta, omega)
+        if views is None:
+            return cameras[0].project(points)[0]
+        pixels, seen_by = np.empty((len(rows), 2)), views[rows]
+        for view in np.unique(seen_by):
+            mine = seen_by == view
             pixels[mine] = cameras[view].project(points[mine])[0]
         return pixels
 
