@@ -22,9 +22,8 @@ from tracker.abis.visibility import (
     VisibleSamples,
     facing_samples,
     in_image,
-    interior_labels,
-    occlusion_edges,
     reached_by_other_parts,
+    region_labels_at,
     visible_mask,
     visible_samples,
 )
@@ -84,10 +83,12 @@ class ModelImage:
     def regions(self, zbuffer: DepthLabels, points: np.ndarray) -> np.ndarray:
         """Per feature at ``points`` ``(n, 2)``, the part whose region holds it (-1: none): a part's label away
         from its silhouette and from where another part meets it, whose corners are no material point of either."""
-        edges = occlusion_edges(zbuffer.labels, self.settings.occlusion_margin_px)
-        interior = np.where(edges, 0, interior_labels(zbuffer.labels, self.settings.boundary_margin_px))
         pixel = np.rint(points).astype(int)
-        return interior[pixel[:, 1], pixel[:, 0]].astype(int) - 1
+        settings = self.settings
+        regions = region_labels_at(
+            zbuffer.labels, pixel[:, 1], pixel[:, 0], settings.occlusion_margin_px, settings.boundary_margin_px
+        )
+        return regions.astype(int) - 1
 
 
 class BackFaces:

@@ -90,6 +90,26 @@ def interior_labels(labels: np.ndarray, margin_px: int) -> np.ndarray:
     return np.where((smallest == labels) & (largest == labels), labels, 0)
 
 
+def region_labels_at(
+    labels: np.ndarray, rows: np.ndarray, columns: np.ndarray, occlusion_margin_px: int, boundary_margin_px: int
+) -> np.ndarray:
+    """The labels at pixels ``(rows, columns)``, 0 where `occlusion_edges` (``occlusion_margin_px``) marks the pixel
+    or `interior_labels` (``boundary_margin_px``) drops it: those images read at the pixels, their comparisons made
+    at the pixels alone (a view's few hundred features, not its whole image)."""
+    at = labels[rows, columns]
+    keep = np.ones(len(at), bool)
+    if occlusion_margin_px > 0:
+        kernel = np.ones((2 * occlusion_margin_px + 1, 2 * occlusion_margin_px + 1), np.uint8)
+        largest = cv2.dilate(labels, kernel)[rows, columns]
+        background_high = np.where(labels == 0, np.iinfo(labels.dtype).max, labels).astype(labels.dtype)
+        smallest = cv2.erode(background_high, kernel)[rows, columns]
+        keep &= ~((at > 0) & (smallest < largest))
+    if boundary_margin_px > 0:
+        kernel = np.ones((2 * boundary_margin_px + 1, 2 * boundary_margin_px + 1), np.uint8)
+        keep &= (cv2.erode(labels, kernel)[rows, columns] == at) & (cv2.dilate(labels, kernel)[rows, columns] == at)
+    return np.where(keep, at, 0)
+
+
 def reached_by_other_parts(
     uv: np.ndarray,
     parts: np.ndarray,

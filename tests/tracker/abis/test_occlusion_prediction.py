@@ -3,7 +3,13 @@ part's edge reaches by the next frame, each against a naive implementation."""
 
 import numpy as np
 
-from tracker.abis.visibility import VisibleSamples, occlusion_edges, reached_by_other_parts
+from tracker.abis.visibility import (
+    VisibleSamples,
+    interior_labels,
+    occlusion_edges,
+    reached_by_other_parts,
+    region_labels_at,
+)
 
 
 def naive_occlusion_edges(labels, margin):
@@ -29,6 +35,23 @@ def test_occlusion_edges_are_part_pixels_near_another_part_not_near_the_backgrou
         np.testing.assert_array_equal(occlusion_edges(labels, margin), naive_occlusion_edges(labels, margin))
     edges = occlusion_edges(labels, 3)
     assert not edges[20, 6] and not edges[32, 40]  # a part's own silhouette is no occlusion edge
+
+
+def test_region_labels_at_pixels_read_the_whole_images_there():
+    """A feature's region: its label unless on an occlusion edge or within the boundary margin, the same as the two
+    whole images combined and read at its pixel (every pixel of a random label image, margins 0 to 3)."""
+    rng = np.random.default_rng(2)
+    labels = np.zeros((40, 50), np.uint8)
+    labels[5:30, 5:25] = 1
+    labels[10:35, 20:45] = 2
+    labels[12:16, 30:34] = 3
+    labels[rng.uniform(size=labels.shape) < 0.02] = 0
+    rows, columns = np.indices(labels.shape).reshape(2, -1)
+    for occlusion_margin, boundary_margin in [(0, 0), (3, 0), (0, 2), (3, 2), (1, 3)]:
+        whole = np.where(occlusion_edges(labels, occlusion_margin), 0, interior_labels(labels, boundary_margin))
+        at = region_labels_at(labels, rows, columns, occlusion_margin, boundary_margin)
+        np.testing.assert_array_equal(at, whole[rows, columns])
+    assert 0 < np.count_nonzero(at) < np.count_nonzero(labels)  # some pixels dropped, some kept
 
 
 def test_points_are_reached_within_the_margin_plus_the_relative_motion_of_another_parts_samples():
