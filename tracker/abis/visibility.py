@@ -5,8 +5,9 @@ image, the label image shows part j at its pixel (nothing else in front: occlusi
 z-buffer depth there is not more than `VISIBILITY_DEPTH_M` in front of the point (not behind its own part's near
 side: self-occlusion).
 
-The model's image also predicts occlusion: `occlusion_edges` marks where two parts meet in the label image, and
-`reached_by_other_parts` the points another part's edge reaches by the next frame, moving as in the last one.
+The model's image also predicts occlusion: `region_labels_at` keeps new pairs off the occlusion edges, where two
+parts meet in the label image, and `reached_by_other_parts` finds the points another part's edge reaches by the
+next frame, moving as in the last one.
 
 Without the model's image (`facing_samples`, the ablation ``tracker.selection=none``), a sample counts as seen when
 it projects inside the image and its surface faces the camera: the back-face test alone, blind to other parts.
@@ -68,34 +69,14 @@ def visible_samples(camera: Camera, zbuffer: DepthLabels, samples_world: Sequenc
     return VisibleSamples(parts[chosen], chosen - first[parts[chosen]], uv[chosen])
 
 
-def occlusion_edges(labels: np.ndarray, margin_px: int) -> np.ndarray:
-    """``(h, w)`` bool: pixels of a part with another part within ``margin_px`` (a square neighbourhood), where a
-    feature's window straddles two parts' surfaces. The background does not count: a part's own silhouette is no
-    occlusion edge."""
-    if margin_px <= 0:
-        return np.zeros(labels.shape, bool)
-    kernel = np.ones((2 * margin_px + 1, 2 * margin_px + 1), np.uint8)
-    largest = cv2.dilate(labels, kernel)
-    smallest = cv2.erode(np.where(labels == 0, np.iinfo(labels.dtype).max, labels).astype(labels.dtype), kernel)
-    return (labels > 0) & (smallest < largest)
-
-
-def interior_labels(labels: np.ndarray, margin_px: int) -> np.ndarray:
-    """The label image with every pixel within ``margin_px`` of another label (or the background) set to 0."""
-    if margin_px <= 0:
-        return labels
-    kernel = np.ones((2 * margin_px + 1, 2 * margin_px + 1), np.uint8)
-    smallest = cv2.erode(labels, kernel)  # a pixel keeps its label only if its whole neighbourhood has it
-    largest = cv2.dilate(labels, kernel)
-    return np.where((smallest == labels) & (largest == labels), labels, 0)
-
-
 def region_labels_at(
     labels: np.ndarray, rows: np.ndarray, columns: np.ndarray, occlusion_margin_px: int, boundary_margin_px: int
 ) -> np.ndarray:
-    """The labels at pixels ``(rows, columns)``, 0 where `occlusion_edges` (``occlusion_margin_px``) marks the pixel
-    or `interior_labels` (``boundary_margin_px``) drops it: those images read at the pixels, their comparisons made
-    at the pixels alone (a view's few hundred features, not its whole image)."""
+    """The labels at pixels ``(rows, columns)`` ``(n,)``, 0 where the pixel is on an occlusion edge or near the
+    silhouette: a part's pixel with another part (not the background) within ``occlusion_margin_px`` (a square
+    neighbourhood), where a feature's window straddles two parts' surfaces; or with another label, the background
+    among them, within ``boundary_margin_px``. The neighbourhoods' extremes come from whole-image morphology, the
+    tests are made at the pixels alone (a view's few hundred features, not its whole image)."""
     at = labels[rows, columns]
     keep = np.ones(len(at), bool)
     if occlusion_margin_px > 0:

@@ -1,57 +1,63 @@
-"""The model image's prediction of occlusion: occluding edges between parts in a label image, and the points another
-part's edge reaches by the next frame, each against a naive implementation."""
+"""The model image's prediction of occlusion: the feature regions (occluding edges between parts in a label image and
+the silhouette's margin kept out), and the points another part's edge reaches by the next frame, each against a
+naive implementation."""
 
 import numpy as np
 
-from tracker.abis.visibility import (
-    VisibleSamples,
-    interior_labels,
-    occlusion_edges,
-    reached_by_other_parts,
-    region_labels_at,
-)
+from tracker.abis.visibility import VisibleSamples, reached_by_other_parts, region_labels_at
 
 
 def naive_occlusion_edges(labels, margin):
-    height, width = labels.shape
+    """A part's pixels with another part (not the background) in the square window of ``margin`` around them."""
     edges = np.zeros(labels.shape, bool)
-    for y in range(height):
-        for x in range(width):
-            if labels[y, x] == 0:
-                continue
-            window = labels[max(0, y - margin) : y + margin + 1, max(0, x - margin) : x + margin + 1]
-            edges[y, x] = np.any((window != labels[y, x]) & (window != 0))
+    for y, x in zip(*np.nonzero(labels), strict=True):
+        window = labels[max(0, y - margin) : y + margin + 1, max(0, x - margin) : x + margin + 1]
+        edges[y, x] = np.any((window != labels[y, x]) & (window != 0))
     return edges
 
 
-def test_occlusion_edges_are_part_pixels_near_another_part_not_near_the_background():
-    rng = np.random.default_rng(0)
+def naive_near_another_label(labels, margin):
+    """Pixels with any other label, the background among them, in the square window of ``margin`` around them."""
+    near = np.zeros(labels.shape, bool)
+    for y, x in np.ndindex(labels.shape):
+        window = labels[max(0, y - margin) : y + margin + 1, max(0, x - margin) : x + margin + 1]
+        near[y, x] = np.any(window != labels[y, x])
+    return near
+
+
+def three_parts(rng):
     labels = np.zeros((40, 50), np.uint8)
     labels[5:30, 5:25] = 1
     labels[10:35, 20:45] = 2  # overlaps part 1: an occluding edge along x = 20
     labels[12:16, 30:34] = 3
     labels[rng.uniform(size=labels.shape) < 0.02] = 0  # specks of background
-    for margin in (0, 1, 3):
-        np.testing.assert_array_equal(occlusion_edges(labels, margin), naive_occlusion_edges(labels, margin))
-    edges = occlusion_edges(labels, 3)
-    assert not edges[20, 6] and not edges[32, 40]  # a part's own silhouette is no occlusion edge
+    return labels
 
 
-def test_region_labels_at_pixels_read_the_whole_images_there():
-    """A feature's region: its label unless on an occlusion edge or within the boundary margin, the same as the two
-    whole images combined and read at its pixel (every pixel of a random label image, margins 0 to 3)."""
-    rng = np.random.default_rng(2)
-    labels = np.zeros((40, 50), np.uint8)
-    labels[5:30, 5:25] = 1
-    labels[10:35, 20:45] = 2
-    labels[12:16, 30:34] = 3
-    labels[rng.uniform(size=labels.shape) < 0.02] = 0
+def regions_everywhere(labels, occlusion_margin, boundary_margin):
     rows, columns = np.indices(labels.shape).reshape(2, -1)
-    for occlusion_margin, boundary_margin in [(0, 0), (3, 0), (0, 2), (3, 2), (1, 3)]:
-        whole = np.where(occlusion_edges(labels, occlusion_margin), 0, interior_labels(labels, boundary_margin))
-        at = region_labels_at(labels, rows, columns, occlusion_margin, boundary_margin)
-        np.testing.assert_array_equal(at, whole[rows, columns])
-    assert 0 < np.count_nonzero(at) < np.count_nonzero(labels)  # some pixels dropped, some kept
+    return region_labels_at(labels, rows, columns, occlusion_margin, boundary_margin).reshape(labels.shape)
+
+
+def test_feature_regions_drop_occlusion_edges_and_the_silhouettes_margin_as_a_naive_window_does():
+    """Every pixel of a label image, margins 0 to 3: the label, or 0 on an occlusion edge or near another label."""
+    labels = three_parts(np.random.default_rng(0))
+    for occlusion_margin, boundary_margin in [(0, 0), (1, 0), (3, 0), (0, 2), (3, 2), (1, 3)]:
+        dropped = naive_occlusion_edges(labels, occlusion_margin) | naive_near_another_label(labels, boundary_margin)
+        expected = np.where(dropped, 0, labels)
+        np.testing.assert_array_equal(regions_everywhere(labels, occlusion_margin, boundary_margin), expected)
+    regions = regions_everywhere(labels, 3, 0)
+    assert regions[20, 6] == 1 and regions[32, 40] == 2  # a part's own silhouette is no occlusion edge
+    assert regions[20, 20] == 0 and regions[20, 18] == 0  # where parts 1 and 2 meet, and within 3 px of it
+
+
+def test_the_boundary_margin_drops_a_band_at_every_edge():
+    labels = np.zeros((20, 30), np.uint8)
+    labels[5:15, 5:15], labels[5:15, 15:25] = 1, 2
+    interior = regions_everywhere(labels, 0, 2)
+    assert (interior[7:13, 7:13] == 1).all() and (interior[7:13, 17:23] == 2).all()
+    assert (interior[:, 13:17] == 0).all()  # the boundary between the parts
+    assert (interior[5:7] == 0).all() and (interior[:, 5:7] == 0).all()  # the silhouette
 
 
 def test_points_are_reached_within_the_margin_plus_the_relative_motion_of_another_parts_samples():

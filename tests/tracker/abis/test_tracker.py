@@ -5,7 +5,6 @@ from tracker.abis.arm_sequence import initial_estimate
 from tracker.abis.correspondences import COUNT_NAMES
 from tracker.abis.settings import InitialNoise
 from tracker.abis.tracker import AbisTracker
-from tracker.abis.visibility import interior_labels
 from tracker.models.dsq import PARAM_INDEX
 from tracker.protocol import Observation
 from tracker.sequence import simulate
@@ -51,15 +50,6 @@ def test_the_forearm_is_followed_and_hidden_from_the_left(run):
     assert all(result.failure is None for result in results)
     assert results[0].pairs["left"][1] == 0  # straight forearm: no pairs where it cannot be seen
     assert all(result.iterations[1] > 0 for result in results[1:])
-
-
-def test_interior_labels_drop_a_margin_at_every_edge():
-    labels = np.zeros((20, 30), np.uint8)
-    labels[5:15, 5:15], labels[5:15, 15:25] = 1, 2
-    interior = interior_labels(labels, 2)
-    assert (interior[7:13, 7:13] == 1).all() and (interior[7:13, 17:23] == 2).all()
-    assert (interior[:, 13:17] == 0).all()  # the boundary between the parts
-    assert (interior[5:7] == 0).all() and (interior[:, 5:7] == 0).all()  # the silhouette
 
 
 def test_initial_noise_is_seeded_and_keeps_joints_connected(arm, motion):
