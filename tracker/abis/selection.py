@@ -85,10 +85,10 @@ class ModelImage:
         from its silhouette and from where another part meets it, whose corners are no material point of either."""
         pixel = np.rint(points).astype(int)
         settings = self.settings
-        regions = region_labels_at(
+        labels = region_labels_at(
             zbuffer.labels, pixel[:, 1], pixel[:, 0], settings.occlusion_margin_px, settings.boundary_margin_px
         )
-        return regions.astype(int) - 1
+        return labels.astype(int) - 1
 
 
 class BackFaces:

@@ -76,7 +76,7 @@ def region_labels_at(
     silhouette: a part's pixel with another part (not the background) within ``occlusion_margin_px`` (a square
     neighbourhood), where a feature's window straddles two parts' surfaces; or with another label, the background
     among them, within ``boundary_margin_px``. The neighbourhoods' extremes come from whole-image morphology, the
-    tests are made at the pixels alone (a view's few hundred features, not its whole image)."""
+    comparisons are made at the pixels alone (a view's few hundred features, not its whole image)."""
     at = labels[rows, columns]
     keep = np.ones(len(at), bool)
     if occlusion_margin_px > 0:
