@@ -18,6 +18,8 @@ from tracker.tol import LOG_MAP_ANGLE_RAD, SERIES_ANGLE_RAD, TINY, ZERO_LENGTH
 
 _IDENTITY = np.eye(3)
 _IDENTITY.flags.writeable = False
+# matrix_to_euler's other branch of the same rotation: (r1 + pi, pi - r2, r3 + pi)
+_OTHER_BRANCH_SIGNS, _OTHER_BRANCH_TURNS = np.array([1.0, -1.0, 1.0]), np.full(3, np.pi)
 
 
 def rotation_x(angle: float) -> np.ndarray:
@@ -178,9 +180,6 @@ def matrix_to_euler(rotation: np.ndarray, near: np.ndarray | None = None) -> np.
     branches[0], branches[1] = angles, angles * _OTHER_BRANCH_SIGNS + _OTHER_BRANCH_TURNS
     branches = near + (branches - near + np.pi) % (2 * np.pi) - np.pi  # each angle nearest to near's
     return branches[np.argmin(np.sum((branches - near) ** 2, axis=1))]
-
-
-_OTHER_BRANCH_SIGNS, _OTHER_BRANCH_TURNS = np.array([1.0, -1.0, 1.0]), np.full(3, np.pi)  # (r1 + pi, pi - r2, r3 + pi)
 
 
 def rigid_transform(rotation: np.ndarray, translation: np.ndarray) -> np.ndarray:
