@@ -3,6 +3,7 @@ bookkeeping over the views' feature tracks, the samples' image motion, and the r
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -18,6 +19,7 @@ from tracker.geometry.cameras import Camera
 from tracker.observe.features import FeatureFrame, FeatureTracker
 from tracker.protocol import Observation, Points, StepResult
 from tracker.render.offscreen import DepthLabels
+from tracker.threads import TwoEndedJobs
 from tracker.timing import elapsed_ms
 
 TRACKED, NEW, DISCARDED_OCCLUSION, DISCARDED_ERROR, LOST = range(len(COUNT_NAMES))
@@ -172,8 +174,11 @@ class AbisSequence:
         failure = None
         cost, iterations = np.zeros(n_parts), np.zeros(n_parts, int)
 
-        start = time.perf_counter()
-        features = {name: self._trackers[name].step(observation.images[name]) for name in names}
+        start = time.perf_counter()  # the views' features tracked here and on a worker thread (OpenCV frees the GIL)
+        tracking = TwoEndedJobs(
+            [functools.partial(self._trackers[name].step, observation.images[name]) for name in names]
+        )
+        features = {name: tracking.result(index) for index, name in enumerate(names)}
         timings["features"] = elapsed_ms(start)
         if self._frame > 0:
             self._pairs = carry_over(self._pairs, features, counts, n_parts)  # 1. pairs whose feature was tracked
