@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 
+from tracker import threads
 from tracker.abis.arm_sequence import initial_estimate
 from tracker.abis.correspondences import COUNT_NAMES
 from tracker.abis.settings import InitialNoise
@@ -12,13 +13,12 @@ from tracker.sequence import simulate
 TRACKED, NEW, OCCLUSION, ERROR, LOST = (COUNT_NAMES.index(name) for name in COUNT_NAMES)
 
 
-@pytest.fixture(scope="module")
-def run(arm, motion, rig, renderer):
-    """12 frames of the default scene tracked with the default settings."""
+def track(arm, motion, rig, renderer, frames=12):
+    """``frames`` frames of the default scene tracked with the default settings: the results and the truths."""
     tracker = AbisTracker()
     results, truths = [], []
     try:
-        for frame in simulate(arm, motion, rig, renderer, 12):
+        for frame in simulate(arm, motion, rig, renderer, frames):
             if frame.frame == 0:
                 tracker.start(arm, rig, frame.truth, np.random.default_rng(0))
             results.append(tracker.step(frame.observation()))
@@ -26,6 +26,24 @@ def run(arm, motion, rig, renderer):
     finally:
         tracker.close()
     return results, np.array(truths)
+
+
+@pytest.fixture(scope="module")
+def run(arm, motion, rig, renderer):
+    """12 frames of the default scene tracked with the default settings."""
+    return track(arm, motion, rig, renderer)
+
+
+def test_the_views_features_on_worker_threads_change_nothing(run, arm, motion, rig, renderer, monkeypatch):
+    """The views' features are tracked on the caller's and the worker threads at once: the same run, bit for bit, as
+    one view after another on the caller's thread alone."""
+    monkeypatch.setattr(threads, "WORKERS", 0)
+    alone, _ = track(arm, motion, rig, renderer, frames=6)
+    for threaded, serial in zip(run[0], alone, strict=False):
+        np.testing.assert_array_equal(threaded.estimate, serial.estimate)
+        for view, seen in serial.views.items():
+            np.testing.assert_array_equal(threaded.views[view].features.points, seen.features.points)
+            np.testing.assert_array_equal(threaded.views[view].feature_states, seen.feature_states)
 
 
 def test_pair_counts_balance_from_frame_to_frame(run):
