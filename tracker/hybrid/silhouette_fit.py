@@ -43,7 +43,7 @@ from tracker.geometry.cameras import Camera, projection_jacobian
 from tracker.hybrid.feature_pairs import FeaturePairSettings, ViewPairs
 from tracker.hybrid.view_field import ViewField
 from tracker.models.body_mesh import BodyMesh
-from tracker.models.body_skeleton import JOINT_INDEX, JOINT_NAMES
+from tracker.models.body_skeleton import JOINT_INDEX, JOINT_NAMES, POSE_SIZE
 from tracker.models.skinning_jacobian import SkinningLevers, skinning_levers
 from tracker.ranges import NonNegative, Positive, Range
 from tracker.render.mesh import vertex_normals
@@ -153,16 +153,21 @@ class SilhouetteFit:
         self._asked = {}
 
     def normals(self, rotations: np.ndarray) -> np.ndarray:
-        """``(V, 3)`` the posed vertices' unit normals, skinned as the vertices are (the bones' ``rotations``)."""
-        blended = (self.body.weights @ rotations.reshape(len(rotations), 9)).reshape(-1, 3, 3)
-        normals = np.einsum("vab,vb->va", blended, self.rest_normals)
-        return normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+        """``(n, V, 3)`` the posed vertices' unit normals, skinned as the vertices are, of ``n`` poses (their bones'
+        ``rotations`` ``(n, J, 3, 3)``)."""
+        count, joints = rotations.shape[:2]
+        blended = (self.body.weights @ rotations.transpose(1, 0, 2, 3).reshape(joints, count * 9)).reshape(
+            -1, count, 3, 3
+        )
+        normals = np.einsum("vnab,vb->nva", blended, self.rest_normals)
+        return normals / np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-12)
 
-    def outline(self, points: np.ndarray, normals: np.ndarray, camera: Camera) -> np.ndarray:
-        """The vertices on the body's outline seen from ``camera`` (indices into ``points``)."""
+    def on_outline(self, points: np.ndarray, normals: np.ndarray, camera: Camera) -> np.ndarray:
+        """``(n, V)`` bool: the vertices ``points`` ``(n, V, 3)`` of ``n`` poses on the body's outline seen from
+        ``camera``."""
         rays = points - camera.position
-        rays /= np.linalg.norm(rays, axis=1, keepdims=True)
-        return np.flatnonzero(np.abs(np.einsum("va,va->v", normals, rays)) < self.settings.outline_cos)
+        rays /= np.linalg.norm(rays, axis=2, keepdims=True)
+        return np.abs(np.einsum("nva,nva->nv", normals, rays)) < self.settings.outline_cos
 
     def residuals(self, pose: np.ndarray, jacobian: bool = True) -> list[Term]:
         """Per view, the region term, the cover term and, with pairs observed, the feature term (a pair's ``u`` then
@@ -172,12 +177,7 @@ class SilhouetteFit:
         it has just taken a step, whose cost it computed to accept it, and the hybrid refines on, and judges, poses
         it screened."""
         pose = np.asarray(pose, dtype=np.float64)
-        key = pose.tobytes()
-        if key not in self._asked:
-            if len(self._asked) == self.POSES_KEPT:
-                del self._asked[next(iter(self._asked))]  # the oldest
-            self._asked[key] = self._terms(pose)
-        terms, moves, points, transforms = self._asked[key]
+        terms, moves, points, transforms = self._kept_terms(pose[None])[0]
         if not jacobian:
             return list(terms)
         needed, where = np.unique(np.concatenate([corners.ravel() for *_, corners, _ in moves]), return_inverse=True)
@@ -198,43 +198,76 @@ class SilhouetteFit:
             rows.append(term._replace(rows=residual_rows(camera, point, directions, moving)))
         return rows
 
-    def _terms(self, pose: np.ndarray) -> tuple[list[Term], list[tuple], np.ndarray, tuple[np.ndarray, np.ndarray]]:
-        """The terms at ``pose`` without their rows, what moves each (below), the posed vertices, the bones'
-        transforms."""
-        transforms = self.body.bone_transforms(pose)
-        points = self.body.posed_vertices(pose, transforms=transforms)
-        normals = self.normals(transforms[0])
+    def _kept_terms(self, poses: np.ndarray) -> list[tuple]:
+        """`_terms` of ``poses`` ``(n, POSE_SIZE)``: those kept (`residuals`), the others made in one batch and
+        kept."""
+        keys = [pose.tobytes() for pose in poses]
+        found = {key: self._asked[key] for key in keys if key in self._asked}
+        missing = list(dict.fromkeys(key for key in keys if key not in found))
+        found.update(zip(missing, self._terms(np.array([poses[keys.index(key)] for key in missing])), strict=True))
+        for key in missing:
+            if len(self._asked) == self.POSES_KEPT:
+                del self._asked[next(iter(self._asked))]  # the oldest
+            self._asked[key] = found[key]
+        return [found[key] for key in keys]
+
+    def _terms(self, poses: np.ndarray) -> list[tuple[list[Term], list[tuple], np.ndarray, tuple]]:
+        """Per pose of ``poses`` ``(n, POSE_SIZE)`` (n may be 0): its terms without their rows, what moves each
+        (below), its posed vertices and its bones' transforms. The poses are posed, skinned, projected and read
+        from each view's field together: each pose's numbers are those of a batch of one, bit for bit."""
+        if len(poses) == 0:
+            return []
+        rotations, heads = self.body.bone_transforms(poses)
+        points = self.body.posed_vertices(poses, transforms=(rotations, heads))  # (n, V, 3)
+        normals = self.normals(rotations)
         settings, features = self.settings, self.settings.features
+        count, vertices = points.shape[:2]
         # Per term, what moves its residuals: the camera, each residual's direction on the pixel of its point, and
         # the point: a blend of vertices (``corners`` (n, c), ``blend`` (n, c): a face's corners), or one vertex
         # (``corners`` (n, 1), ``blend`` None).
-        terms, moves = [], []
+        made: list[tuple[list, list]] = [([], []) for _ in range(count)]
         for view, pairs in zip(self.fields, self.pairs, strict=True):
-            uv, _ = view.camera.project(points)
-            uv = np.nan_to_num(uv, nan=-1e3)
-            outside, gradient = view.sample(uv[self.region])
-            outline = self.outline(points, normals, view.camera)
-            if len(outline) and len(view.edge):
-                _, nearest = cKDTree(uv[outline]).query(view.edge)
-                cover_vertices, edge, edge_normals = outline[nearest], view.edge, view.edge_normals
-            else:
-                cover_vertices, edge, edge_normals = np.zeros(0, dtype=np.int64), view.edge[:0], view.edge_normals[:0]
-            cover = np.einsum("na,na->n", uv[cover_vertices] - edge, edge_normals)
-            terms += [Term(outside, None, settings.robust_px, 1.0), Term(cover, None, settings.robust_px, 1.0)]
-            for directions, vertices in ((gradient, self.region), (edge_normals, cover_vertices)):
-                moves.append((view.camera, directions, vertices[:, None], None))
-            if len(pairs) and features.weight > 0:
+            uv = np.nan_to_num(view.camera.project(points.reshape(-1, 3))[0], nan=-1e3).reshape(count, vertices, 2)
+            outside, gradient = view.sample(uv[:, self.region].reshape(-1, 2))
+            outside, gradient = outside.reshape(count, -1), gradient.reshape(count, -1, 2)
+            outline = self.on_outline(points, normals, view.camera)
+            paired = len(pairs) and features.weight > 0
+            if paired:
                 corners = self.body.faces[pairs.faces]
-                seen, _ = view.camera.project(np.einsum("kc,kcd->kd", pairs.barycentric, points[corners]))
-                values = (np.nan_to_num(seen, nan=-1e3) - pairs.pixels).ravel()  # u0, v0, u1, v1, ...
-                terms.append(Term(values, None, features.robust_px, features.weight, silhouette=False))
-                directions = np.tile(np.eye(2), (len(pairs), 1))
-                moves.append((view.camera, directions, np.repeat(corners, 2, 0), np.repeat(pairs.barycentric, 2, 0)))
-        return terms, moves, points, transforms
+                on_body = np.einsum("kc,nkcd->nkd", pairs.barycentric, points[:, corners]).reshape(-1, 3)
+                seen = np.nan_to_num(view.camera.project(on_body)[0], nan=-1e3).reshape(count, len(pairs), 2)
+            for pose, (terms, moves) in enumerate(made):
+                on_outline = np.flatnonzero(outline[pose])
+                if len(on_outline) and len(view.edge):
+                    _, nearest = cKDTree(uv[pose, on_outline]).query(view.edge)
+                    cover_vertices, edge, edge_normals = on_outline[nearest], view.edge, view.edge_normals
+                else:
+                    cover_vertices = np.zeros(0, dtype=np.int64)
+                    edge, edge_normals = view.edge[:0], view.edge_normals[:0]
+                cover = np.einsum("na,na->n", uv[pose, cover_vertices] - edge, edge_normals)
+                terms += [
+                    Term(outside[pose], None, settings.robust_px, 1.0),
+                    Term(cover, None, settings.robust_px, 1.0),
+                ]
+                for directions, moved in ((gradient[pose], self.region), (edge_normals, cover_vertices)):
+                    moves.append((view.camera, directions, moved[:, None], None))
+                if paired:
+                    values = (seen[pose] - pairs.pixels).ravel()  # u0, v0, u1, v1, ...
+                    terms.append(Term(values, None, features.robust_px, features.weight, silhouette=False))
+                    directions = np.tile(np.eye(2), (len(pairs), 1))
+                    moves.append(
+                        (view.camera, directions, np.repeat(corners, 2, 0), np.repeat(pairs.barycentric, 2, 0))
+                    )
+        return [(terms, moves, points[k], (rotations[k], heads[k])) for k, (terms, moves) in enumerate(made)]
 
     def fit_cost(self, pose: np.ndarray) -> float:
         """How well ``pose`` explains the views' silhouettes: their terms' cost (see the module docstring)."""
-        return self.cost(self.residuals(pose, jacobian=False), silhouettes_only=True)
+        return float(self.fit_costs(np.asarray(pose, dtype=np.float64)[None])[0])
+
+    def fit_costs(self, poses: Sequence[np.ndarray]) -> np.ndarray:
+        """`fit_cost` of each of ``poses``, those not yet asked made in one batch."""
+        poses = np.asarray(poses, dtype=np.float64).reshape(-1, POSE_SIZE)
+        return np.array([self.cost(terms, silhouettes_only=True) for terms, *_ in self._kept_terms(poses)])
 
     @staticmethod
     def cost(terms: Sequence[Term], silhouettes_only: bool = False) -> float:

@@ -213,7 +213,7 @@ class HybridTracker(TbfTracker):
         keep = self.settings.screen_best
         if keep is None or len(candidates) <= keep:
             return np.arange(len(candidates))
-        costs = np.array([self.fit.fit_cost(pose) for pose in candidates])
+        costs = self.fit.fit_costs(candidates)
         if self.refined is not None:
             costs[-1] = -np.inf
         return np.sort(np.argsort(costs, kind="stable")[:keep])

@@ -160,6 +160,32 @@ def test_the_feature_terms_jacobian_is_the_derivative_of_its_residuals(body, pos
     assert np.abs(np.concatenate([term.rows for term in features])).max() > 50
 
 
+def test_candidates_costed_together_cost_what_each_does_alone(body, pose, renderer):
+    """`fit_costs` poses, skins, projects and samples a frame's candidates in one batch: each candidate's terms and
+    cost are the bits it has alone, and a pose asked twice in the batch is made once."""
+    fit = SilhouetteFit(body, RIG)
+    views, pairs = silhouettes(renderer, body, pose, RIG), [some_pairs(body, pose, camera) for camera in RIG]
+    fit.observe(views, pairs)
+    rng = np.random.default_rng(1)
+    candidates = [pose + np.r_[rng.normal(0, 0.02, 3), rng.normal(0, 0.1 * k, len(pose) - 3)] for k in range(5)]
+    costs = fit.fit_costs([*candidates, candidates[2]])
+    together = [fit.residuals(candidate, jacobian=False) for candidate in candidates]  # kept from the batch
+    assert len(fit._asked) == len(candidates)
+    for candidate, cost, terms in zip(candidates, costs, together, strict=False):
+        fit.observe(views, pairs)  # nothing kept
+        assert cost == fit.fit_cost(candidate)
+        alone = fit.residuals(candidate, jacobian=False)
+        assert len(alone) == len(terms) == 9
+        for a, b in zip(alone, terms, strict=True):
+            np.testing.assert_array_equal(a.values, b.values)
+    assert costs[-1] == costs[2] and len(set(costs[:-1])) == len(candidates)
+    fit.POSES_KEPT = 3  # a full store: the oldest pose kept, asked with a new one that evicts it
+    fit.observe(views, pairs)
+    fit.fit_costs(candidates[:3])
+    assert fit.fit_costs([candidates[0], candidates[3]]).tolist() == [costs[0], costs[3]]
+    assert len(fit._asked) == 3
+
+
 def test_feature_pairs_on_the_textured_skin_follow_a_turn_of_the_body(renderer):
     """Real renders of a textured body, real KLT, one camera: the body turns 14 degrees about the vertical between
     two frames, which changes its silhouette little. The pairs made at the first pose are right (at the second pose
