@@ -155,11 +155,9 @@ class SilhouetteFit:
     def normals(self, rotations: np.ndarray) -> np.ndarray:
         """``(n, V, 3)`` the posed vertices' unit normals, skinned as the vertices are, of ``n`` poses (their bones'
         ``rotations`` ``(n, J, 3, 3)``)."""
-        count, joints = rotations.shape[:2]
-        blended = (self.body.weights @ rotations.transpose(1, 0, 2, 3).reshape(joints, count * 9)).reshape(
-            -1, count, 3, 3
-        )
-        normals = np.einsum("vnab,vb->nva", blended, self.rest_normals)
+        # the products pose by pose: BLAS may sum a wider product in another order, and a batch must not change bits
+        blended = np.stack([self.body.weights @ pose.reshape(len(pose), 9) for pose in rotations])
+        normals = np.einsum("nvab,vb->nva", blended.reshape(len(rotations), -1, 3, 3), self.rest_normals)
         return normals / np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-12)
 
     def on_outline(self, points: np.ndarray, normals: np.ndarray, camera: Camera) -> np.ndarray:
@@ -214,28 +212,29 @@ class SilhouetteFit:
     def _terms(self, poses: np.ndarray) -> list[tuple[list[Term], list[tuple], np.ndarray, tuple]]:
         """Per pose of ``poses`` ``(n, POSE_SIZE)`` (n may be 0): its terms without their rows, what moves each
         (below), its posed vertices and its bones' transforms. The poses are posed, skinned, projected and read
-        from each view's field together: each pose's numbers are those of a batch of one, bit for bit."""
+        from each view's field together (the products BLAS makes, pose by pose): each pose's numbers are those of
+        a batch of one, bit for bit."""
         if len(poses) == 0:
             return []
         rotations, heads = self.body.bone_transforms(poses)
         points = self.body.posed_vertices(poses, transforms=(rotations, heads))  # (n, V, 3)
         normals = self.normals(rotations)
         settings, features = self.settings, self.settings.features
-        count, vertices = points.shape[:2]
+        count = len(points)
         # Per term, what moves its residuals: the camera, each residual's direction on the pixel of its point, and
         # the point: a blend of vertices (``corners`` (n, c), ``blend`` (n, c): a face's corners), or one vertex
         # (``corners`` (n, 1), ``blend`` None).
         made: list[tuple[list, list]] = [([], []) for _ in range(count)]
         for view, pairs in zip(self.fields, self.pairs, strict=True):
-            uv = np.nan_to_num(view.camera.project(points.reshape(-1, 3))[0], nan=-1e3).reshape(count, vertices, 2)
+            uv = np.nan_to_num(np.stack([view.camera.project(posed)[0] for posed in points]), nan=-1e3)
             outside, gradient = view.sample(uv[:, self.region].reshape(-1, 2))
             outside, gradient = outside.reshape(count, -1), gradient.reshape(count, -1, 2)
             outline = self.on_outline(points, normals, view.camera)
             paired = len(pairs) and features.weight > 0
             if paired:
                 corners = self.body.faces[pairs.faces]
-                on_body = np.einsum("kc,nkcd->nkd", pairs.barycentric, points[:, corners]).reshape(-1, 3)
-                seen = np.nan_to_num(view.camera.project(on_body)[0], nan=-1e3).reshape(count, len(pairs), 2)
+                on_body = np.einsum("kc,nkcd->nkd", pairs.barycentric, points[:, corners])
+                seen = np.nan_to_num(np.stack([view.camera.project(posed)[0] for posed in on_body]), nan=-1e3)
             for pose, (terms, moves) in enumerate(made):
                 on_outline = np.flatnonzero(outline[pose])
                 if len(on_outline) and len(view.edge):
