@@ -201,8 +201,8 @@ class SilhouetteFit:
         kept."""
         keys = [pose.tobytes() for pose in poses]
         found = {key: self._asked[key] for key in keys if key in self._asked}
-        missing = list(dict.fromkeys(key for key in keys if key not in found))
-        found.update(zip(missing, self._terms(np.array([poses[keys.index(key)] for key in missing])), strict=True))
+        missing = {key: pose for key, pose in zip(keys, poses, strict=True) if key not in found}  # each pose once
+        found.update(zip(missing, self._terms(np.array(list(missing.values()))), strict=True))
         for key in missing:
             if len(self._asked) == self.POSES_KEPT:
                 del self._asked[next(iter(self._asked))]  # the oldest
@@ -261,7 +261,7 @@ class SilhouetteFit:
 
     def fit_cost(self, pose: np.ndarray) -> float:
         """How well ``pose`` explains the views' silhouettes: their terms' cost (see the module docstring)."""
-        return float(self.fit_costs(np.asarray(pose, dtype=np.float64)[None])[0])
+        return float(self.fit_costs([pose])[0])
 
     def fit_costs(self, poses: Sequence[np.ndarray]) -> np.ndarray:
         """`fit_cost` of each of ``poses``, those not yet asked made in one batch."""
