@@ -136,6 +136,44 @@ def test_screen_best_screens_the_candidates_cheapest_as_proposed_and_the_last_po
     assert tracker.screened(candidates[:2]).tolist() == [0, 1]
 
 
+def test_a_hard_frame_is_searched_again_and_keeps_the_lowest_of_the_best_screened_refined_in_full(hybrid_cache):
+    """``rescue_ratio``: a frame whose estimate costs more than that many times the last frames' median screens
+    every candidate and refines the ``screen_best`` lowest after their screen in full; the estimate is the lowest
+    of them and the first choice, as a naive search over every candidate finds it."""
+    overrides = small_run(
+        hybrid_cache,
+        "experiment=hybrid_multi_view",
+        "tracker.proposals=4",
+        "tracker.screen_best=2",
+        "tracker.rescue_ratio=1.0",
+    )
+    run = build(compose(list(overrides)))
+    start_tracker(run)
+    tracker = run.tracker
+    first, second = observations(run, 2)
+    assert tracker.step(first).frame_columns["rescued"] == 0  # no cost to compare with yet
+    assert not tracker._hard(tracker._recent_costs[0]) and tracker._hard(1.0001 * tracker._recent_costs[0])
+    tracker._recent_costs[0] = 1e-9  # every estimate is harder than that
+    columns = tracker.step(second).frame_columns
+    # every candidate screened: 4 proposals, 2 turned poses (the preset's turns_deg) and the last pose
+    assert columns["rescued"] == 1 and columns["screened"] == 7
+    # the same search, naively: every candidate screened, the 2 lowest refined in full, the lowest kept
+    rng = np.random.default_rng(0)
+    last = tracker.refined
+    candidates = [last + np.r_[np.zeros(3), rng.normal(0, 0.1, len(last) - 3)] for _ in range(4)] + [last]
+    placed = last[:3]
+    screened = [tracker.fit.refine(pose, tracker.settings.screen_iterations, placed) for pose in candidates]
+    lowest = np.argsort([cost for _, cost in screened], kind="stable")[:2]
+    chosen_pose, chosen_cost = tracker.fit.refine(screened[4][0], root=placed)
+    naive = [(4, chosen_pose, chosen_cost)] + [(k, *tracker.fit.refine(screened[k][0], root=placed)) for k in lowest]
+    expected = min(naive, key=lambda found: found[2])  # the first of the lowest
+    (pose, cost, choice), kept = tracker.rescue(
+        candidates, np.array([4]), screened[4:], (chosen_pose, chosen_cost, 4), placed
+    )
+    assert kept.tolist() == [0, 1, 2, 3, 4] and choice == expected[0] and cost == expected[2] <= chosen_cost
+    np.testing.assert_array_equal(pose, expected[1])
+
+
 def test_the_last_pose_moved_on_turns_about_the_vertical_and_repeats_its_last_change(hybrid_cache):
     """``turns_deg``: the last refined pose's joints turned about the vertical through its root, nothing else moved;
     ``extrapolate``: a body that turned 20 degrees and bent a joint by some angle is proposed turned and bent as much

@@ -29,6 +29,7 @@ the choice); the stage ``refine`` in the timings (the features' tracking with it
 from __future__ import annotations
 
 import time
+from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Annotated, ClassVar, Literal
@@ -81,6 +82,11 @@ class HybridSettings(TbfSettings):
     # turn composed again, each joint's rotation vector stepped as much again).
     turns_deg: tuple[Annotated[float, Range(-180.0, 180.0)], ...] = ()
     extrapolate: bool = False
+    # A frame whose refined estimate costs the silhouettes more than this many times the median of the last
+    # `RECENT_FRAMES` estimates' is searched again (None: never): every candidate screened, and the ``screen_best``
+    # lowest after their screen refined in full (a limb that moved faster than the fit follows: the screen's few
+    # iterations judge a proposal by where it starts, the full refinement by where it ends).
+    rescue_ratio: Annotated[float, Range(1.0, 1e6)] | None = None
 
 
 class NearestSample:
@@ -109,12 +115,14 @@ class NearestSample:
 )
 class HybridTracker(TbfTracker):
     name: ClassVar[str] = "hybrid"
+    RECENT_FRAMES: ClassVar[int] = 10  # the estimates whose cost a frame's is compared with (``rescue_ratio``)
 
     def __init__(self, settings: HybridSettings, cost: Cost, motion: RandomWalk) -> None:
         super().__init__(settings, cost, motion)
         self.refined: np.ndarray | None = None
         self._before_refined: np.ndarray | None = None  # the refined pose of the frame before (`extrapolate`)
         self._feeding: TwoEndedJobs[int] | None = None  # the sample nearest the last refined pose, to come
+        self._recent_costs: deque[float] = deque(maxlen=self.RECENT_FRAMES)  # the last estimates' `fit_cost`
 
     def start(self, model: BodyMesh, cameras: Sequence[Camera], initial: np.ndarray, rng: np.random.Generator) -> None:
         super().start(model, cameras, initial, rng)
@@ -123,6 +131,7 @@ class HybridTracker(TbfTracker):
         self.features = FeaturePairs(self.body, self.cameras, pairing) if pairing.weight > 0 else None
         self.nearest = NearestSample(self.samples.poses)
         self.refined, self._feeding, self._given_root, self._before_refined = None, None, None, None
+        self._recent_costs.clear()
         if self.settings.start_from == "initial":
             given = np.asarray(initial, dtype=np.float64).copy()
             self.refined, self._feeding = given, TwoEndedJobs([lambda: self.nearest(given)])
@@ -169,16 +178,20 @@ class HybridTracker(TbfTracker):
         best = int(np.argmin(np.where(turned_away, np.inf, [cost for _, cost in screened])))
         choice = int(kept[best])
         self._before_refined = self.refined
-        self.refined, cost = self.fit.refine(screened[best][0], root=placed)
-        self._estimate = self.refined
+        refined, cost = self.fit.refine(screened[best][0], root=placed)
+        rescued = self._hard(cost)
+        if rescued:
+            (refined, cost, choice), kept = self.rescue(candidates, kept, screened, (refined, cost, choice), placed)
+        self._recent_costs.append(cost)
+        self.refined = self._estimate = refined
         if self.features is not None:
             self.features.anchor(self.refined, [view.inside_px for view in self.fit.fields])
         if self.settings.feed > 0:
-            refined = self.refined
             self._feeding = TwoEndedJobs([lambda: self.nearest(refined)])
         found.frame_columns.update(
             hybrid_choice=choice,
             screened=len(kept),
+            rescued=int(rescued),
             fit_cost=cost,
             fit_cost_proposal=self.fit.fit_cost(found.estimate),
             feature_pairs=sum(len(view) for view in self.fit.pairs),
@@ -190,6 +203,36 @@ class HybridTracker(TbfTracker):
             timings_ms={**found.timings_ms, "refine": elapsed_ms(start) + pairing_ms},
             series={**found.series, "hybrid/fit_cost": cost, "hybrid/choice": float(choice)},
         )
+
+    def _hard(self, cost: float) -> bool:
+        """Whether a frame's refined estimate, of silhouettes' ``cost``, is searched again (``rescue_ratio``)."""
+        ratio = self.settings.rescue_ratio
+        return ratio is not None and len(self._recent_costs) > 0 and cost > ratio * np.median(self._recent_costs)
+
+    def rescue(
+        self,
+        candidates: Sequence[np.ndarray],
+        kept: np.ndarray,
+        screened: Sequence[tuple[np.ndarray, float]],
+        chosen: tuple[np.ndarray, float, int],
+        placed: np.ndarray,
+    ) -> tuple[tuple[np.ndarray, float, int], np.ndarray]:
+        """A hard frame searched again (``rescue_ratio``): the ``candidates`` not yet screened (``kept`` were, to
+        ``screened``) screened, and the ``screen_best`` (None: all) lowest of all after their screen refined in full
+        but the one already (``chosen``: its refined pose, cost and candidate). The lowest of them and ``chosen``,
+        as ``chosen`` is; and the candidates screened (ascending)."""
+        more = np.setdiff1d(np.arange(len(candidates)), kept)
+        indices = np.r_[kept, more].astype(np.int64)
+        screened = [*screened, *(self.fit.refine(candidates[k], self.settings.screen_iterations, placed) for k in more)]
+        costs = np.where(self.turned_away([pose for pose, _ in screened]), np.inf, [cost for _, cost in screened])
+        best = chosen
+        for j in np.argsort(costs, kind="stable")[: self.settings.screen_best or len(candidates)]:
+            if indices[j] == chosen[2] or not np.isfinite(costs[j]):
+                continue
+            pose, cost = self.fit.refine(screened[j][0], root=placed)
+            if cost < best[1]:
+                best = (pose, cost, int(indices[j]))
+        return best, np.sort(indices)
 
     def moved_on(self) -> list[np.ndarray]:
         """The last refined pose turned about the vertical by each of ``turns_deg``, then with ``extrapolate`` moved
