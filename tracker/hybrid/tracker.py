@@ -86,7 +86,7 @@ class HybridSettings(TbfSettings):
     # `RECENT_FRAMES` estimates' is searched again (None: never): every candidate screened, and the ``screen_best``
     # lowest after their screen refined in full (a limb that moved faster than the fit follows: the screen's few
     # iterations judge a proposal by where it starts, the full refinement by where it ends).
-    rescue_ratio: Annotated[float, Range(1.0, 1e6)] | None = None
+    rescue_ratio: Annotated[float, Range(1.0)] | None = None
 
 
 class NearestSample:
