@@ -117,7 +117,13 @@ def test_a_candidate_turned_further_than_max_turn_deg_from_the_last_estimate_is_
 
 
 def test_screen_best_screens_the_candidates_cheapest_as_proposed_and_the_last_pose(hybrid_cache):
-    overrides = small_run(hybrid_cache, "experiment=hybrid_multi_view", "tracker.proposals=4", "tracker.screen_best=2")
+    overrides = small_run(
+        hybrid_cache,
+        "experiment=hybrid_multi_view",
+        "tracker.proposals=4",
+        "tracker.screen_best=2",
+        "tracker.rescue_ratio=null",  # no frame searched again, screening them all
+    )
     run = build(compose(list(overrides)))
     start_tracker(run)
     tracker = run.tracker
