@@ -220,10 +220,11 @@ class HybridTracker(TbfTracker):
         chosen: tuple[np.ndarray, float, int],
         placed: np.ndarray,
     ) -> tuple[tuple[np.ndarray, float, int], np.ndarray]:
-        """A hard frame searched again (``rescue_ratio``): the ``candidates`` not yet screened (``kept`` were, to
-        ``screened``) screened, and the ``screen_best`` (None: all) lowest of all after their screen refined in full
-        but the one already (``chosen``: its refined pose, cost and candidate). The lowest of them and ``chosen``,
-        as ``chosen`` is; and the candidates screened (ascending)."""
+        """A hard frame searched again (``rescue_ratio``). The ``candidates`` not among ``kept`` (those screened, to
+        ``screened``) are screened too; of all, the ``screen_best`` (None: every one) lowest after their screen are
+        refined in full, but ``chosen``'s candidate, refined already (``chosen``: its refined pose, cost and index).
+        Returns the lowest of those and ``chosen``, in ``chosen``'s form, and the indices of the candidates screened
+        (all of them, ascending)."""
         more = np.setdiff1d(np.arange(len(candidates)), kept)
         indices = np.r_[kept, more].astype(np.int64)
         screened = [*screened, *(self.fit.refine(candidates[k], self.settings.screen_iterations, placed) for k in more)]
