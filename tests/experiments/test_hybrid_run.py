@@ -122,7 +122,7 @@ def test_screen_best_screens_the_candidates_cheapest_as_proposed_and_the_last_po
         "experiment=hybrid_multi_view",
         "tracker.proposals=4",
         "tracker.screen_best=2",
-        "tracker.rescue_ratio=null",  # no frame searched again, screening them all
+        "tracker.rescue_ratio=null",  # the preset searches a hard frame again, screening every candidate
     )
     run = build(compose(list(overrides)))
     start_tracker(run)
