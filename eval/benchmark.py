@@ -95,10 +95,9 @@ def clip_row(clip: str, label: str, run: dict, frames: pd.DataFrame, scored: pd.
     row |= {"scored": len(kept), "failed": failed}  # failed: frames with no estimate (the last one counts)
     for column, name in MEASURES.items():
         row[column] = round(float(kept[name].mean()), 1) if name in kept and len(kept) else np.nan
+    times = kept["estimate_ms"] if "estimate_ms" in kept and len(kept) else None
     for column, statistic in TIMINGS.items():
-        row[column] = (
-            round(float(kept["estimate_ms"].agg(statistic)), 1) if "estimate_ms" in kept and len(kept) else np.nan
-        )
+        row[column] = round(float(times.agg(statistic)), 1) if times is not None else np.nan
     aligned = kept["joint_error_aligned_mm"].mean() if "joint_error_aligned_mm" in kept else np.nan
     row["aligned / floor"] = round(float(aligned / kept["floor_mm"].mean()), 2) if len(kept) else np.nan
     return row

@@ -176,7 +176,7 @@ class HybridTracker(TbfTracker):
         candidates = self.proposals(found, placed) + self.moved_on()
         candidates += [self.refined] if self.refined is not None else []
         kept = self.screened(candidates)
-        screened = [self.fit.refine(candidates[k], self.settings.screen_iterations, placed) for k in kept]
+        screened = self._screen(candidates, kept, placed)
         turned_away = self.turned_away([pose for pose, _ in screened])
         best = int(np.argmin(np.where(turned_away, np.inf, [cost for _, cost in screened])))
         choice = int(kept[best])
@@ -207,6 +207,13 @@ class HybridTracker(TbfTracker):
             series={**found.series, "hybrid/fit_cost": cost, "hybrid/choice": float(choice)},
         )
 
+    def _screen(
+        self, candidates: Sequence[np.ndarray], indices: np.ndarray, placed: np.ndarray
+    ) -> list[tuple[np.ndarray, float]]:
+        """The ``indices`` of ``candidates`` each fitted for ``screen_iterations``, the root held near ``placed``:
+        each one's refined pose and `SilhouetteFit.fit_cost`."""
+        return [self.fit.refine(candidates[k], self.settings.screen_iterations, placed) for k in indices]
+
     def _hard(self, cost: float) -> bool:
         """Whether a frame's refined estimate, of silhouettes' ``cost``, is searched again (``rescue_ratio``)."""
         ratio = self.settings.rescue_ratio
@@ -227,7 +234,7 @@ class HybridTracker(TbfTracker):
         (all of them, ascending)."""
         more = np.setdiff1d(np.arange(len(candidates)), kept)
         indices = np.r_[kept, more].astype(np.int64)
-        screened = [*screened, *(self.fit.refine(candidates[k], self.settings.screen_iterations, placed) for k in more)]
+        screened = [*screened, *self._screen(candidates, more, placed)]
         costs = np.where(self.turned_away([pose for pose, _ in screened]), np.inf, [cost for _, cost in screened])
         best = chosen
         for j in np.argsort(costs, kind="stable")[: self.settings.screen_best or len(candidates)]:
