@@ -122,7 +122,12 @@ def residual_rows(camera: Camera, points: np.ndarray, directions: np.ndarray, le
     pulled = np.einsum("na,nab->nb", directions, projection_jacobian(camera, points))  # g, (n, 3)
     rows = np.empty((len(points), 3 + 3 * len(levers.axes)))
     rows[:, :3] = levers.weight_sums[:, None] * pulled
-    turns = np.cross(levers.levers, pulled[:, None, :]).transpose(1, 0, 2)  # (K, n, 3): L x g
+    # L x g (n, K, 3), component by component: np.cross's products and differences, without its copies
+    lever, g = levers.levers, pulled[:, None, :]
+    turns = np.empty(lever.shape)
+    for d, (e, f) in enumerate(((1, 2), (2, 0), (0, 1))):
+        turns[..., d] = lever[..., e] * g[..., f] - lever[..., f] * g[..., e]
+    turns = turns.transpose(1, 0, 2)  # (K, n, 3)
     rows[:, 3:] = (turns @ levers.axes.transpose(0, 2, 1)).transpose(1, 0, 2).reshape(rows[:, 3:].shape)
     return rows
 

@@ -77,12 +77,18 @@ class SilhouetteRuns:
 
     def shifted_sums(self, values: np.ndarray, width: int, rows: np.ndarray, shifts: np.ndarray) -> np.ndarray:
         """As `sums` over silhouettes ``rows`` of a window ``width`` pixels wide, each moved by its whole-pixel
-        ``shifts`` ``(len(rows), 2)`` ``(du, dv)`` first: pixels moved out of the window count nothing."""
+        ``shifts`` ``(len(rows), 2)`` ``(du, dv)`` first: pixels moved out of the window count nothing.
+
+        The window's values are framed by zeros as wide as the largest shift (at most the window's own size: a
+        silhouette moved further is wholly out either way), so that every moved run lies on the frame's row of its
+        own and reads two prefix sums there. The frame's prefix sums at the window's pixels are the window's own (a
+        zero added changes no bits), and beyond the window's edge they hold its row's end or start: a run moved
+        partly out of the window sums its part within it, a run moved wholly out sums to 0."""
         height = len(values) // width
         index, owner = self.runs_of(rows)
         starts, ends = self.starts[index], self.ends[index]
-        row, first = np.divmod(starts, width)
-        last = ends - row * width  # one past the run's last column, beyond the width if it wraps
+        row, first = np.divmod(starts, np.int32(width))
+        last = ends - row * np.int32(width)  # one past the run's last column, beyond the width if it wraps
         if np.any(last > width):
             # A run along the flattened window can go on into the next row (a silhouette touching both sides of
             # the window): cut it at each row's end until every piece lies on one row.
@@ -92,17 +98,18 @@ class SilhouetteRuns:
                 owner = np.r_[owner, owner[wraps]]
             row, first = np.divmod(starts, width)
             last = ends - row * width
-        du, dv = shifts[owner, 0], shifts[owner, 1]
-        row = row + dv
-        first, last = np.clip(first + du, 0, width), np.clip(last + du, 0, width)
-        inside = (row >= 0) & (row < height)
-        base = np.where(inside, row, 0) * width
-        prefix = np.empty(len(values) + 1)
+        du, dv = np.clip(shifts[:, 0], -width, width), np.clip(shifts[:, 1], -height, height)
+        margin_u, margin_v = int(np.abs(du).max(initial=0)), int(np.abs(dv).max(initial=0))
+        framed_width = width + 2 * margin_u
+        framed = np.zeros((height + 2 * margin_v, framed_width))
+        framed[margin_v : margin_v + height, margin_u : margin_u + width] = np.reshape(values, (height, width))
+        prefix = np.empty(framed.size + 1)
         prefix[0] = 0.0
-        np.cumsum(values, out=prefix[1:])
-        pieces = prefix[base + last] - prefix[base + first]
-        pieces[~inside] = 0.0
-        return np.bincount(owner, weights=pieces, minlength=len(rows))
+        np.cumsum(framed.ravel(), out=prefix[1:])
+        # where each silhouette's row 0, column 0 lands in the frame, moved
+        moved = ((dv + margin_v) * framed_width + du + margin_u).astype(row.dtype)
+        base = row * row.dtype.type(framed_width) + moved[owner]
+        return np.bincount(owner, weights=prefix[base + last] - prefix[base + first], minlength=len(rows))
 
     def masks(self, shape: tuple[int, int], rows: np.ndarray | None = None) -> np.ndarray:
         """Silhouettes ``rows`` (all by default) as ``(len(rows), h, w)`` bool images of ``shape`` ``(h, w)``: the

@@ -65,7 +65,8 @@ def _moved(mask, du, dv):
 def test_silhouettes_moved_by_whole_pixels_score_as_if_moved_first(tall):
     """Each silhouette moved by its own shift before scoring: from its runs (any rows) and from its run boundaries
     (all, moved by a reference pixel minus its own), against the distance to the moved mask; some shifts take
-    pixels out of the window, and two silhouettes touch both sides of it (runs that wrap into the next row)."""
+    pixels out of the window, some further than its size, and two silhouettes touch both sides of it (runs that wrap
+    into the next row)."""
     rng = np.random.default_rng(5)
     height, width, count = 23, 17, 40
     masks = np.zeros((count, height, width), bool)
@@ -90,6 +91,11 @@ def test_silhouettes_moved_by_whole_pixels_score_as_if_moved_first(tall):
         )
         by_runs = scorer.scores_of_shifted(SilhouetteRuns.from_masks(masks), rows, reference - pixels[rows])
         np.testing.assert_allclose(by_runs, expected[rows], rtol=1e-12, atol=1e-15)
+        # moved further than the window is wide or high: out of it, wholly or but for a sliver
+        far = np.array([[width + 4, 0], [0, -height - 3], [-width + 1, 2], [3, height - 1]])
+        expected_far = [silhouette_distance(cost, observed, _moved(masks[0], *shift)) for shift in far]
+        by_runs = scorer.scores_of_shifted(SilhouetteRuns.from_masks(masks), np.zeros(len(far), np.int64), far)
+        np.testing.assert_allclose(by_runs, expected_far, rtol=1e-12, atol=1e-15)
         boundaries = ShiftedRunBoundaries(masks, pixels)
         np.testing.assert_allclose(scorer.scores_of_placed(boundaries, reference), expected, rtol=1e-12, atol=1e-15)
         assert boundaries.by_columns == tall
