@@ -102,6 +102,26 @@ def test_the_sparse_prior_matches_the_dense_sum(samples):
         np.testing.assert_allclose(sparse, dense, atol=4e-6 * dense.max())
 
 
+def test_kernel_neighbours_are_the_same_bytes_with_either_tree_and_every_pair_within_reach(samples):
+    """The trees made up front (boxes shrunk) and while tracking (boxes as split) find the same pairs, the same
+    distances bit for bit; the pairs are exactly those a naive search finds within reach, at the same distances."""
+    from tracker.tbf.motion import KernelNeighbours
+
+    sigmas = OccludedWiderWalk(sigma=0.15, m=5.0).sigmas(np.eye(len(PART_NAMES), dtype=bool)[2])
+    centres = np.array([5, 40, 3, 40, 77])
+    found = [KernelNeighbours(samples.poses, sigmas, 5.0, made_up_front).pairs(centres) for made_up_front in (1, 0)]
+    for up_front, tracking in zip(*found, strict=True):
+        assert up_front.tobytes() == tracking.tobytes()
+    rows, neighbours, distances = found[0]
+    scaled = np.asarray(samples.poses, dtype=np.float64) / sigmas
+    naive = np.linalg.norm(scaled[centres][:, None] - scaled[None], axis=2)
+    within = np.nonzero(naive <= 5.0)  # by centre, then by sample: the order pairs gives
+    np.testing.assert_array_equal(rows, within[0])
+    np.testing.assert_array_equal(neighbours, within[1])
+    np.testing.assert_allclose(distances, naive[within], rtol=1e-12)
+    assert 5 < len(rows) < len(centres) * len(samples)  # neither only the centres nor everything
+
+
 def test_the_prior_keeps_few_trees_and_finds_the_same_terms_after_letting_one_go(samples):
     """Over more occlusion patterns than `KERNEL_TREES_KEPT`, and back to the first with samples it was not asked
     for before, the prior is bit for bit a fresh one's, and only the last used patterns hold a tree."""
