@@ -173,11 +173,34 @@ def test_a_hard_frame_is_searched_again_and_keeps_the_lowest_of_the_best_screene
     chosen_pose, chosen_cost = tracker.fit.refine(screened[4][0], root=placed)
     naive = [(4, chosen_pose, chosen_cost)] + [(k, *tracker.fit.refine(screened[k][0], root=placed)) for k in lowest]
     expected = min(naive, key=lambda found: found[2])  # the first of the lowest
-    (pose, cost, choice), kept = tracker.rescue(
+    (pose, cost, choice), kept, turned_away = tracker.rescue(
         candidates, np.array([4]), screened[4:], (chosen_pose, chosen_cost, 4), placed
     )
     assert kept.tolist() == [0, 1, 2, 3, 4] and choice == expected[0] and cost == expected[2] <= chosen_cost
     np.testing.assert_array_equal(pose, expected[1])
+    assert not turned_away.any()  # the preset lets any turn be chosen
+
+
+def test_a_hard_frame_counts_every_screened_candidate_that_turned_away(hybrid_cache):
+    """On a frame searched again, ``turned_away`` counts the candidates of both screens whose root turned more than
+    ``max_turn_deg`` from the last estimate: at 0 degrees every one of the 7 (a screen moves even the last estimate's
+    root), where the first screen holds 2."""
+    overrides = small_run(
+        hybrid_cache,
+        "experiment=hybrid_multi_view",
+        "tracker.proposals=4",
+        "tracker.screen_best=2",
+        "tracker.rescue_ratio=1.0",
+        "tracker.max_turn_deg=0",
+    )
+    run = build(compose(list(overrides)))
+    start_tracker(run)
+    tracker = run.tracker
+    first, second = observations(run, 2)
+    tracker.step(first)
+    tracker._recent_costs[0] = 1e-9  # every estimate is harder than that
+    columns = tracker.step(second).frame_columns
+    assert columns["rescued"] == 1 and columns["screened"] == 7 and columns["turned_away"] == 7
 
 
 def test_the_last_pose_moved_on_turns_about_the_vertical_and_repeats_its_last_change(hybrid_cache):

@@ -184,7 +184,9 @@ class HybridTracker(TbfTracker):
         refined, cost = self.fit.refine(screened[best][0], root=placed)
         rescued = self._hard(cost)
         if rescued:
-            (refined, cost, choice), kept = self.rescue(candidates, kept, screened, (refined, cost, choice), placed)
+            (refined, cost, choice), kept, turned_away = self.rescue(
+                candidates, kept, screened, (refined, cost, choice), placed
+            )
         self._recent_costs.append(cost)
         self.refined = self._estimate = refined
         if self.features is not None:
@@ -226,16 +228,17 @@ class HybridTracker(TbfTracker):
         screened: Sequence[tuple[np.ndarray, float]],
         chosen: tuple[np.ndarray, float, int],
         placed: np.ndarray,
-    ) -> tuple[tuple[np.ndarray, float, int], np.ndarray]:
+    ) -> tuple[tuple[np.ndarray, float, int], np.ndarray, np.ndarray]:
         """A hard frame searched again (``rescue_ratio``). The ``candidates`` not among ``kept`` (those screened, to
         ``screened``) are screened too; of all, the ``screen_best`` (None: every one) lowest after their screen are
         refined in full, but ``chosen``'s candidate, refined already (``chosen``: its refined pose, cost and index).
-        Returns the lowest of those and ``chosen``, in ``chosen``'s form, and the indices of the candidates screened
-        (all of them, ascending)."""
+        Returns the lowest of those and ``chosen``, in ``chosen``'s form, the indices of the candidates screened (all
+        of them, ascending), and which screened candidates turned away (`turned_away`; ``kept``'s, then the others')."""
         more = np.setdiff1d(np.arange(len(candidates)), kept)
         indices = np.r_[kept, more].astype(np.int64)
         screened = [*screened, *self._screen(candidates, more, placed)]
-        costs = np.where(self.turned_away([pose for pose, _ in screened]), np.inf, [cost for _, cost in screened])
+        turned_away = self.turned_away([pose for pose, _ in screened])
+        costs = np.where(turned_away, np.inf, [cost for _, cost in screened])
         best = chosen
         for j in np.argsort(costs, kind="stable")[: self.settings.screen_best or len(candidates)]:
             if indices[j] == chosen[2] or not np.isfinite(costs[j]):
@@ -243,7 +246,7 @@ class HybridTracker(TbfTracker):
             pose, cost = self.fit.refine(screened[j][0], root=placed)
             if cost < best[1]:
                 best = (pose, cost, int(indices[j]))
-        return best, np.sort(indices)
+        return best, np.sort(indices), turned_away
 
     def moved_on(self) -> list[np.ndarray]:
         """The last refined pose turned about the vertical by each of ``turns_deg``, then with ``extrapolate`` moved
