@@ -203,6 +203,25 @@ def test_a_hard_frame_counts_every_screened_candidate_that_turned_away(hybrid_ca
     assert columns["rescued"] == 1 and columns["screened"] == 7 and columns["turned_away"] == 7
 
 
+def test_where_the_views_cannot_place_the_person_the_fit_holds_the_root_where_the_last_estimate_stood(hybrid_cache):
+    """A frame the views could not place the person in (`person_placed` false: e.g. one view sees him, and none
+    did before) puts its candidates, and holds their root, where the last refined pose stood, not at the filter's
+    sample's own root (the samples are posed in place); a placed frame, where the filter placed him."""
+    run = build(compose(list(small_run(hybrid_cache, "experiment=hybrid_multi_view"))))
+    start_tracker(run)
+    tracker = run.tracker
+    first, second = observations(run, 2)
+    tracker.step(first)
+    assert tracker.person_placed  # every view sees him
+    last, sample_root = tracker.refined.copy(), np.array([4.0, -3.0, 0.9])  # not where he stands
+    tracker.person_placed = False
+    np.testing.assert_array_equal(tracker.root_held(sample_root), last[:3])
+    tracker.person_placed = True
+    np.testing.assert_array_equal(tracker.root_held(sample_root), sample_root)
+    tracker.step(second)
+    assert tracker.person_placed
+
+
 def test_the_last_pose_moved_on_turns_about_the_vertical_and_repeats_its_last_change(hybrid_cache):
     """``turns_deg``: the last refined pose's joints turned about the vertical through its root, nothing else moved;
     ``extrapolate``: a body that turned 20 degrees and bent a joint by some angle is proposed turned and bent as much

@@ -8,7 +8,8 @@ with that pose turned about the vertical by each of ``turns_deg`` and, with ``ex
 for ``screen_iterations`` (with ``screen_best``, only the ``screen_best`` whose silhouettes' cost is lowest as proposed,
 and the last refined pose) by the continuous fit of the tracker's own body to every view's silhouette
 (`tracker.hybrid.silhouette_fit`: the joints and the root by Levenberg-Marquardt with the skinning's analytic Jacobian,
-the root held near where tree filtering placed the person), and the one that then explains the views best (the lowest
+the root held near where tree filtering placed the person, or, where the views could not place him, where the last
+refined pose stood: `root_held`), and the one that then explains the views best (the lowest
 `SilhouetteFit.fit_cost`; of those whose root turned at most ``max_turn_deg`` from the last refined pose) is refined on
 to the estimate. A hard frame, whose estimate costs more than ``rescue_ratio`` times the last frames' median, is
 searched again: every candidate screened, the ``screen_best`` lowest after their screen refined in full, the lowest
@@ -170,8 +171,7 @@ class HybridTracker(TbfTracker):
             return found
         start = time.perf_counter()
         self.fit.observe([observation.silhouettes[camera.name] for camera in self.cameras], pairs)
-        # where tree filtering placed the person this frame (the first one, started from the given pose: where it is)
-        placed = found.estimate[:3] if self._given_root is None else self._given_root
+        placed = self.root_held(found.estimate)
         self._given_root = None
         candidates = self.proposals(found, placed) + self.moved_on()
         candidates += [self.refined] if self.refined is not None else []
@@ -208,6 +208,17 @@ class HybridTracker(TbfTracker):
             timings_ms={**found.timings_ms, "refine": elapsed_ms(start) + pairing_ms},
             series={**found.series, "hybrid/fit_cost": cost, "hybrid/choice": float(choice)},
         )
+
+    def root_held(self, estimate: np.ndarray) -> np.ndarray:
+        """Where this frame's candidates are put and their fit holds the root near: where tree filtering's
+        ``estimate`` placed the person (`person_placed`); where it could not (someone out of a view), where the last
+        refined pose stands, not the sample's own root (the samples are posed in place, metres from the person); the
+        first frame, started from the given pose, where that stands."""
+        if self._given_root is not None:
+            return self._given_root
+        if self.person_placed or self.refined is None:
+            return estimate[:3]
+        return self.refined[:3].copy()
 
     def _screen(
         self, candidates: Sequence[np.ndarray], indices: np.ndarray, placed: np.ndarray

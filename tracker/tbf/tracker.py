@@ -139,6 +139,9 @@ class TbfTracker(Tracker):
         self._seen: dict[int, tuple[list[np.ndarray], int | None]] = {}
         self.filter.start(initial_pose)
         self.placing = self._placing(spots)
+        # whether the last frame's placing found where the person stands (else its estimate's root is its sample's
+        # own: the views could not place him, e.g. someone out of a view, or ``align=none``)
+        self.person_placed = False
         self._estimate = self.estimate_of(np.asarray(self.samples.poses[0]))
         self.dictionary = SampleDictionary(
             poses=self.samples.poses,
@@ -281,6 +284,7 @@ class TbfTracker(Tracker):
             raise ValueError("tracker=tbf needs the frame's silhouette (the capture stage of a body scene)")
         start = time.perf_counter()
         placed = self.placing.place([observation.silhouettes[camera.name] for camera in self.cameras])
+        self.person_placed = placed.how is not None
         try:
             found = self.filter.step(placed.silhouettes, placed.reference)
         except EmptySilhouette as error:  # nobody in view: keep the last estimate, say why
