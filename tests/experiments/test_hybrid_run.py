@@ -142,11 +142,13 @@ def test_screen_best_screens_the_candidates_cheapest_as_proposed_and_the_last_po
     assert tracker.screened(candidates[:2]).tolist() == [0, 1]
 
 
-def rescuing_tracker(cache, *overrides: str):
-    """The three-camera preset's tracker, started, proposing 4 samples, screening 2, searching again any frame that
-    costs more than the last ones' median (``rescue_ratio=1``), with ``overrides``; and its first two frames."""
-    settings = ("tracker.proposals=4", "tracker.screen_best=2", "tracker.rescue_ratio=1.0", *overrides)
-    run = build(compose(list(small_run(cache, "experiment=hybrid_multi_view", *settings))))
+# Proposing 4 samples, screening 2, searching again any frame that costs more than the last ones' median.
+RESCUING = ("tracker.proposals=4", "tracker.screen_best=2", "tracker.rescue_ratio=1.0")
+
+
+def started_multi_view(cache, *overrides: str):
+    """The three-camera preset's tracker with ``overrides``, started, and its first two frames."""
+    run = build(compose(list(small_run(cache, "experiment=hybrid_multi_view", *overrides))))
     start_tracker(run)
     return (run.tracker, *observations(run, 2))
 
@@ -155,7 +157,7 @@ def test_a_hard_frame_is_searched_again_and_keeps_the_lowest_of_the_best_screene
     """``rescue_ratio``: a frame whose estimate costs more than that many times the last frames' median screens
     every candidate and refines the ``screen_best`` lowest after their screen in full; the estimate is the lowest
     of them and the first choice, as a naive search over every candidate finds it."""
-    tracker, first, second = rescuing_tracker(hybrid_cache)
+    tracker, first, second = started_multi_view(hybrid_cache, *RESCUING)
     assert tracker.step(first).frame_columns["rescued"] == 0  # no cost to compare with yet
     assert not tracker._hard(tracker._recent_costs[0]) and tracker._hard(1.0001 * tracker._recent_costs[0])
     tracker._recent_costs[0] = 1e-9  # every estimate is harder than that
@@ -184,7 +186,7 @@ def test_a_hard_frame_counts_every_screened_candidate_that_turned_away(hybrid_ca
     """On a frame searched again, ``turned_away`` counts the candidates of both screens whose root turned more than
     ``max_turn_deg`` from the last estimate: at 0 degrees every one of the 7 (a screen moves even the last estimate's
     root), where the first screen holds 2."""
-    tracker, first, second = rescuing_tracker(hybrid_cache, "tracker.max_turn_deg=0")
+    tracker, first, second = started_multi_view(hybrid_cache, *RESCUING, "tracker.max_turn_deg=0")
     tracker.step(first)
     tracker._recent_costs[0] = 1e-9  # every estimate is harder than that
     columns = tracker.step(second).frame_columns
@@ -195,10 +197,7 @@ def test_where_the_views_cannot_place_the_person_the_fit_holds_the_root_where_th
     """A frame the views could not place the person in (`person_placed` false: e.g. one view sees him, and none
     did before) puts its candidates, and holds their root, where the last refined pose stood, not at the filter's
     sample's own root (the samples are posed in place); a placed frame, where the filter placed him."""
-    run = build(compose(list(small_run(hybrid_cache, "experiment=hybrid_multi_view"))))
-    start_tracker(run)
-    tracker = run.tracker
-    first, second = observations(run, 2)
+    tracker, first, second = started_multi_view(hybrid_cache)
     tracker.step(first)
     assert tracker.person_placed  # every view sees him
     last, sample_root = tracker.refined.copy(), np.array([4.0, -3.0, 0.9])  # not where he stands
