@@ -11,10 +11,6 @@ from __future__ import annotations
 
 import json
 import logging
-import signal
-import threading
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -27,13 +23,19 @@ from experiments.loop import run_frames
 from experiments.outputs import RunLog, summarize, timing_summary
 from experiments.recording import RunRecording
 from experiments.recording_file import RecordingLost
+from experiments.stopping import Interrupted, StopRequest
 from tracker.atomic import write_json, write_parquet
 
 log = logging.getLogger(__name__)
 
 
-def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[str, Any]:
-    """Run the configured scene for ``cfg.frames`` frames into ``output_dir``; return the metrics written."""
+def run_job(
+    cfg: DictConfig, output_dir: Path, choices: dict[str, str], sweep_stop: Path | None = None
+) -> dict[str, Any]:
+    """Run the configured scene for ``cfg.frames`` frames into ``output_dir``; return the metrics written. A stop
+    (`StopRequest`: a signal, or the file ``sweep_stop`` appearing) ends the run early, its outputs marked
+    interrupted; the caller decides whether to end the process (`StopRequest.received`): a sweep's worker must not
+    raise, or its launcher kills the other jobs before their outputs are written."""
     import_plugins(cfg.get("plugins", ()))  # a launcher's worker process imports them too
     check_config(cfg, choices)  # an invalid config raises before any output exists
     remove_stale_temporaries(output_dir)
@@ -41,11 +43,13 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
     components: Components | None = None
     recording: RunRecording | None = None
     status = "ok"
-    stop = StopRequest.install()
+    stop = StopRequest.install(sweep_stop)
     try:
         components = build(cfg)
         recording = RunRecording(output_dir / "run.rrd", components, components.settings.record)
         run_frames(components, recording, stop, frames)
+    except Interrupted:  # stopped at once while the tracker started; the outputs below say so
+        pass
     except Exception as error:  # recorded, not raised: a sweep goes on and every output stays readable
         log.exception("run failed at frame %d", len(frames.timings))
         status = f"failed: {failure_reason(error)}"
@@ -68,8 +72,6 @@ def run_job(cfg: DictConfig, output_dir: Path, choices: dict[str, str]) -> dict[
             metrics = write_outputs(cfg, choices, components, output_dir, frames, status)
         except OSError as error:  # a full disk, or the folder gone: nothing half-written is left (tracker.atomic)
             raise OutputsLost(f"{output_dir}: the run's outputs could not be written: {error}") from None
-    if stop.requested:  # outputs are safe; now stop like the signal asked (a sweep stops too)
-        raise Interrupted(stop.requested)
     return metrics
 
 
@@ -110,61 +112,6 @@ def remove_stale_temporaries(output_dir: Path) -> None:
     """Temporary files a killed job left behind (`tracker.atomic` names them ``.<name>.<random>.tmp``)."""
     for path in output_dir.glob(".*.tmp"):
         path.unlink(missing_ok=True)
-
-
-class StopRequest:
-    """SIGINT and SIGTERM stop the run: while the tracker starts (`at_once`: a sample set being built, say, the shards
-    finished so far kept for the next run), at once; otherwise after the current frame. Either way the run then
-    writes its outputs, ``status: failed: interrupted by <signal>``.
-
-    In the frames a KeyboardInterrupt raised wherever the signal lands can be swallowed (inside a finalizer of a GL
-    object it is only printed), and the run would go on; a flag checked once per frame cannot be missed. A second
-    signal of the same kind takes the default action at once.
-    """
-
-    SIGNALS = (signal.SIGINT, signal.SIGTERM)
-
-    def __init__(self) -> None:
-        self.requested: str | None = None
-        self.deferred = True
-        self._previous: dict[int, Any] = {}
-
-    @classmethod
-    def install(cls) -> StopRequest:
-        request = cls()
-        if threading.current_thread() is threading.main_thread():  # signal handlers live in the main thread
-            for number in cls.SIGNALS:
-                request._previous[number] = signal.signal(number, request._handle)
-        return request
-
-    @contextmanager
-    def at_once(self) -> Iterator[None]:
-        """Within the block, a signal (or one already received) stops the run at once (`Interrupted`)."""
-        if self.requested:
-            raise Interrupted(self.requested)
-        self.deferred = False
-        try:
-            yield
-        finally:
-            self.deferred = True
-
-    def _handle(self, number: int, _frame: Any) -> None:
-        self.requested = signal.Signals(number).name
-        signal.signal(number, self._previous.get(number, signal.SIG_DFL))
-        if not self.deferred:
-            log.warning("%s: stopping", self.requested)
-            raise Interrupted(self.requested)
-        log.warning("%s: stopping after this frame (again to stop at once)", self.requested)
-
-    def restore(self) -> None:
-        for number, previous in self._previous.items():
-            signal.signal(number, previous)
-        self._previous = {}
-
-
-class Interrupted(KeyboardInterrupt):
-    """The run stopped by a signal (`StopRequest`): raised at once while the tracker starts, else once the outputs
-    are written. A KeyboardInterrupt, so that no ``except Exception`` on the way swallows it."""
 
 
 def failure_reason(error: BaseException) -> str:

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import logging
 import os
-import signal
 import sys
 from pathlib import Path
 
@@ -27,6 +26,7 @@ from experiments.cli_runs import exit_interrupted
 from experiments.components import import_plugins
 from experiments.job import OutputsLost, finished_metrics, run_job
 from experiments.schemas import CONFIG_DIR, CONFIG_NAME
+from experiments.stopping import Interrupted, StopRequest, SweepStop
 from experiments.validate import plugins_named, validate_command_line
 
 log = logging.getLogger(__name__)
@@ -37,55 +37,52 @@ def hydra_main(cfg: DictConfig) -> dict:
     hydra_cfg = HydraConfig.get()
     choices = {k: v for k, v in hydra_cfg.runtime.choices.items() if not k.startswith("hydra") and v is not None}
     output_dir = Path(hydra_cfg.runtime.output_dir)
-    if hydra_cfg.mode == RunMode.MULTIRUN and (metrics := finished_metrics(cfg, output_dir)) is not None:
-        log.info("run finished earlier, kept: %s", output_dir)  # resuming a sweep redoes only the rest
-        return metrics
+    if hydra_cfg.mode == RunMode.MULTIRUN:
+        if (metrics := finished_metrics(cfg, output_dir)) is not None:
+            log.info("run finished earlier, kept: %s", output_dir)  # resuming a sweep redoes only the rest
+            return metrics
+        sweep_stop = SweepStop.file()
+        if StopRequest.received or sweep_stop.exists():  # a job queued behind the running ones does not start
+            log.info("not started, the sweep is stopping: %s", output_dir)
+            return {"status": "not started: the sweep was stopped"}
+    else:
+        sweep_stop = None
     try:
-        metrics = run_job(cfg, output_dir, choices)
+        metrics = run_job(cfg, output_dir, choices, sweep_stop)
     except OutputsLost as lost:
         log.error("%s", lost)
         if hydra_cfg.mode == RunMode.RUN:
             sys.exit(1)
         return {"status": f"failed: {lost}"}  # a sweep goes on to its next job
+    if StopRequest.received and hydra_cfg.mode == RunMode.RUN:  # the outputs are written; stop as the signal asked
+        raise Interrupted(StopRequest.received)
     log.info("run %s: %s", metrics["status"], output_dir)
     if metrics["status"] != "ok" and hydra_cfg.mode == RunMode.RUN:
         sys.exit(1)  # a single run reports failure by its exit code; a sweep goes on to its next job
     return metrics
 
 
-class SweepStop:
-    """In a sweep's own process, the first SIGINT or SIGTERM (a terminal sends it to the jobs' processes too) waits
-    for the running jobs, which stop after their current frame and write their outputs, marked interrupted; the
-    sweep then ends. A second one stops at once."""
-
-    @classmethod
-    def install(cls) -> None:
-        for number in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(number, cls._first)
-
-    @staticmethod
-    def _first(number: int, _frame) -> None:
-        log.warning("%s: the sweep stops once its running jobs have written their outputs", signal.Signals(number).name)
-        signal.signal(number, signal.default_int_handler if number == signal.SIGINT else signal.SIG_DFL)
-
-
 def main(argv: list[str] | None = None) -> None:
     argv = sys.argv[1:] if argv is None else argv
     logging.raiseExceptions = False  # a log line that cannot be written (a full disk) is dropped, not a traceback
     try:
-        import_plugins(plugins_named(argv))  # their components and schemas, before anything is composed
-        validate_command_line(argv, CONFIG_DIR, CONFIG_NAME)
-    except ConfigError as error:
-        print(f"error: {error}", file=sys.stderr)
-        sys.exit(2)
-    if {"-m", "--multirun"} & set(argv):
-        SweepStop.install()
-        # joblib's resource tracker (a process of its own) warns of the semaphores of workers a stop ended
-        os.environ.setdefault("PYTHONWARNINGS", "ignore:resource_tracker:UserWarning")
-    try:
+        try:
+            import_plugins(plugins_named(argv))  # their components and schemas, before anything is composed
+            validate_command_line(argv, CONFIG_DIR, CONFIG_NAME)
+        except ConfigError as error:
+            print(f"error: {error}", file=sys.stderr)
+            sys.exit(2)
+        if {"-m", "--multirun"} & set(argv):
+            SweepStop.install()
+            # joblib's resource tracker (a process of its own) warns of the semaphores of workers a stop ended
+            os.environ.setdefault("PYTHONWARNINGS", "ignore:resource_tracker:UserWarning")
         hydra_main()
+        if StopRequest.received:  # a sweep whose running jobs stopped and wrote their outputs
+            raise Interrupted(StopRequest.received)
     except KeyboardInterrupt as interrupt:  # the run's outputs are written and say so (experiments.job)
         exit_interrupted(interrupt)
+    finally:
+        SweepStop.remove_file()
 
 
 if __name__ == "__main__":

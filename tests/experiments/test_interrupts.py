@@ -9,7 +9,9 @@ import random
 import signal
 import subprocess
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 import psutil
 import pytest
@@ -71,6 +73,53 @@ def test_an_interrupted_sweep_marks_its_running_jobs_and_resumes_with_the_rest(t
     statuses = {job.parent.name: json.loads(job.read_text())["status"] for job in sweep_dir.glob("*/metrics.json")}
     assert statuses == {"0": "ok", "1": "ok", "2": "ok"}
     assert all((sweep_dir / name / "metrics.json").stat().st_mtime_ns == stamp for name, stamp in finished.items())
+
+
+def start_sweep(sweep_dir):
+    command = [sys.executable, "-m", "experiments.run", "-m", "model=dsq_arm", "frames=100", "seed=0,1,2"]
+    command.append(f"hydra.sweep.dir={sweep_dir}")
+    return subprocess.Popen(
+        command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True
+    )
+
+
+def wait_for(sweep, pattern_dir, pattern):
+    deadline = time.monotonic() + 240
+    while not list(pattern_dir.glob(pattern)) and time.monotonic() < deadline and sweep.poll() is None:
+        time.sleep(0.05)
+    assert sweep.poll() is None, "the sweep ended before it was stopped"
+
+
+def test_a_sigterm_to_the_sweep_alone_stops_its_running_jobs_after_their_frame(tmp_path):
+    """A scheduler's ``kill <pid>`` reaches the sweep's process, not its workers: the jobs hear of it all the same
+    (`experiments.stopping.SweepStop`), write their outputs marked interrupted, and no queued job starts."""
+    sweep_dir = tmp_path / "sweep"
+    sweep = start_sweep(sweep_dir)
+    wait_for(sweep, sweep_dir, "*/.run.rrd.*.tmp")
+    os.kill(sweep.pid, signal.SIGTERM)
+    output, _ = sweep.communicate(timeout=120)
+    assert sweep.returncode == 128 + signal.SIGTERM and "Traceback" not in output, output
+    assert output.strip().splitlines()[-1] == "interrupted by SIGTERM", output
+    jobs = {job.parent.name: json.loads(job.read_text()) for job in sweep_dir.glob("*/metrics.json")}
+    stopped = [job for job in jobs.values() if job["status"] == "failed: interrupted by SIGTERM"]
+    assert stopped and all(job["frames_done"] < 100 for job in stopped) and "2" not in jobs, jobs
+    assert not list(Path(tempfile.gettempdir()).glob(f"articulated-tracking-sweep-{sweep.pid}.stop"))
+
+
+def test_a_ctrl_c_while_the_sweeps_workers_start_ends_it_with_one_line(tmp_path):
+    """The workers are still starting (importing the project) when the terminal's Ctrl-C reaches the whole group:
+    none of them breaks joblib's pool with a traceback, and no job runs on."""
+    sweep_dir = tmp_path / "sweep"
+    sweep = start_sweep(sweep_dir)
+    for line in iter(sweep.stdout.readline, ""):
+        if "Launching jobs" in line:
+            break
+    os.killpg(sweep.pid, signal.SIGINT)  # joblib is starting its workers (the jobs' folders come later, from them)
+    output, _ = sweep.communicate(timeout=120)
+    assert sweep.returncode == 130 and "Traceback" not in output, output
+    assert output.strip().splitlines()[-1] == "interrupted by SIGINT", output
+    statuses = {job.parent.name: json.loads(job.read_text())["status"] for job in sweep_dir.glob("*/metrics.json")}
+    assert set(statuses.values()) <= {"failed: interrupted by SIGINT"}, statuses
 
 
 @pytest.mark.slow
