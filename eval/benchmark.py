@@ -11,6 +11,13 @@ The floor of a clip is the dictionary's: the root-aligned MPJPE of the sample ne
 (`tracker.evaluation.dictionary`), read from a run of that clip that searched the dictionary; every setup of the
 clip is held against it on the same frames, a setup that searches none (AbIS) included, since every dictionary is
 built from the same clips for the same subject. ``aligned / floor`` below 1 is what no dictionary search can reach.
+
+Where a setup loses to the floor (`losses`): its excess, the root-aligned error less the floor, split by the scored
+frames it comes from: those where the estimate faces away from the subject (``turned``: the root's orientation off
+by `TURNED_DEG` or more: a silhouette seen from the front and from the back is the same), those where the pose is
+lost (``lost``: beyond `LOST` times the frame's floor, not turned), and the rest (``near``). The three add up to the
+excess; each is its frames' excess summed over all the scored frames, so a column says how many millimetres of the
+mean those frames cost.
 """
 
 from __future__ import annotations
@@ -37,6 +44,16 @@ MEASURES = {
 # tracker.rescue_ratio). A frame the tracker could not use took no estimation time.
 TIMINGS = {"estimation ms/frame": "median", "mean ms/frame": "mean"}
 COLUMNS = ["clip", "tracker", "status", "frames", "scored", "failed", *MEASURES, *TIMINGS, "aligned / floor"]
+TURNED_DEG = 90.0  # a root orientation error this large: the estimate faces away from the subject
+LOST = 2.0  # a root-aligned error beyond this many times the frame's floor: the pose is lost, not merely off
+LOSS_MM = ["excess mm", "turned mm", "lost mm", "near mm"]  # what `losses` adds to a clip's row (and frame counts)
+LOSS_FRAMES = ["turned frames", "lost frames"]
+CSV_COLUMNS = [*COLUMNS, *LOSS_MM, *LOSS_FRAMES]  # a clip's row in the csv; the markdown shows `COLUMNS`
+LOSS_LEGEND = (
+    f"the root-aligned error less the floor, mm, from the frames turned (root orientation off by {TURNED_DEG:g}° "
+    f"or more), lost (beyond {LOST:g}x the floor) and near it (the rest), each summed over all the scored frames; "
+    "mean over clips; and the share of the scored frames turned or lost"
+)
 
 
 def frame_table(run: Path) -> pd.DataFrame:
@@ -59,7 +76,7 @@ def benchmark_table(root: Path, labels: dict[str, str]) -> pd.DataFrame:
     setups' order, each measure the mean over the clip's scored frames."""
     runs = collect([root])
     if runs.empty:
-        return pd.DataFrame(columns=COLUMNS)
+        return pd.DataFrame(columns=CSV_COLUMNS)
     runs["clip"] = [Path(run).parent.name for run in runs["run"]]
     runs["folder"] = [Path(run).name for run in runs["run"]]
     runs = runs[runs["folder"].isin(list(labels))]
@@ -74,7 +91,7 @@ def benchmark_table(root: Path, labels: dict[str, str]) -> pd.DataFrame:
             for run in of_clip[of_clip["folder"] == folder].to_dict("records"):
                 table = frames[run["run"]]
                 rows.append(clip_row(clip, label, run, table.assign(floor_mm=floor.reindex(table.index)), scored))
-    return pd.DataFrame(rows, columns=COLUMNS)
+    return pd.DataFrame(rows, columns=CSV_COLUMNS)
 
 
 def scored_frames(tables: list[pd.DataFrame]) -> pd.Index:
@@ -100,7 +117,27 @@ def clip_row(clip: str, label: str, run: dict, frames: pd.DataFrame, scored: pd.
         row[column] = round(float(times.agg(statistic)), 1) if times is not None else np.nan
     aligned = kept["joint_error_aligned_mm"].mean() if "joint_error_aligned_mm" in kept else np.nan
     row["aligned / floor"] = round(float(aligned / kept["floor_mm"].mean()), 2) if len(kept) else np.nan
-    return row
+    return row | losses(kept)
+
+
+def losses(kept: pd.DataFrame) -> dict:
+    """The scored frames' excess over the floor (mm, per scored frame) split into turned, lost and near frames (see
+    the module), and how many frames were turned or lost; NaN and 0 where the run has no such measures."""
+    needed = {"joint_error_aligned_mm", "floor_mm", "root_orientation_error_deg"}
+    if not len(kept) or not needed <= set(kept.columns):
+        return dict.fromkeys(LOSS_MM, np.nan) | dict.fromkeys(LOSS_FRAMES, 0)
+    aligned, floor = kept["joint_error_aligned_mm"], kept["floor_mm"]
+    excess = aligned - floor
+    turned = kept["root_orientation_error_deg"] >= TURNED_DEG
+    lost = ~turned & (aligned > LOST * floor)
+    near = ~turned & ~lost
+    split = {"excess mm": excess.mean()} | {
+        name: excess[frames].sum() / len(kept) for name, frames in zip(LOSS_MM[1:], (turned, lost, near), strict=True)
+    }
+    return {name: round(float(mm), 1) for name, mm in split.items()} | {
+        "turned frames": int(turned.sum()),
+        "lost frames": int(lost.sum()),
+    }
 
 
 def summary_table(per_clip: pd.DataFrame, labels: dict[str, str]) -> pd.DataFrame:
@@ -118,5 +155,20 @@ def summary_table(per_clip: pd.DataFrame, labels: dict[str, str]) -> pd.DataFram
             values = done[column].astype(float).dropna()
             digits = 2 if column == "aligned / floor" else 1
             row[column] = f"{values.mean():.{digits}f} ± {values.std(ddof=0):.{digits}f}" if len(values) else ""
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def loss_table(per_clip: pd.DataFrame, labels: dict[str, str]) -> pd.DataFrame:
+    """Per setup: where its excess over the floor comes from (`losses`), each mm column's mean over the clips it
+    finished, and the share of its scored frames that were turned or lost."""
+    rows = []
+    for label in labels.values():
+        done = per_clip[(per_clip["tracker"] == label) & (per_clip["status"] == "ok")]
+        if done.empty or done["excess mm"].isna().all():
+            continue
+        row = {"tracker": label, **{column: round(float(done[column].mean()), 1) for column in LOSS_MM}}
+        scored = max(int(done["scored"].sum()), 1)
+        row |= {f"{column} %": round(100 * float(done[column].sum()) / scored, 1) for column in LOSS_FRAMES}
         rows.append(row)
     return pd.DataFrame(rows)

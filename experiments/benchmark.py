@@ -24,7 +24,7 @@ from pathlib import Path
 
 import yaml
 
-from eval.benchmark import benchmark_table, summary_table
+from eval.benchmark import COLUMNS, LOSS_LEGEND, benchmark_table, loss_table, summary_table
 from eval.body_figures import error_against_floor, fig5_strip
 from eval.runs import markdown
 from experiments.benchmark_split import Row, Split, SplitError, load_split
@@ -108,7 +108,8 @@ def run_benchmark(split: Split, rows: dict[str, Row], reports: Path, clips: str 
     per_clip = benchmark_table(root, labels)
     summary = summary_table(per_clip, labels)
     write_text(reports / f"{name}.csv", per_clip.to_csv(index=False))
-    text = markdown(summary) + "\n\n" + markdown(per_clip)
+    where = f"Where each setup loses to the floor ({LOSS_LEGEND}):\n\n" + markdown(loss_table(per_clip, labels))
+    text = markdown(summary) + "\n\n" + where + "\n\n" + markdown(per_clip[COLUMNS])
     write_text(reports / f"{name}.md", f"# Real-motion benchmark, {clips} clips\n\n" + text + "\n")
     section = (
         f"### The real-motion benchmark, {clips} clips\n\n"

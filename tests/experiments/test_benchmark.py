@@ -102,6 +102,8 @@ def test_the_benchmark_on_a_tiny_split_tabulates_every_row_against_the_clips_flo
     assert table.loc[1, "root-aligned mm"] == round(metrics["abis"]["mpjpe_root_aligned_mm"], 1)
     assert table.loc[1, "aligned / floor"] == pytest.approx(metrics["abis"]["mpjpe_root_aligned_mm"] / floor, abs=0.01)
     assert "± " in (reports / "benchmark.md").read_text()
+    assert_losses_add_up_frame_by_frame(table, runs, metrics["tbf"]["floor_per_frame_mm"])
+    assert "Where each setup loses to the floor" in (reports / "benchmark.md").read_text()
     assert all((run / "fig5.png").exists() and (run / "error_against_floor.png").exists() for run in runs.values())
     assert_scored_where_every_row_saw_the_subject(reports / "benchmark", runs, {f: r["label"] for f, r in rows.items()})
     stamp = (runs["tbf"] / "metrics.json").stat().st_mtime_ns
@@ -110,6 +112,22 @@ def test_the_benchmark_on_a_tiny_split_tabulates_every_row_against_the_clips_flo
     main(["--split", str(path), "--reports", str(reports), "--rows", "tbf", "--clips", "validation"])
     validation = pd.read_csv(reports / "benchmark_validation.csv")
     assert list(validation["clip"]) == ["143_33"] and (reports / "benchmark_validation" / "143_33" / "tbf").is_dir()
+
+
+def assert_losses_add_up_frame_by_frame(table, runs, floor):
+    """Each row's excess over the floor, split by the frames it comes from, as a loop over the frames finds it."""
+    for folder, row in zip(runs, table.to_dict("records"), strict=True):
+        frames = pd.read_parquet(runs[folder] / "frames.parquet").drop_duplicates("frame")
+        split = {"turned mm": 0.0, "lost mm": 0.0, "near mm": 0.0}
+        for aligned, turned_deg, floor_mm in zip(
+            frames["joint_error_aligned_mm"], frames["root_orientation_error_deg"], floor, strict=True
+        ):
+            kind = "turned" if turned_deg >= 90 else "lost" if aligned > 2 * floor_mm else "near"
+            split[f"{kind} mm"] += (aligned - floor_mm) / len(frames)
+        for column, mm in split.items():
+            assert row[column] == pytest.approx(mm, abs=0.051), (folder, column)
+        assert row["excess mm"] == pytest.approx(sum(split.values()), abs=0.051)
+        assert row["excess mm"] == pytest.approx(row["root-aligned mm"] - row["floor mm"], abs=0.11)
 
 
 def assert_scored_where_every_row_saw_the_subject(root, runs, labels):
