@@ -95,6 +95,33 @@ def test_started_from_the_given_pose_frame_0_is_refined_from_it(hybrid_cache):
     assert errors["initial"]["absolute"] < 30.0 < errors["prior"]["absolute"]  # mm: the tracker's body is not his
 
 
+def test_tree_filtering_from_one_camera_keeps_the_way_its_start_faces_and_from_the_given_pose_starts_right(
+    hybrid_cache,
+):
+    """``tracker.initial_pose``: one silhouette does not say whether the subject faces the camera or turns his back,
+    so tree filtering started upright facing away from him (``initial_yaw_deg``) estimates him turned; started from
+    the given frame-0 pose it faces his way."""
+    from tracker.evaluation.body import root_orientation_error_deg
+    from tracker.geometry.rotations import rotation_vector_to_matrix
+
+    def started(*overrides: str):
+        both_ways = "tracker.samples.clip_turns_deg=[0.0,180.0]"  # the dictionary holds him facing either way
+        run = build(compose(list(small_run(hybrid_cache, "experiment=tbf_paper_scale", both_ways, *overrides))))
+        start_tracker(run)
+        return run
+
+    run = started()
+    given = run.scene.params(run.model, 0)
+    hips = rotation_vector_to_matrix(given[3:6])
+    away_deg = np.degrees(np.arctan2(hips[1, 0], hips[0, 0])) + 90.0  # `arms_pose`'s yaw turns the hips by yaw + 90
+    errors = {}
+    for initial_pose in ("upright", "given"):
+        run = started(f"tracker.initial_pose={initial_pose}", f"tracker.initial_yaw_deg={away_deg:.3f}")
+        estimate = run.tracker.step(observations(run, 1)[0]).estimate
+        errors[initial_pose] = float(root_orientation_error_deg(given, estimate))
+    assert errors["given"] < 45.0 and errors["upright"] > 90.0, errors
+
+
 def test_a_candidate_turned_further_than_max_turn_deg_from_the_last_estimate_is_kept_from_the_choice(hybrid_cache):
     from scipy.spatial.transform import Rotation
 

@@ -39,6 +39,11 @@ class TbfSettings:
     estimate: Literal["map", "mean"] = "map"
     mean_of: Annotated[int, Range(2, 10_000)] = 10
     initial_yaw_deg: Finite = -90.0  # the initial pose: upright, arms down, facing this way (the body faces -y)
+    # Frame 0's prior centred on that upright pose (``upright``: paper 2's start), or on the frame-0 pose the run gives,
+    # its joint rotations and the root's orientation, in place (``given``: paper 1's user-assisted start, as AbIS
+    # starts and the hybrid's ``start_from=initial``). One silhouette does not say whether a person faces the camera
+    # or turns his back to it: a wrong start can last the whole clip.
+    initial_pose: Literal["upright", "given"] = "upright"
     cache_dir: str = ".cache/tbf"  # sample sets and trees, keyed by everything that affects them
     # How much of a cached sample set is read to trust it: a sampled digest of each array, or every byte.
     cache_check: Literal["sampled", "full"] = "sampled"

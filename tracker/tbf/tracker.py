@@ -165,8 +165,8 @@ class TbfTracker(Tracker):
         self, model: BodyMesh | DSQArm, initial: np.ndarray
     ) -> tuple[Any, PoseSpace, np.ndarray, np.ndarray]:
         """What the samples pose, the space of their pose vectors, the pose vectors and frame 0's pose: the body's
-        (the tracker's own body; upright, arms down, facing ``initial_yaw_deg``), or the arm's grid (started where
-        paper 1 starts: at the initial pose)."""
+        (the tracker's own body; upright, arms down, facing ``initial_yaw_deg``, or the given ``initial`` posture:
+        ``initial_pose``), or the arm's grid (started where paper 1 starts: at the initial pose)."""
         settings, self.arm_grid, self.body = self.settings, None, None
         if isinstance(model, DSQArm):
             self.arm_grid, self.transitions = ArmDictionary(model, settings.arm_samples), None
@@ -175,6 +175,8 @@ class TbfTracker(Tracker):
         self.body, self.body_choice = own_body(model, settings.body, settings.body_triangles, cache_dir / "bodies")
         poses, self.transitions = cached_sample_poses(settings.samples, self.body, cache_dir / "poses")
         initial_pose = arms_pose(self.body, (0.0, 8.0, 0.0), (0.0, 8.0, 0.0), yaw_deg=settings.initial_yaw_deg)
+        if settings.initial_pose == "given":  # the given pose's posture, where the samples stand (they do in place)
+            initial_pose = np.r_[initial_pose[:3], np.asarray(initial, dtype=np.float64)[3:]]
         return self.body, BODY_SPACE, poses, initial_pose
 
     def _samples_and_tree(self, posable: Any, poses: np.ndarray) -> None:
