@@ -17,7 +17,9 @@ frames it comes from: those where the estimate faces away from the subject (``tu
 by `TURNED_DEG` or more: a silhouette seen from the front and from the back is the same), those where the pose is
 lost (``lost``: beyond `LOST` times the frame's floor, not turned), and the rest (``near``). The three add up to the
 excess; each is its frames' excess summed over all the scored frames, so a column says how many millimetres of the
-mean those frames cost.
+mean those frames cost. Of the turned and lost frames, those where the tracker's own cost preferred its sample to
+the floor's are ambiguous (the cost's loss: no search of the samples would have found the floor's there); the rest
+are the search's.
 """
 
 from __future__ import annotations
@@ -47,27 +49,32 @@ COLUMNS = ["clip", "tracker", "status", "frames", "scored", "failed", *MEASURES,
 TURNED_DEG = 90.0  # a root orientation error this large: the estimate faces away from the subject
 LOST = 2.0  # a root-aligned error beyond this many times the frame's floor: the pose is lost, not merely off
 LOSS_MM = ["excess mm", "turned mm", "lost mm", "near mm"]  # what `losses` adds to a clip's row (and frame counts)
-LOSS_FRAMES = ["turned frames", "lost frames"]
+LOSS_FRAMES = ["turned frames", "lost frames", "ambiguous frames"]  # ambiguous: of the turned or lost
 CSV_COLUMNS = [*COLUMNS, *LOSS_MM, *LOSS_FRAMES]  # a clip's row in the csv; the markdown shows `COLUMNS`
 LOSS_LEGEND = (
     f"the root-aligned error less the floor, mm, from the frames turned (root orientation off by {TURNED_DEG:g}° "
     f"or more), lost (beyond {LOST:g}x the floor) and near it (the rest), each summed over all the scored frames; "
-    "mean over clips; and the share of the scored frames turned or lost"
+    "mean over clips; the share of the scored frames turned or lost, and of those the share where the tracker's own "
+    "cost preferred its sample to the floor's (ambiguous: no search of these samples would have done better; "
+    "the hybrid's, its filter's sample)"
 )
 
 
 def frame_table(run: Path) -> pd.DataFrame:
     """A run's frames, one row each (its first part's), with ``seen``: every view saw the whole subject (True for
-    runs written before the runs said so), and ``floor_mm`` where the run judged a dictionary."""
+    runs written before the runs said so), and where the run judged a dictionary ``floor_mm`` and ``ambiguous``
+    (its own cost preferred its sample to the floor's: `tracker.evaluation.dictionary`)."""
     table = pd.read_parquet(run / "frames.parquet")
     if "frame" not in table:  # a run that failed before its first frame
         return pd.DataFrame({"seen": pd.Series(dtype=bool)}, index=pd.Index([], name="frame"))
     frames = table.drop_duplicates("frame").set_index("frame")
     views = [column for column in frames.columns if column.startswith("in_view_")]
     frames["seen"] = frames[views].all(axis=1) if views else True
-    floor = json.loads((run / "metrics.json").read_text()).get("floor_per_frame_mm")
-    if floor is not None:
+    metrics = json.loads((run / "metrics.json").read_text())
+    if (floor := metrics.get("floor_per_frame_mm")) is not None:
         frames["floor_mm"] = np.asarray(floor, dtype=np.float64)[: len(frames)]
+    if (ambiguous := metrics.get("ambiguous_per_frame")) is not None:
+        frames["ambiguous"] = np.asarray(ambiguous, dtype=bool)[: len(frames)]
     return frames
 
 
@@ -125,7 +132,7 @@ def losses(kept: pd.DataFrame) -> dict:
     the module), and how many frames were turned or lost; NaN and 0 where the run has no such measures."""
     needed = {"joint_error_aligned_mm", "floor_mm", "root_orientation_error_deg"}
     if not len(kept) or not needed <= set(kept.columns):
-        return dict.fromkeys(LOSS_MM, np.nan) | dict.fromkeys(LOSS_FRAMES, 0)
+        return dict.fromkeys(LOSS_MM, np.nan) | {"turned frames": 0, "lost frames": 0, "ambiguous frames": np.nan}
     aligned, floor = kept["joint_error_aligned_mm"], kept["floor_mm"]
     excess = aligned - floor
     turned = kept["root_orientation_error_deg"] >= TURNED_DEG
@@ -134,9 +141,11 @@ def losses(kept: pd.DataFrame) -> dict:
     split = {"excess mm": excess.mean()} | {
         name: excess[frames].sum() / len(kept) for name, frames in zip(LOSS_MM[1:], (turned, lost, near), strict=True)
     }
+    ambiguous = kept["ambiguous"].astype(bool) & (turned | lost) if "ambiguous" in kept else None
     return {name: round(float(mm), 1) for name, mm in split.items()} | {
         "turned frames": int(turned.sum()),
         "lost frames": int(lost.sum()),
+        "ambiguous frames": np.nan if ambiguous is None else int(ambiguous.sum()),
     }
 
 
@@ -169,6 +178,10 @@ def loss_table(per_clip: pd.DataFrame, labels: dict[str, str]) -> pd.DataFrame:
             continue
         row = {"tracker": label, **{column: round(float(done[column].mean()), 1) for column in LOSS_MM}}
         scored = max(int(done["scored"].sum()), 1)
-        row |= {f"{column} %": round(100 * float(done[column].sum()) / scored, 1) for column in LOSS_FRAMES}
+        row |= {f"{column} %": round(100 * float(done[column].sum()) / scored, 1) for column in LOSS_FRAMES[:2]}
+        astray = int(done["turned frames"].sum() + done["lost frames"].sum())
+        ambiguous = done["ambiguous frames"].astype(float)
+        known = astray and not ambiguous.isna().any()
+        row["of them ambiguous %"] = round(100 * float(ambiguous.sum()) / astray, 1) if known else np.nan
         rows.append(row)
     return pd.DataFrame(rows)

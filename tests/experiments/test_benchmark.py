@@ -3,6 +3,7 @@ keeping every test clip out of every dictionary, and the whole benchmark on a ti
 
 import json
 
+import numpy as np
 import pandas as pd
 import pytest
 import yaml
@@ -115,17 +116,21 @@ def test_the_benchmark_on_a_tiny_split_tabulates_every_row_against_the_clips_flo
 
 
 def assert_losses_add_up_frame_by_frame(table, runs, floor):
-    """Each row's excess over the floor, split by the frames it comes from, as a loop over the frames finds it."""
+    """Each row's excess over the floor, split by the frames it comes from, and the turned or lost frames its own
+    cost could not have told from the floor's, as a loop over the frames finds them."""
     for folder, row in zip(runs, table.to_dict("records"), strict=True):
         frames = pd.read_parquet(runs[folder] / "frames.parquet").drop_duplicates("frame")
-        split = {"turned mm": 0.0, "lost mm": 0.0, "near mm": 0.0}
-        for aligned, turned_deg, floor_mm in zip(
-            frames["joint_error_aligned_mm"], frames["root_orientation_error_deg"], floor, strict=True
+        flags = json.loads((runs[folder] / "metrics.json").read_text()).get("ambiguous_per_frame")
+        split, ambiguous = {"turned mm": 0.0, "lost mm": 0.0, "near mm": 0.0}, 0
+        for frame, (aligned, turned_deg, floor_mm) in enumerate(
+            zip(frames["joint_error_aligned_mm"], frames["root_orientation_error_deg"], floor, strict=True)
         ):
             kind = "turned" if turned_deg >= 90 else "lost" if aligned > 2 * floor_mm else "near"
             split[f"{kind} mm"] += (aligned - floor_mm) / len(frames)
+            ambiguous += kind != "near" and flags is not None and flags[frame]
         for column, mm in split.items():
             assert row[column] == pytest.approx(mm, abs=0.051), (folder, column)
+        assert row["ambiguous frames"] == ambiguous if flags is not None else np.isnan(row["ambiguous frames"])
         assert row["excess mm"] == pytest.approx(sum(split.values()), abs=0.051)
         assert row["excess mm"] == pytest.approx(row["root-aligned mm"] - row["floor mm"], abs=0.11)
 
