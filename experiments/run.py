@@ -41,12 +41,10 @@ def hydra_main(cfg: DictConfig) -> dict:
         if (metrics := finished_metrics(cfg, output_dir)) is not None:
             log.info("run finished earlier, kept: %s", output_dir)  # resuming a sweep redoes only the rest
             return metrics
-        sweep_stop = SweepStop.file()
-        if StopRequest.received or sweep_stop.exists():  # a job queued behind the running ones does not start
+        if SweepStop.stopping():
             log.info("not started, the sweep is stopping: %s", output_dir)
             return {"status": "not started: the sweep was stopped"}
-    else:
-        sweep_stop = None
+    sweep_stop = SweepStop.file() if hydra_cfg.mode == RunMode.MULTIRUN else None
     try:
         metrics = run_job(cfg, output_dir, choices, sweep_stop)
     except OutputsLost as lost:

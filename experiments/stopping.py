@@ -128,8 +128,17 @@ class SweepStop:
     PID_VARIABLE = "ARTICULATED_TRACKING_SWEEP_PID"
 
     @classmethod
-    def file(cls) -> Path:
-        return Path(tempfile.gettempdir()) / f"articulated-tracking-sweep-{os.environ[cls.PID_VARIABLE]}.stop"
+    def file(cls) -> Path | None:
+        """The file that says the sweep stops (None: a job whose process did not inherit the sweep's environment,
+        a remote Ray worker's, say: it stops on the signals it gets alone)."""
+        pid = os.environ.get(cls.PID_VARIABLE)
+        return None if pid is None else Path(tempfile.gettempdir()) / f"articulated-tracking-sweep-{pid}.stop"
+
+    @classmethod
+    def stopping(cls) -> bool:
+        """This process, or the sweep's, was asked to stop (a job queued behind the running ones does not start)."""
+        path = cls.file()
+        return StopRequest.received is not None or (path is not None and path.exists())
 
     @classmethod
     def in_sweep_process(cls) -> bool:
@@ -138,7 +147,7 @@ class SweepStop:
     @classmethod
     def install(cls) -> None:
         os.environ[cls.PID_VARIABLE] = str(os.getpid())  # before any worker starts: they inherit it
-        cls.file().unlink(missing_ok=True)  # left by an earlier process of this id, killed
+        cls.remove_file()  # left by an earlier process of this id, killed
         for number in StopRequest.SIGNALS:
             signal.signal(number, cls._first)
         cls.block_stops_in_workers()
@@ -149,13 +158,16 @@ class SweepStop:
         log.warning("%s: the sweep stops once its running jobs have written their outputs", name)
         StopRequest.note(name)
         signal.signal(number, default_action(number))
-        write_text(cls.file(), name)
+        if (path := cls.file()) is not None:
+            write_text(path, name)
 
     @staticmethod
     def block_stops_in_workers() -> None:
         """Hydra's joblib launcher asks for the backend by name: the name, in this process, now makes workers whose
-        first act is to block the signals (a builtin function, unpickled before the jobs' own modules are imported:
-        the window left is the interpreter's start)."""
+        first act is to block the signals (a builtin function, unpickled before the jobs' own modules are imported).
+        The window left is a worker's interpreter starting, before that act: a Ctrl-C then still ends the sweep with
+        joblib's traceback (its workers ignoring the signals from exec on would close it, but an ignored signal is
+        lost in this process's other threads while it starts them)."""
         blocking = functools.partial(
             LokyBackend, initializer=signal.pthread_sigmask, initargs=(signal.SIG_BLOCK, StopRequest.SIGNALS)
         )
@@ -163,5 +175,5 @@ class SweepStop:
 
     @classmethod
     def remove_file(cls) -> None:
-        if cls.in_sweep_process():
-            cls.file().unlink(missing_ok=True)
+        if cls.in_sweep_process() and (path := cls.file()) is not None:
+            path.unlink(missing_ok=True)

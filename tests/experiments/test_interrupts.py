@@ -106,20 +106,22 @@ def test_a_sigterm_to_the_sweep_alone_stops_its_running_jobs_after_their_frame(t
     assert not list(Path(tempfile.gettempdir()).glob(f"articulated-tracking-sweep-{sweep.pid}.stop"))
 
 
-def test_a_ctrl_c_while_the_sweeps_workers_start_ends_it_with_one_line(tmp_path):
-    """The workers are still starting (importing the project) when the terminal's Ctrl-C reaches the whole group:
-    none of them breaks joblib's pool with a traceback, and no job runs on."""
+def test_a_ctrl_c_as_the_sweeps_workers_start_their_jobs_ends_it_with_one_line(tmp_path):
+    """Both workers have just started a job (the jobs' folders are made by them) and are still building it when the
+    terminal's Ctrl-C reaches the whole group: neither breaks joblib's pool with a traceback, each writes its outputs
+    marked interrupted, and the job queued behind them does not start."""
     sweep_dir = tmp_path / "sweep"
     sweep = start_sweep(sweep_dir)
-    for line in iter(sweep.stdout.readline, ""):
-        if "Launching jobs" in line:
-            break
-    os.killpg(sweep.pid, signal.SIGINT)  # joblib is starting its workers (the jobs' folders come later, from them)
+    deadline = time.monotonic() + 240
+    while len(list(sweep_dir.glob("*/.hydra"))) < 2 and time.monotonic() < deadline and sweep.poll() is None:
+        time.sleep(0.02)
+    os.killpg(sweep.pid, signal.SIGINT)
     output, _ = sweep.communicate(timeout=120)
     assert sweep.returncode == 130 and "Traceback" not in output, output
     assert output.strip().splitlines()[-1] == "interrupted by SIGINT", output
     statuses = {job.parent.name: json.loads(job.read_text())["status"] for job in sweep_dir.glob("*/metrics.json")}
-    assert set(statuses.values()) <= {"failed: interrupted by SIGINT"}, statuses
+    assert set(statuses.values()) <= {"failed: interrupted by SIGINT"} and "2" not in statuses, statuses
+    assert not list(sweep_dir.glob("*/.*.tmp"))  # no job was ended while it wrote its outputs
 
 
 @pytest.mark.slow
