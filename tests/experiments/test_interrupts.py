@@ -47,22 +47,40 @@ def test_an_interrupt_during_a_sample_build_ends_the_run_with_one_line(tmp_path,
     assert list(cache.glob("samples/.*.building/shard*")), "the finished shards are kept for the next run"
 
 
+def sweep_command(sweep_dir):
+    """A sweep of three 100-frame jobs (two at a time, on joblib's workers) into ``sweep_dir``."""
+    command = [sys.executable, "-m", "experiments.run", "-m", "model=dsq_arm", "frames=100", "seed=0,1,2"]
+    return [*command, f"hydra.sweep.dir={sweep_dir}"]
+
+
+def start_sweep(sweep_dir):
+    return subprocess.Popen(
+        sweep_command(sweep_dir), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True
+    )
+
+
+def wait_until(sweep, ready):
+    deadline = time.monotonic() + 240
+    while not ready() and time.monotonic() < deadline and sweep.poll() is None:
+        time.sleep(0.02)
+    assert sweep.poll() is None, "the sweep ended before it was stopped"
+
+
+def ended_by(sweep, sweep_dir, signal_name):
+    """The stopped sweep's jobs' metrics, once it ended as a stopped command ends: one line, 128 + the signal."""
+    output, _ = sweep.communicate(timeout=120)
+    assert sweep.returncode == 128 + getattr(signal, signal_name) and "Traceback" not in output, output
+    assert output.strip().splitlines()[-1] == f"interrupted by {signal_name}", output
+    return {job.parent.name: json.loads(job.read_text()) for job in sweep_dir.glob("*/metrics.json")}
+
+
 def test_an_interrupted_sweep_marks_its_running_jobs_and_resumes_with_the_rest(tmp_path):
     sweep_dir = tmp_path / "sweep"
-    command = [sys.executable, "-m", "experiments.run", "-m", "model=dsq_arm", "frames=100", "seed=0,1,2"]
-    command.append(f"hydra.sweep.dir={sweep_dir}")
-    sweep = subprocess.Popen(
-        command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True
-    )
-    deadline = time.monotonic() + 240
-    while not list(sweep_dir.glob("*/.run.rrd.*.tmp")) and time.monotonic() < deadline and sweep.poll() is None:
-        time.sleep(0.2)
+    command, sweep = sweep_command(sweep_dir), start_sweep(sweep_dir)
+    wait_until(sweep, lambda: list(sweep_dir.glob("*/.run.rrd.*.tmp")))
     time.sleep(1)
     os.killpg(sweep.pid, signal.SIGINT)
-    output, _ = sweep.communicate(timeout=120)
-    assert sweep.returncode == 130 and "Traceback" not in output, output
-    assert output.strip().splitlines()[-1] == "interrupted by SIGINT", output
-    statuses = {job.parent.name: json.loads(job.read_text())["status"] for job in sweep_dir.glob("*/metrics.json")}
+    statuses = {name: job["status"] for name, job in ended_by(sweep, sweep_dir, "SIGINT").items()}
     assert set(statuses.values()) <= {"ok", "failed: interrupted by SIGINT"}, statuses
     assert "failed: interrupted by SIGINT" in statuses.values(), statuses  # the running jobs said so
     finished = {
@@ -75,32 +93,14 @@ def test_an_interrupted_sweep_marks_its_running_jobs_and_resumes_with_the_rest(t
     assert all((sweep_dir / name / "metrics.json").stat().st_mtime_ns == stamp for name, stamp in finished.items())
 
 
-def start_sweep(sweep_dir):
-    command = [sys.executable, "-m", "experiments.run", "-m", "model=dsq_arm", "frames=100", "seed=0,1,2"]
-    command.append(f"hydra.sweep.dir={sweep_dir}")
-    return subprocess.Popen(
-        command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True
-    )
-
-
-def wait_for(sweep, pattern_dir, pattern):
-    deadline = time.monotonic() + 240
-    while not list(pattern_dir.glob(pattern)) and time.monotonic() < deadline and sweep.poll() is None:
-        time.sleep(0.05)
-    assert sweep.poll() is None, "the sweep ended before it was stopped"
-
-
 def test_a_sigterm_to_the_sweep_alone_stops_its_running_jobs_after_their_frame(tmp_path):
     """A scheduler's ``kill <pid>`` reaches the sweep's process, not its workers: the jobs hear of it all the same
     (`experiments.stopping.SweepStop`), write their outputs marked interrupted, and no queued job starts."""
     sweep_dir = tmp_path / "sweep"
     sweep = start_sweep(sweep_dir)
-    wait_for(sweep, sweep_dir, "*/.run.rrd.*.tmp")
+    wait_until(sweep, lambda: list(sweep_dir.glob("*/.run.rrd.*.tmp")))
     os.kill(sweep.pid, signal.SIGTERM)
-    output, _ = sweep.communicate(timeout=120)
-    assert sweep.returncode == 128 + signal.SIGTERM and "Traceback" not in output, output
-    assert output.strip().splitlines()[-1] == "interrupted by SIGTERM", output
-    jobs = {job.parent.name: json.loads(job.read_text()) for job in sweep_dir.glob("*/metrics.json")}
+    jobs = ended_by(sweep, sweep_dir, "SIGTERM")
     stopped = [job for job in jobs.values() if job["status"] == "failed: interrupted by SIGTERM"]
     assert stopped and all(job["frames_done"] < 100 for job in stopped) and "2" not in jobs, jobs
     assert not list(Path(tempfile.gettempdir()).glob(f"articulated-tracking-sweep-{sweep.pid}.stop"))
@@ -112,14 +112,9 @@ def test_a_ctrl_c_as_the_sweeps_workers_start_their_jobs_ends_it_with_one_line(t
     marked interrupted, and the job queued behind them does not start."""
     sweep_dir = tmp_path / "sweep"
     sweep = start_sweep(sweep_dir)
-    deadline = time.monotonic() + 240
-    while len(list(sweep_dir.glob("*/.hydra"))) < 2 and time.monotonic() < deadline and sweep.poll() is None:
-        time.sleep(0.02)
+    wait_until(sweep, lambda: len(list(sweep_dir.glob("*/.hydra"))) >= 2)
     os.killpg(sweep.pid, signal.SIGINT)
-    output, _ = sweep.communicate(timeout=120)
-    assert sweep.returncode == 130 and "Traceback" not in output, output
-    assert output.strip().splitlines()[-1] == "interrupted by SIGINT", output
-    statuses = {job.parent.name: json.loads(job.read_text())["status"] for job in sweep_dir.glob("*/metrics.json")}
+    statuses = {name: job["status"] for name, job in ended_by(sweep, sweep_dir, "SIGINT").items()}
     assert set(statuses.values()) <= {"failed: interrupted by SIGINT"} and "2" not in statuses, statuses
     assert not list(sweep_dir.glob("*/.*.tmp"))  # no job was ended while it wrote its outputs
 
