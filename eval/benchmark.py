@@ -14,7 +14,7 @@ built from the same clips for the same subject. ``aligned / floor`` below 1 is w
 
 Where a setup loses to the floor (`losses`): its excess, the root-aligned error less the floor, split by the scored
 frames it comes from: those where the estimate faces away from the subject (``turned``: the root's orientation off
-by `TURNED_DEG` or more: a silhouette seen from the front and from the back is the same), those where the pose is
+by `TURNED_DEG` or more: one silhouette looks much the same from the front and from the back), those where the pose is
 lost (``lost``: beyond `LOST` times the frame's floor, not turned), and the rest (``near``). The three add up to the
 excess; each is its frames' excess summed over all the scored frames, so a column says how many millimetres of the
 mean those frames cost. Of the turned and lost frames, those where the tracker's own cost preferred its sample to
@@ -129,7 +129,8 @@ def clip_row(clip: str, label: str, run: dict, frames: pd.DataFrame, scored: pd.
 
 def losses(kept: pd.DataFrame) -> dict:
     """The scored frames' excess over the floor (mm, per scored frame) split into turned, lost and near frames (see
-    the module), and how many frames were turned or lost; NaN and 0 where the run has no such measures."""
+    the module), how many frames were turned or lost, and of those how many ambiguous (NaN: the run judged no
+    dictionary); NaN and 0 where the run has no such measures."""
     needed = {"joint_error_aligned_mm", "floor_mm", "root_orientation_error_deg"}
     if not len(kept) or not needed <= set(kept.columns):
         return dict.fromkeys(LOSS_MM, np.nan) | {"turned frames": 0, "lost frames": 0, "ambiguous frames": np.nan}
