@@ -104,19 +104,18 @@ def test_tree_filtering_from_one_camera_keeps_the_way_its_start_faces_and_from_t
     from tracker.evaluation.body import root_orientation_error_deg
     from tracker.geometry.rotations import rotation_vector_to_matrix
 
-    def started(*overrides: str):
+    def built(*overrides: str):
         both_ways = "tracker.samples.clip_turns_deg=[0.0,180.0]"  # the dictionary holds him facing either way
-        run = build(compose(list(small_run(hybrid_cache, "experiment=tbf_paper_scale", both_ways, *overrides))))
-        start_tracker(run)
-        return run
+        return build(compose(list(small_run(hybrid_cache, "experiment=tbf_paper_scale", both_ways, *overrides))))
 
-    run = started()
+    run = built()  # only its scene: the pose it gives
     given = run.scene.params(run.model, 0)
     hips = rotation_vector_to_matrix(given[3:6])
     away_deg = np.degrees(np.arctan2(hips[1, 0], hips[0, 0])) + 90.0  # `arms_pose`'s yaw turns the hips by yaw + 90
     errors = {}
     for initial_pose in ("upright", "given"):
-        run = started(f"tracker.initial_pose={initial_pose}", f"tracker.initial_yaw_deg={away_deg:.3f}")
+        run = built(f"tracker.initial_pose={initial_pose}", f"tracker.initial_yaw_deg={away_deg:.3f}")
+        start_tracker(run)
         estimate = run.tracker.step(observations(run, 1)[0]).estimate
         errors[initial_pose] = float(root_orientation_error_deg(given, estimate))
     assert errors["given"] < 45.0 and errors["upright"] > 90.0, errors
