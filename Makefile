@@ -40,9 +40,11 @@ SCALE ?= default
 reproduce: setup
 	$(PY) -m experiments.reproduce --scale $(SCALE)
 
-# Fast tests (slow ones are marked; `make test-all` runs them too).
+# Fast tests (slow ones are marked; `make test-all` runs them too), one worker per core, a test file's tests on one
+# worker (its session fixtures made once there).
+PYTEST := $(PY) -m pytest -q -n auto --dist loadfile
 test: setup
-	$(PY) -m pytest -q
+	$(PYTEST)
 
 # Pictures of each default layout of a recording, in Rerun's headless viewer, into docs/screenshots/.
 screenshots: setup
@@ -53,7 +55,7 @@ ray: setup
 	$(PY) -m pip install -q -e '.[dev,ray]'
 
 test-all: setup ray
-	$(PY) -m pytest -q -m ''
+	$(PYTEST) -m ''
 
 # ruff's linter and its formatter (the formatter only checks here; `make format` rewrites)
 lint: setup
