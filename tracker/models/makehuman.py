@@ -104,12 +104,13 @@ def build_body(
     digest = hashlib.sha256(f"triangles={triangles} height={height!r} girth={girth!r}".encode())
     if not shape.is_base:
         digest.update(repr(shape).encode())
-    for path in paths:
-        digest.update(path.read_bytes())
-    vertices, groups = _read_obj(paths[0])
+    contents = tuple(path.read_bytes() for path in paths)
+    for content in contents:
+        digest.update(content)
+    vertices, groups, rig, (faces, used, body_weights) = _parsed_sources(tuple(paths), contents)
     vertices = vertices + macro_offsets(data_dir / "targets/macrodetails", shape, len(vertices))
-    heads, tails, parents = _rig(json.loads(paths[1].read_text()), vertices, groups)
-    faces, body_vertices, body_weights = _skinned_surface(vertices, groups, json.loads(paths[2].read_text()), paths[2])
+    heads, tails, parents = _rig(rig, vertices, groups)
+    body_vertices = vertices[used]
     body_vertices, faces, body_weights = _decimate(body_vertices, faces, body_weights, triangles)
 
     # Into the body frame, feet on z = 0.
@@ -178,6 +179,20 @@ def _source_files(data_dir: Path) -> list[Path]:
     return paths
 
 
+@functools.lru_cache(maxsize=2)
+def _parsed_sources(
+    paths: tuple[Path, ...], contents: tuple[bytes, ...]
+) -> tuple[np.ndarray, dict, dict, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """The `_source_files` ``paths`` parsed from their ``contents``: the OBJ's vertices and groups, the rig, and
+    the skinned surface (`_skinned_surface`), its arrays read-only. Kept by content for the process: measuring the
+    standard bodies builds 24 bodies from them, and parsing them was most of each build."""
+    vertices, groups = _read_obj(paths[0], contents[0].decode())
+    surface = _skinned_surface(groups, json.loads(contents[2]), len(vertices), paths[2])
+    for array in (vertices, *surface):
+        array.flags.writeable = False
+    return vertices, groups, json.loads(contents[1]), surface
+
+
 def _rig(rig: dict, vertices: np.ndarray, groups: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per joint of `JOINT_NAMES` its bone's head and tail (OBJ frame), and its parent joint (-1: the root)."""
     heads = np.array([_rig_point(rig[_rig_name(n)]["head"], vertices, groups) for n in JOINT_NAMES])
@@ -192,16 +207,17 @@ def _rig(rig: dict, vertices: np.ndarray, groups: dict) -> tuple[np.ndarray, np.
 
 
 def _skinned_surface(
-    vertices: np.ndarray, groups: dict, weights_file: dict, path: Path
+    groups: dict, weights_file: dict, vertex_count: int, path: Path
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The body group as triangles over its own vertices, and each vertex's normalised weights per joint."""
-    dense = np.zeros((len(vertices), len(JOINT_NAMES)))
+    """The body group as triangles over its own vertices, the OBJ's vertices it uses (in that order), and each
+    one's normalised weights per joint."""
+    dense = np.zeros((vertex_count, len(JOINT_NAMES)))
     for name in JOINT_NAMES:
         for vertex, weight in weights_file["weights"].get(_rig_name(name), []):
             dense[vertex, JOINT_INDEX[name]] += weight
     quads = np.array(groups["body"])
     used = np.unique(quads)
-    remap = np.full(len(vertices), -1)
+    remap = np.full(vertex_count, -1)
     remap[used] = np.arange(len(used))
     quads = remap[quads]
     faces = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
@@ -209,7 +225,7 @@ def _skinned_surface(
     if (body_weights.sum(axis=1) <= 0).any():
         raise BodyDataError(f"{path}: some body vertices have no skinning weight")
     body_weights /= body_weights.sum(axis=1, keepdims=True)
-    return faces, vertices[used], body_weights
+    return faces, used, body_weights
 
 
 def _face_parts(faces: np.ndarray, weights: np.ndarray) -> np.ndarray:
@@ -229,19 +245,19 @@ def _bvh_name(rig_name: str) -> str:
     return {rig: bvh for bvh, rig in _RIG_NAMES.items()}.get(rig_name, rig_name)
 
 
-def _read_obj(path: Path) -> tuple[np.ndarray, dict[str, list[list[int]]]]:
-    """Vertices (OBJ frame) and each group's faces as 0-based vertex indices."""
+def _read_obj(path: Path, text: str) -> tuple[np.ndarray, dict[str, list[list[int]]]]:
+    """Vertices (OBJ frame) and each group's faces as 0-based vertex indices, from the OBJ file ``path``'s
+    ``text``."""
     vertices: list[list[float]] = []
     groups: dict[str, list[list[int]]] = {}
     current = groups.setdefault("", [])
-    with path.open() as lines:
-        for line in lines:
-            if line.startswith("v "):
-                vertices.append([float(value) for value in line.split()[1:4]])
-            elif line.startswith("g "):
-                current = groups.setdefault(line.split()[1], [])
-            elif line.startswith("f "):
-                current.append([int(token.split("/")[0]) - 1 for token in line.split()[1:]])
+    for line in text.splitlines():
+        if line.startswith("v "):
+            vertices.append([float(value) for value in line.split()[1:4]])
+        elif line.startswith("g "):
+            current = groups.setdefault(line.split()[1], [])
+        elif line.startswith("f "):
+            current.append([int(token.split("/")[0]) - 1 for token in line.split()[1:]])
     if "body" not in groups:
         raise BodyDataError(f"{path} has no group 'body'")
     return np.array(vertices), groups
@@ -262,7 +278,7 @@ def _decimate(vertices, faces, weights, triangles):
     import fast_simplification
 
     if triangles >= len(faces):
-        return vertices, faces, weights
+        return vertices, faces, weights.copy()  # the body's own (the parsed sources' are kept read-only)
     reduction = 1.0 - triangles / len(faces)
     _, _, collapses = fast_simplification.simplify(vertices, faces, reduction, return_collapses=True)
     out_vertices, out_faces, mapping = fast_simplification.replay_simplification(vertices, faces, collapses)
