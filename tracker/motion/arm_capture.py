@@ -5,7 +5,7 @@ The session is continuous, as a capture is: the right arm goes from move to move
 uniformly over the ranges at a drawn speed (minimum-jerk), or swinging about a drawn centre for one to three cycles
 of a drawn amplitude and period — while the trunk, head, left arm, knees, weight and facing drift slowly
 (`tracker.motion.posture.Drifts`, `NATURAL_SPREAD` times ``amplitude``). Every frame becomes a pose
-(`tracker.motion.posture.standing_pose`); the sample set then drops near-duplicates, as the paper did.
+(`tracker.motion.posture.standing_poses`); the sample set then drops near-duplicates, as the paper did.
 Times in seconds, angles in degrees. Everything is drawn from the generator given: a session shares nothing with
 another seed's, nor with any test sequence.
 """
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tracker.models.body_mesh import BodyMesh
-from tracker.motion.posture import NATURAL_SPREAD, Drifts, Posture, standing_pose, with_offsets
+from tracker.motion.posture import NATURAL_SPREAD, Drifts, Posture, standing_poses, with_offsets
 
 REACH_SPEED_DEG_S = (60.0, 200.0)  # a reach's speed along its largest joint change
 SWING_AMPLITUDE_DEG = (10.0, 80.0)
@@ -76,15 +76,13 @@ def capture_poses(
     frames = int(round(seconds * fps))
     arm = right_arm_track(ranges, frames, fps, rng)
     drifts = Drifts.draw(rng, NATURAL_SPREAD, DRIFT_PERIODS_S).natural(np.arange(frames) / fps, amplitude)
-    return np.array(
-        [
-            standing_pose(
-                body,
-                with_offsets(
-                    Posture(right=tuple(arm[k]), yaw_deg=yaw_deg),
-                    {name: float(values[k]) for name, values in drifts.items()},
-                ),
+    return standing_poses(
+        body,
+        (
+            with_offsets(
+                Posture(right=tuple(arm[k]), yaw_deg=yaw_deg),
+                {name: float(values[k]) for name, values in drifts.items()},
             )
             for k in range(frames)
-        ]
+        ),
     )

@@ -25,7 +25,7 @@ import numpy as np
 
 from tracker.geometry.rotations import matrix_to_rotation_vector, rotation_x, rotation_y, rotation_z
 from tracker.models.body_mesh import BodyMesh
-from tracker.models.body_skeleton import JOINT_INDEX
+from tracker.models.body_skeleton import JOINT_INDEX, POSE_SIZE
 
 # The T-pose's arms hang this far below the horizontal already (frame 0 of the CMU clips).
 _T_POSE_DROOP_DEG = 8.0
@@ -113,6 +113,21 @@ def with_offsets(posture: Posture, offsets: dict[str, float]) -> Posture:
 
 def standing_pose(body: BodyMesh, posture: Posture) -> np.ndarray:
     """The pose vector of ``posture`` (see the module docstring)."""
+    return standing_poses(body, [posture])[0]
+
+
+def standing_poses(body: BodyMesh, postures: Iterable[Posture]) -> np.ndarray:
+    """``(n, POSE_SIZE)``: `standing_pose` of each of ``postures``, their feet put on the floor together (the same
+    bits as one by one)."""
+    poses = np.array([_off_the_floor(body, posture) for posture in postures]).reshape(-1, POSE_SIZE)
+    feet = [JOINT_INDEX[name] for name in ("LeftFoot", "RightFoot")]
+    rest_feet = body.t_pose_heads[feet, 2].min()
+    poses[:, 2] -= body.joint_positions(poses)[:, feet, 2].min(axis=1) - rest_feet
+    return poses
+
+
+def _off_the_floor(body: BodyMesh, posture: Posture) -> np.ndarray:
+    """The pose vector of ``posture`` before its lower foot is put on the floor."""
     pose = arms_pose(body, right=posture.right, left=posture.left, yaw_deg=posture.yaw_deg)
     shift = math.radians(posture.weight_shift_deg)
     set_joint(pose, "Hips", rotation_z(math.radians(posture.yaw_deg + 90.0)) @ rotation_y(shift))
@@ -127,9 +142,6 @@ def standing_pose(body: BodyMesh, posture: Posture) -> np.ndarray:
         set_joint(pose, f"{side}Leg", rotation_x(2 * bend))
         set_joint(pose, f"{side}Foot", rotation_x(-bend))
     pose[0:2] += posture.root_offset_m
-    feet = [JOINT_INDEX[name] for name in ("LeftFoot", "RightFoot")]
-    rest_feet = body.t_pose_heads[feet, 2].min()
-    pose[2] -= body.joint_positions(pose)[feet, 2].min() - rest_feet
     return pose
 
 
