@@ -108,3 +108,12 @@ def test_a_held_body_a_little_off_a_standard_one_gets_that_standard_body():
     assert nearest_standard_body(subject, 4500) == name
     measured = [body_measurements(build_body(shape=STANDARD_BODIES[n])) for n in ("male_h0.33_slim", "male_h0.61_slim")]
     assert 1.55 < measured[0].stature_m < measured[1].stature_m < 1.95  # adult men, shorter to taller
+
+
+@pytest.mark.parametrize("triangles", [10**9, 4500])  # the whole mesh, and decimated
+def test_bodies_built_from_the_sources_parsed_once_are_equal_and_own_their_arrays(triangles):
+    first, second = build_body(triangles=triangles), build_body(triangles=triangles)
+    for name in ("rest_vertices", "faces", "weights", "rest_heads", "face_parts"):
+        mine, other = getattr(first, name), getattr(second, name)
+        np.testing.assert_array_equal(mine, other)
+        assert mine.flags.writeable and not np.shares_memory(mine, other), name

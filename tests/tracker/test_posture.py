@@ -11,7 +11,16 @@ from tracker.models.body_skeleton import JOINT_INDEX
 from tracker.models.makehuman import build_body
 from tracker.motion.arm_capture import ArmRanges, right_arm_track
 from tracker.motion.body_swing import _SWING_SPREAD, SWINGS_PER_BLOCK, BodySwing
-from tracker.motion.posture import NATURAL_SPREAD, ONE_SIDED, RANGE_SIGMAS, Drifts, Posture, arms_pose, standing_pose
+from tracker.motion.posture import (
+    NATURAL_SPREAD,
+    ONE_SIDED,
+    RANGE_SIGMAS,
+    Drifts,
+    Posture,
+    arms_pose,
+    standing_pose,
+    standing_poses,
+)
 from tracker.tbf.pose_sets import remove_near_duplicates
 from tracker.tbf.sample_spec import CaptureSpec
 
@@ -30,6 +39,22 @@ def test_a_still_posture_is_the_arms_pose(body):
     np.testing.assert_allclose(
         standing_pose(body, posture), arms_pose(body, posture.right, posture.left, -80.0), atol=1e-12
     )
+
+
+def test_postures_put_on_the_floor_together_are_each_put_there_alone_to_the_bit(body):
+    rng = np.random.default_rng(5)
+    postures = [
+        Posture(
+            right=tuple(rng.uniform(-30.0, 90.0, 3)),
+            yaw_deg=float(rng.uniform(-120.0, -60.0)),
+            left_knee_deg=float(rng.uniform(0.0, 20.0)),
+            weight_shift_deg=float(rng.uniform(-4.0, 4.0)),
+            root_offset_m=tuple(rng.uniform(-0.1, 0.1, 2)),
+        )
+        for _ in range(12)
+    ]
+    np.testing.assert_array_equal(standing_poses(body, postures), [standing_pose(body, p) for p in postures])
+    assert standing_poses(body, []).shape == (0, len(body.rest_pose()))
 
 
 @pytest.mark.parametrize(("field", "axis", "sign"), [("lean_deg", 1, -1), ("side_deg", 0, 1), ("nod_deg", 1, -1)])

@@ -120,6 +120,8 @@ def standing_poses(body: BodyMesh, postures: Iterable[Posture]) -> np.ndarray:
     """``(n, POSE_SIZE)``: `standing_pose` of each of ``postures``, their feet put on the floor together (the same
     bits as one by one)."""
     poses = np.array([_off_the_floor(body, posture) for posture in postures]).reshape(-1, POSE_SIZE)
+    if not len(poses):
+        return poses
     feet = [JOINT_INDEX[name] for name in ("LeftFoot", "RightFoot")]
     rest_feet = body.t_pose_heads[feet, 2].min()
     poses[:, 2] -= body.joint_positions(poses)[:, feet, 2].min(axis=1) - rest_feet
