@@ -179,18 +179,26 @@ def _source_files(data_dir: Path) -> list[Path]:
     return paths
 
 
-@functools.lru_cache(maxsize=2)
 def _parsed_sources(
     paths: tuple[Path, ...], contents: tuple[bytes, ...]
-) -> tuple[np.ndarray, dict, dict, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """The `_source_files` ``paths`` parsed from their ``contents``: the OBJ's vertices and groups, the rig, and
-    the skinned surface (`_skinned_surface`), its arrays read-only. Kept by content for the process: measuring the
-    standard bodies builds 24 bodies from them, and parsing them was most of each build."""
-    vertices, groups = _read_obj(paths[0], contents[0].decode())
-    surface = _skinned_surface(groups, json.loads(contents[2]), len(vertices), paths[2])
-    for array in (vertices, *surface):
-        array.flags.writeable = False
-    return vertices, groups, json.loads(contents[1]), surface
+) -> tuple[np.ndarray, dict[str, np.ndarray], dict, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """The `_source_files` ``paths`` parsed from their ``contents``: the OBJ's vertices and each group's faces, the
+    rig, and the skinned surface (`_skinned_surface`), the arrays read-only. The last sources parsed are kept for
+    the process, by a digest of their contents (about 5 MB): measuring the standard bodies builds 24 bodies from
+    them, and parsing them was most of each build."""
+    key = hashlib.sha256(b"".join(contents)).hexdigest()
+    if key not in _PARSED:
+        vertices, groups = _read_obj(paths[0], contents[0].decode())
+        groups = {name: np.array(faces, dtype=np.int64) for name, faces in groups.items()}
+        surface = _skinned_surface(groups, json.loads(contents[2]), len(vertices), paths[2])
+        for array in (vertices, *groups.values(), *surface):
+            array.flags.writeable = False
+        _PARSED.clear()
+        _PARSED[key] = vertices, groups, json.loads(contents[1]), surface
+    return _PARSED[key]
+
+
+_PARSED: dict[str, tuple] = {}  # `_parsed_sources`' last, by their contents' digest
 
 
 def _rig(rig: dict, vertices: np.ndarray, groups: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -263,7 +271,7 @@ def _read_obj(path: Path, text: str) -> tuple[np.ndarray, dict[str, list[list[in
     return np.array(vertices), groups
 
 
-def _rig_point(spec: dict, vertices: np.ndarray, groups: dict[str, list[list[int]]]) -> np.ndarray:
+def _rig_point(spec: dict, vertices: np.ndarray, groups: dict[str, np.ndarray]) -> np.ndarray:
     """A bone end in the OBJ frame: the centre of its joint cube, the mean of its vertices, or its default."""
     if spec.get("strategy") == "CUBE" and spec.get("cube_name") in groups:
         return vertices[np.unique(groups[spec["cube_name"]])].mean(axis=0)
