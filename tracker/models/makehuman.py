@@ -186,7 +186,10 @@ def _parsed_sources(
     rig, and the skinned surface (`_skinned_surface`), the arrays read-only. The last sources parsed are kept for
     the process, by a digest of their contents (about 5 MB): measuring the standard bodies builds 24 bodies from
     them, and parsing them was most of each build."""
-    key = hashlib.sha256(b"".join(contents)).hexdigest()
+    digest = hashlib.sha256()
+    for content in contents:  # fed one after another, not joined into a 5 MB copy first
+        digest.update(content)
+    key = digest.hexdigest()
     if key not in _PARSED:
         vertices, groups = _read_obj(paths[0], contents[0].decode())
         groups = {name: np.array(faces, dtype=np.int64) for name, faces in groups.items()}
