@@ -20,6 +20,7 @@ import functools
 from dataclasses import dataclass
 from typing import Any
 
+import numba
 import numpy as np
 from scipy import sparse
 
@@ -85,19 +86,6 @@ class SilhouetteRuns:
         zero added changes no bits), and beyond the window's edge they hold its row's end or start: a run moved
         partly out of the window sums its part within it, a run moved wholly out sums to 0."""
         height = len(values) // width
-        index, owner = self.runs_of(rows)
-        starts, ends = self.starts[index], self.ends[index]
-        row, first = np.divmod(starts, np.int32(width))
-        last = ends - row * np.int32(width)  # one past the run's last column, beyond the width if it wraps
-        if np.any(last > width):
-            # A run along the flattened window can go on into the next row (a silhouette touching both sides of
-            # the window): cut it at each row's end until every piece lies on one row.
-            starts, ends = starts.astype(np.int64), ends.astype(np.int64)
-            while np.any(wraps := ends > (row_end := (starts // width + 1) * width)):
-                starts, ends = np.r_[starts, row_end[wraps]], np.r_[np.minimum(ends, row_end), ends[wraps]]
-                owner = np.r_[owner, owner[wraps]]
-            row, first = np.divmod(starts, width)
-            last = ends - row * width
         du, dv = np.clip(shifts[:, 0], -width, width), np.clip(shifts[:, 1], -height, height)
         margin_u, margin_v = int(np.abs(du).max(initial=0)), int(np.abs(dv).max(initial=0))
         framed_width = width + 2 * margin_u
@@ -107,9 +95,9 @@ class SilhouetteRuns:
         prefix[0] = 0.0
         np.cumsum(framed.ravel(), out=prefix[1:])
         # where each silhouette's row 0, column 0 lands in the frame, moved
-        moved = ((dv + margin_v) * framed_width + du + margin_u).astype(row.dtype)
-        base = row * row.dtype.type(framed_width) + moved[owner]
-        return np.bincount(owner, weights=prefix[base + last] - prefix[base + first], minlength=len(rows))
+        moved = ((dv + margin_v) * framed_width + du + margin_u).astype(np.int64)
+        rows = np.ascontiguousarray(rows, dtype=np.int64)  # one compiled signature for every caller
+        return _moved_run_sums(prefix, self.starts, self.ends, self.ptr, rows, moved, width, framed_width)
 
     def masks(self, shape: tuple[int, int], rows: np.ndarray | None = None) -> np.ndarray:
         """Silhouettes ``rows`` (all by default) as ``(len(rows), h, w)`` bool images of ``shape`` ``(h, w)``: the
@@ -295,3 +283,46 @@ class ObservationScorer:
     def scores_of_placed(self, boundaries: ShiftedRunBoundaries, reference: np.ndarray) -> np.ndarray:
         """The distance to every silhouette of ``boundaries``, each moved by ``reference`` minus its own pixel."""
         return (self._constant + boundaries.sums(self._slope, reference)) / self._pixels
+
+
+@numba.njit(cache=True, nogil=True)
+def _moved_run_sums(
+    prefix: np.ndarray,
+    starts: np.ndarray,
+    ends: np.ndarray,
+    ptr: np.ndarray,
+    rows: np.ndarray,
+    moved: np.ndarray,
+    width: int,
+    framed_width: int,
+) -> np.ndarray:
+    """`SilhouetteRuns.shifted_sums`'s loop: per silhouette ``rows[i]``, the framed window's ``prefix`` sums read at
+    each of its runs' pieces, one piece a row of the window it spans (a run can go on into the next row), each piece
+    moved by ``moved[i]`` in the frame. The pieces are summed in the order a weighted `np.bincount` over all of them
+    would add them: every run's first piece, silhouette by silhouette, then every run's second, and so on."""
+    sums = np.zeros(len(rows))
+    wrapping = False
+    for i in range(len(rows)):
+        for run in range(ptr[rows[i]], ptr[rows[i] + 1]):
+            start, end = np.int64(starts[run]), np.int64(ends[run])
+            row = start // width
+            row_end = (row + 1) * width
+            if end > row_end:
+                end, wrapping = row_end, True
+            base = row * framed_width + moved[i] - row * width
+            sums[i] += prefix[base + end] - prefix[base + start]
+    piece = 1
+    while wrapping:  # the next piece of each run that goes on into another row
+        wrapping = False
+        for i in range(len(rows)):
+            for run in range(ptr[rows[i]], ptr[rows[i] + 1]):
+                row = np.int64(starts[run]) // width + piece
+                start, end = row * width, np.int64(ends[run])
+                if start >= end:
+                    continue
+                if end > start + width:
+                    end, wrapping = start + width, True
+                base = row * framed_width + moved[i] - row * width
+                sums[i] += prefix[base + end] - prefix[base + start]
+        piece += 1
+    return sums

@@ -66,14 +66,14 @@ def test_silhouettes_moved_by_whole_pixels_score_as_if_moved_first(tall):
     """Each silhouette moved by its own shift before scoring: from its runs (any rows) and from its run boundaries
     (all, moved by a reference pixel minus its own), against the distance to the moved mask; some shifts take
     pixels out of the window, some further than its size, and two silhouettes touch both sides of it (runs that wrap
-    into the next row)."""
+    into the next row; one runs on over three rows)."""
     rng = np.random.default_rng(5)
     height, width, count = 23, 17, 40
     masks = np.zeros((count, height, width), bool)
     for mask in masks:
         row, column = rng.integers(0, height - 5), rng.integers(0, width - 5)
         mask[row : row + rng.integers(2, 8), column : column + rng.integers(2, 9)] = True
-    masks[0, 5:7, :] = True
+    masks[0, 5:8, :] = True
     masks[1, 3:, 0], masks[1, 3:10, -1] = True, True
     for mask, column in zip(masks, rng.integers(0, width, count), strict=True) if tall else ():
         mask[1:22, column] = True  # a pole down each: fewer runs down the columns than along the rows
