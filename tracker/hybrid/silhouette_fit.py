@@ -37,9 +37,9 @@ from dataclasses import dataclass, field
 from typing import Annotated, Literal, NamedTuple
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from tracker.geometry.cameras import Camera, projection_jacobian
+from tracker.geometry.nearest_points import nearest_points
 from tracker.hybrid.feature_pairs import FeaturePairSettings, ViewPairs
 from tracker.hybrid.view_field import ViewField
 from tracker.models.body_mesh import BodyMesh
@@ -243,7 +243,7 @@ class SilhouetteFit:
             for pose, (terms, moves) in enumerate(made):
                 on_outline = np.flatnonzero(outline[pose])
                 if len(on_outline) and len(view.edge):
-                    _, nearest = cKDTree(uv[pose, on_outline]).query(view.edge)
+                    nearest = nearest_points(uv[pose, on_outline], view.edge)
                     cover_vertices, edge, edge_normals = on_outline[nearest], view.edge, view.edge_normals
                 else:
                     cover_vertices = np.zeros(0, dtype=np.int64)
