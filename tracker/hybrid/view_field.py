@@ -9,8 +9,9 @@ that he is not in its image, which the views that see him place him by."""
 
 from __future__ import annotations
 
+import numba
 import numpy as np
-from scipy.ndimage import binary_erosion, distance_transform_edt, map_coordinates
+from scipy.ndimage import binary_erosion, distance_transform_edt
 
 from tracker.geometry.cameras import Camera
 
@@ -35,6 +36,7 @@ class ViewField:
         window = silhouette[low[0] : high[0], low[1] : high[1]]
         self.outside = distance_transform_edt(~window) if window.any() else np.zeros(window.shape)  # none: no term
         self.gradient = np.stack(np.gradient(self.outside)[::-1])  # (d/du, d/dv), each (h, w)
+        self._sampled = np.ascontiguousarray(np.concatenate([self.outside[None], self.gradient]))  # what `sample` reads
         rows, cols = np.nonzero(window & ~binary_erosion(window))
         on_border = (rows + low[0] == 0) | (rows + low[0] == silhouette.shape[0] - 1)
         on_border |= (cols + low[1] == 0) | (cols + low[1] == silhouette.shape[1] - 1)
@@ -50,10 +52,8 @@ class ViewField:
     def sample(self, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``outside`` and its ``(n, 2)`` gradient at pixels ``uv`` (bilinear; beyond the window, its border's;
         beyond the image, 0)."""
-        local = uv - self.offset
-        coordinates = np.stack([local[:, 1], local[:, 0]])
-        value = map_coordinates(self.outside, coordinates, order=1, mode="nearest")
-        gradient = np.stack([map_coordinates(g, coordinates, order=1, mode="nearest") for g in self.gradient], 1)
+        sampled = _bilinear(self._sampled, np.ascontiguousarray(uv - self.offset, dtype=np.float64))
+        value, gradient = sampled[:, 0], sampled[:, 1:]
         unseen = np.any((uv < -0.5) | (uv > self.image_size - 0.5), axis=1)
         if unseen.any():
             value[unseen], gradient[unseen] = 0.0, 0.0
@@ -67,3 +67,28 @@ class ViewField:
         distance = np.zeros(len(uv))
         distance[within] = self.inside[local[within, 1], local[within, 0]]
         return distance
+
+
+@numba.njit(cache=True, nogil=True)
+def _bilinear(fields: np.ndarray, local: np.ndarray) -> np.ndarray:
+    """``(n, F)``: each of ``fields`` ``(F, h, w)`` at the window's pixels ``local`` ``(n, 2)`` ``(u, v)``, bilinear;
+    beyond the window, each corner read at the border's pixel. Every field at once, and as
+    `scipy.ndimage.map_coordinates` (``order=1, mode="nearest"``) makes each to the bit: its weights ``1 - x`` and
+    ``1 - (1 - x)``, its corners row by row, each value times the row's weight, then the column's, added to 0."""
+    height, width = fields.shape[1], fields.shape[2]
+    sampled = np.empty((len(local), len(fields)))
+    for k in range(len(local)):
+        corners, weights = np.empty((2, 2), np.int64), np.empty((2, 2))
+        for axis, (at, size) in enumerate(((local[k, 1], height), (local[k, 0], width))):
+            first = np.floor(at)
+            for corner in range(2):  # beyond the border, the border's pixel
+                corners[axis, corner] = min(max(np.int64(first) + corner, 0), size - 1)
+            weights[axis, 0] = 1.0 - (at - first)
+            weights[axis, 1] = 1.0 - weights[axis, 0]
+        for f in range(len(fields)):
+            total = 0.0
+            for a in range(2):
+                for b in range(2):
+                    total += fields[f, corners[0, a], corners[1, b]] * weights[0, a] * weights[1, b]
+            sampled[k, f] = total
+    return sampled

@@ -2,6 +2,7 @@
 person, and beyond the image nothing is observed."""
 
 import numpy as np
+from scipy.ndimage import map_coordinates
 
 from tracker.geometry.rigs import cameras
 from tracker.hybrid.view_field import ViewField
@@ -31,3 +32,26 @@ def test_a_view_that_lost_the_person_reads_nothing():
     field = ViewField(np.zeros((60, 80), bool), camera, edge_points=100)
     value, gradient = field.sample(np.array([[10.0, 10.0], [40.0, 30.0], [-5.0, 3.0]]))
     assert len(field.edge) == 0 and not value.any() and not gradient.any()
+
+
+def test_the_field_reads_as_scipy_interpolates_it_to_the_bit():
+    """`ViewField.sample` against `scipy.ndimage.map_coordinates` (order 1, mode "nearest"), an independent
+    implementation, field by field: points inside the window, on its pixels and borders, and beyond it on every side
+    (read at the border), on a silhouette blob whose fields vary everywhere."""
+    rng = np.random.default_rng(3)
+    camera = cameras(width=120, height=90)[0]
+    rows, cols = np.mgrid[:90, :120]
+    silhouette = (rows - 45) ** 2 / 400 + (cols - 60) ** 2 / 150 + 0.3 * np.sin(cols / 3) < 1
+    field = ViewField(silhouette, camera, edge_points=100)
+    height, width = field.outside.shape
+    local = np.c_[rng.uniform(-8, width + 8, 3000), rng.uniform(-8, height + 8, 3000)]
+    local[:400] = np.round(local[:400])  # whole pixels, the window's border among them
+    local[400:450, 0], local[450:500, 1] = width - 1, height - 1
+    uv = local + field.offset
+    uv = uv[np.all((uv >= -0.5) & (uv <= field.image_size - 0.5), axis=1)]  # beyond the image reads 0 (above)
+    value, gradient = field.sample(uv)
+    coordinates = np.stack([(uv - field.offset)[:, 1], (uv - field.offset)[:, 0]])
+    expected = [map_coordinates(f, coordinates, order=1, mode="nearest") for f in (field.outside, *field.gradient)]
+    np.testing.assert_array_equal(value, expected[0])
+    np.testing.assert_array_equal(gradient, np.stack(expected[1:], axis=1))
+    assert len(uv) > 2000 and len(np.unique(value)) > 1000  # not a vacuous comparison
