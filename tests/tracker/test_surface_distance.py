@@ -130,42 +130,44 @@ def test_across_a_dsq_meshs_seam_the_triangles_around_are_tried_and_give_every_t
         on = vertices[seam[edge]] * (1 - along) + vertices[seam[edge + 1]] * along
         points = on + (on - vertices.mean(axis=0)) * rng.choice([0.0, 1e-6, 1e-3, 0.03], (300, 1))
         np.testing.assert_array_equal(
-            point_mesh_distance(points, vertices, topology.faces, topology.weld),
+            point_mesh_distance(points, vertices, topology.faces),
             _every_triangle(points, vertices, topology.faces),
         )
 
 
-def test_a_mesh_moved_rigidly_is_searched_in_its_kept_tree_and_still_gets_every_triangles_answer():
+def test_a_tree_shape_made_from_one_mesh_searches_another_of_its_faces_exactly():
+    """The tree's shape is kept per set of faces, made from the first mesh asked about: a mesh of the same faces moved
+    far and bent, and a sphere whose faces are not the arm's, get what trying every triangle gives; points not finite
+    find no triangle; the shapes kept stay within their bound."""
     from experiments.components import build, compose
+    from tracker.geometry import triangle_tree
     from tracker.geometry.rotations import rotation_vectors_to_matrices
-    from tracker.geometry.surface_distance import RigidTrees
 
     components = build(compose(["frames=2"]))
     arm, topology = components.model, components.model.topology
     params = components.scene.params(arm, 0)
-    vertices = arm.surface_vertices(params)[1]
     faces = np.ascontiguousarray(topology.faces, dtype=np.int64)
     turn = rotation_vectors_to_matrices(np.array([[0.3, -1.2, 2.0]]))[0]
-    moved = vertices @ turn.T + [0.2, -0.1, 0.5]
-    rng = np.random.default_rng(4)
-    near = moved[::5]
-    points = near + rng.normal(scale=rng.choice([1e-4, 3e-3, 5e-2], size=(len(near), 1)), size=near.shape)
-    trees = RigidTrees()
-    trees.nearest(points, vertices, faces)
-    nearest, closest = trees.nearest(points, moved, faces)
-    assert len(trees) == 1  # the first mesh's tree, found again
-    fresh_nearest, fresh_closest = RigidTrees().nearest(points, moved, faces)
-    np.testing.assert_allclose(closest, fresh_closest, atol=1e-12)  # the same nearest points, moved back
-    assert np.mean(nearest == fresh_nearest) > 0.9  # the same triangles, but where neighbours tie
     bent = params.copy()
-    bent[1, 8] += 0.01  # b1: the part bends, no rigid motion makes it
-    trees.nearest(points, arm.surface_vertices(bent)[1], faces)
-    assert len(trees) == 2
-    one = RigidTrees(kept=1)
-    for mesh in (vertices, arm.surface_vertices(bent)[1], moved):
-        one.nearest(points, mesh, faces)
-    assert len(one) == 1  # the bound holds however few it keeps
-    point_mesh_distance(points, vertices, faces, topology.weld)  # the module's trees keep the unmoved mesh's ...
-    np.testing.assert_array_equal(  # ... and its moved copy gets what trying every triangle gives
-        point_mesh_distance(points, moved, faces, topology.weld), _every_triangle(points, moved, faces)
-    )
+    bent[1, 8] += 0.3  # b1: the part bends
+    first, moved = arm.surface_vertices(params)[1], arm.surface_vertices(bent)[1] @ turn.T + [0.2, -0.1, 0.5]
+    rng = np.random.default_rng(4)
+    for mesh in (first, moved):
+        near = mesh[::5]
+        points = near + rng.normal(scale=rng.choice([1e-4, 3e-3, 5e-2], size=(len(near), 1)), size=near.shape)
+        np.testing.assert_array_equal(point_mesh_distance(points, mesh, faces), _every_triangle(points, mesh, faces))
+        nearest, distance = triangle_tree.nearest_triangles(points, mesh, faces)
+        corners = [mesh[faces[nearest, j]] for j in range(3)]
+        np.testing.assert_array_equal(distance, point_triangle_distance(points, *corners))
+    assert faces.tobytes() in triangle_tree._SHAPES
+    nearest, distance = triangle_tree.nearest_triangles(np.array([[np.nan, 0, 0], [0, np.inf, 0]]), first, faces)
+    assert np.all(nearest == -1) and np.isnan(distance).all()
+    for subdivisions in range(triangle_tree.SHAPES_KEPT + 1):
+        sphere = trimesh.creation.icosphere(subdivisions=subdivisions % 4, radius=1.0 + subdivisions)
+        sphere_faces = np.roll(sphere.faces, subdivisions // 4, axis=1)  # other faces' bytes, the same triangles
+        points = rng.normal(size=(50, 3)) * (1.0 + subdivisions)
+        np.testing.assert_array_equal(
+            point_mesh_distance(points, sphere.vertices, sphere_faces),
+            _every_triangle(points, sphere.vertices, sphere_faces),
+        )
+    assert len(triangle_tree._SHAPES) == triangle_tree.SHAPES_KEPT

@@ -39,15 +39,14 @@ def surface_distance_mm(
     estimated_vertices: np.ndarray,
     true_vertices: np.ndarray,
     faces: np.ndarray,
-    weld: np.ndarray | None = None,
 ) -> float:
-    """The point-to-surface distance both ways (mm): each surface's samples to the other surface's mesh (``faces``,
-    ``weld``: `point_mesh_distance`'s), averaged."""
+    """The point-to-surface distance both ways (mm): each surface's samples to the other surface's mesh (``faces``),
+    averaged (`point_mesh_distance`)."""
     return 1e3 * float(
         np.concatenate(
             [
-                point_mesh_distance(estimated_points, true_vertices, faces, weld),
-                point_mesh_distance(true_points, estimated_vertices, faces, weld),
+                point_mesh_distance(estimated_points, true_vertices, faces),
+                point_mesh_distance(true_points, estimated_vertices, faces),
             ]
         ).mean()
     )
@@ -61,7 +60,7 @@ def part_surface_distances_mm(
     surfaces = zip(
         estimated_points, true_points, arm.surface_vertices(estimate), arm.surface_vertices(truth), strict=True
     )
-    return np.array([surface_distance_mm(*surface, arm.topology.faces, arm.topology.weld) for surface in surfaces])
+    return np.array([surface_distance_mm(*surface, arm.topology.faces) for surface in surfaces])
 
 
 @dataclass(frozen=True)
