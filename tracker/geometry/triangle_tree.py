@@ -156,17 +156,17 @@ def _box_distance2(px, py, pz, lower, upper) -> float:
 def _closest_on_triangle(px, py, pz, triangle) -> tuple[float, float, float]:
     """Ericson's closest point on ``triangle`` ``(3, 3)`` (corners a, b, c) to the point (his regions in his order),
     as `tracker.geometry.surface_distance.point_triangle_distance` computes it, to the bit: its dot products' order
-    (x, z, then y: `dot3`), its quotients and sums."""
+    (`_dot3`), its quotients and sums."""
     ax, ay, az = triangle[0, 0], triangle[0, 1], triangle[0, 2]
     bx, by, bz = triangle[1, 0], triangle[1, 1], triangle[1, 2]
     cx, cy, cz = triangle[2, 0], triangle[2, 1], triangle[2, 2]
     abx, aby, abz, acx, acy, acz = bx - ax, by - ay, bz - az, cx - ax, cy - ay, cz - az
     apx, apy, apz = px - ax, py - ay, pz - az
-    d1, d2 = (abx * apx + abz * apz) + aby * apy, (acx * apx + acz * apz) + acy * apy
+    d1, d2 = _dot3(abx, aby, abz, apx, apy, apz), _dot3(acx, acy, acz, apx, apy, apz)
     if d1 <= 0 and d2 <= 0:
         return ax, ay, az
     bpx, bpy, bpz = px - bx, py - by, pz - bz
-    d3, d4 = (abx * bpx + abz * bpz) + aby * bpy, (acx * bpx + acz * bpz) + acy * bpy
+    d3, d4 = _dot3(abx, aby, abz, bpx, bpy, bpz), _dot3(acx, acy, acz, bpx, bpy, bpz)
     if d3 >= 0 and d4 <= d3:
         return bx, by, bz
     vc = d1 * d4 - d3 * d2
@@ -174,7 +174,7 @@ def _closest_on_triangle(px, py, pz, triangle) -> tuple[float, float, float]:
         s = d1 / (d1 - d3)
         return ax + s * abx, ay + s * aby, az + s * abz
     cpx, cpy, cpz = px - cx, py - cy, pz - cz
-    d5, d6 = (abx * cpx + abz * cpz) + aby * cpy, (acx * cpx + acz * cpz) + acy * cpy
+    d5, d6 = _dot3(abx, aby, abz, cpx, cpy, cpz), _dot3(acx, acy, acz, cpx, cpy, cpz)
     if d6 >= 0 and d5 <= d6:
         return cx, cy, cz
     vb = d5 * d2 - d1 * d6
@@ -188,3 +188,9 @@ def _closest_on_triangle(px, py, pz, triangle) -> tuple[float, float, float]:
     denominator = va + vb + vc
     v, w = vb / denominator, vc / denominator
     return ax + v * abx + w * acx, ay + v * aby + w * acy, az + v * abz + w * acz
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _dot3(ux, uy, uz, vx, vy, vz) -> float:
+    """A dot product added as `tracker.geometry.surface_distance.dot3` adds it: x, z, then y."""
+    return (ux * vx + uz * vz) + uy * vy
