@@ -56,35 +56,28 @@ def _triangle_boxes(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return lower, upper
 
 
-@numba.njit(cache=True, nogil=True)
 def _split(lower: np.ndarray, upper: np.ndarray, leaf_triangles: int):
     """The tree's shape over triangles with boxes ``lower``, ``upper``: the triangles in the leaves' order, and per
     node its first child (-1: a leaf; the second is next to it) and its range of that order. A node comes before its
-    children."""
+    children. (Made once for a set of faces: plain numpy, no compiled loop to wait for.)"""
+    centres = lower + upper  # doubled; a triangle with a corner not finite has none
     order = np.arange(len(lower))
     nodes = max(2 * len(order), 1)
     child, first, last = np.full(nodes, -1), np.zeros(nodes, np.int64), np.zeros(nodes, np.int64)
-    centres, centre_low, centre_high = np.empty(len(order)), np.empty(3), np.empty(3)
-    made, pending = 1, [(0, 0, len(order))]  # node, its range of the order
+    last[0], made, pending = len(order), 1, [0]
     while pending:
-        node, begin, end = pending.pop()
-        first[node], last[node] = begin, end
+        node = pending.pop()
+        begin, end = first[node], last[node]
         if end - begin <= leaf_triangles:
             continue
-        centre_low[:], centre_high[:] = np.inf, -np.inf  # of the boxes' centres (doubled)
-        for t in order[begin:end]:
-            for axis in range(3):
-                centre = lower[t, axis] + upper[t, axis]
-                if np.isfinite(centre):
-                    centre_low[axis], centre_high[axis] = min(centre_low[axis], centre), max(centre_high[axis], centre)
-        axis = np.argmax(centre_high - centre_low) if np.all(centre_high >= centre_low) else 0
-        for k in range(begin, end):
-            centres[k] = lower[order[k], axis] + upper[order[k], axis]
-        order[begin:end] = order[begin:end][np.argsort(centres[begin:end], kind="mergesort")]
+        mine = centres[order[begin:end]]
+        finite = np.isfinite(mine).all(axis=1)
+        spread = np.ptp(mine[finite], axis=0) if finite.any() else np.zeros(3)
+        order[begin:end] = order[begin:end][np.argsort(mine[:, np.argmax(spread)], kind="stable")]
         middle = (begin + end) // 2
         child[node] = made
-        pending.append((made, begin, middle))
-        pending.append((made + 1, middle, end))
+        first[made], last[made], first[made + 1], last[made + 1] = begin, middle, middle, end
+        pending += [made, made + 1]
         made += 2
     return order, child[:made], first[:made], last[:made]
 
