@@ -18,21 +18,25 @@ def nearest_points(points: np.ndarray, queries: np.ndarray) -> np.ndarray:
     points = np.ascontiguousarray(points, dtype=np.float64)
     if len(points) == 0:
         raise ValueError("nearest_points: no points to search")
-    return _nearest(points, np.ascontiguousarray(queries, dtype=np.float64).reshape(-1, 2))
+    queries = np.ascontiguousarray(queries, dtype=np.float64).reshape(-1, 2)
+    along = 0 if np.ptp(points[:, 0]) >= np.ptp(points[:, 1]) else 1
+    order = np.argsort(points[:, along], kind="stable")
+    sorted_points, queries = points[order][:, [along, 1 - along]], queries[:, [along, 1 - along]]
+    first_after = np.searchsorted(sorted_points[:, 0], queries[:, 0])
+    return _nearest(np.ascontiguousarray(sorted_points), order, np.ascontiguousarray(queries), first_after)
 
 
 @numba.njit(cache=True, nogil=True)
-def _nearest(points: np.ndarray, queries: np.ndarray) -> np.ndarray:
-    along = 0 if np.ptp(points[:, 0]) >= np.ptp(points[:, 1]) else 1
-    order = np.argsort(points[:, along], kind="mergesort")
-    sorted_along, sorted_across = points[order, along], points[order, 1 - along]
+def _nearest(points: np.ndarray, order: np.ndarray, queries: np.ndarray, first_after: np.ndarray) -> np.ndarray:
+    """`nearest_points` of ``points`` sorted along their first coordinate (the original ``order``), the queries'
+    coordinates in the same order, each's place in that order given (``first_after``)."""
+    sorted_along, sorted_across = points[:, 0], points[:, 1]
     nearest = np.empty(len(queries), np.int64)
     for q in range(len(queries)):
-        at, across = queries[q, along], queries[q, 1 - along]
+        at, across = queries[q, 0], queries[q, 1]
         best, found = np.inf, -1
-        first_after = np.searchsorted(sorted_along, at)
         for step in (1, -1):  # from the query's place upwards, then downwards
-            j = first_after if step == 1 else first_after - 1
+            j = first_after[q] if step == 1 else first_after[q] - 1
             while 0 <= j < len(order):
                 gap = sorted_along[j] - at
                 if gap * gap > best:
