@@ -36,6 +36,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Annotated, Literal, NamedTuple
 
+import numba
 import numpy as np
 
 from tracker.geometry.cameras import Camera, projection_jacobian
@@ -157,20 +158,14 @@ class SilhouetteFit:
         self.pairs = list(pairs) if pairs is not None else [ViewPairs.empty() for _ in self.cameras]
         self._asked = {}
 
-    def normals(self, rotations: np.ndarray) -> np.ndarray:
-        """``(n, V, 3)`` the posed vertices' unit normals, skinned as the vertices are, of ``n`` poses (their bones'
-        ``rotations`` ``(n, J, 3, 3)``)."""
+    def outlines(self, rotations: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """``(views, n, V)`` bool: the vertices ``points`` ``(n, V, 3)`` of ``n`` poses (their bones' ``rotations``
+        ``(n, J, 3, 3)``) on the body's outline seen from each camera: where the posed vertex's unit normal, skinned
+        as the vertex is, is near square to the camera's ray to it."""
         # the products pose by pose: BLAS may sum a wider product in another order, and a batch must not change bits
         blended = np.stack([self.body.weights @ pose.reshape(len(pose), 9) for pose in rotations])
-        normals = np.einsum("nvab,vb->nva", blended.reshape(len(rotations), -1, 3, 3), self.rest_normals)
-        return normals / np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-12)
-
-    def on_outline(self, points: np.ndarray, normals: np.ndarray, camera: Camera) -> np.ndarray:
-        """``(n, V)`` bool: the vertices ``points`` ``(n, V, 3)`` of ``n`` poses on the body's outline seen from
-        ``camera``."""
-        rays = points - camera.position
-        rays /= np.linalg.norm(rays, axis=2, keepdims=True)
-        return np.abs(np.einsum("nva,nva->nv", normals, rays)) < self.settings.outline_cos
+        positions = np.array([camera.position for camera in self.cameras], dtype=np.float64)
+        return _outlines(blended, self.rest_normals, np.ascontiguousarray(points), positions, self.settings.outline_cos)
 
     def residuals(self, pose: np.ndarray, jacobian: bool = True) -> list[Term]:
         """Per view, the region term, the cover term and, with pairs observed, the feature term (a pair's ``u`` then
@@ -223,18 +218,17 @@ class SilhouetteFit:
             return []
         rotations, heads = self.body.bone_transforms(poses)
         points = self.body.posed_vertices(poses, transforms=(rotations, heads))  # (n, V, 3)
-        normals = self.normals(rotations)
+        outlines = self.outlines(rotations, points)
         settings, features = self.settings, self.settings.features
         count = len(points)
         # Per term, what moves its residuals: the camera, each residual's direction on the pixel of its point, and
         # the point: a blend of vertices (``corners`` (n, c), ``blend`` (n, c): a face's corners), or one vertex
         # (``corners`` (n, 1), ``blend`` None).
         made: list[tuple[list, list]] = [([], []) for _ in range(count)]
-        for view, pairs in zip(self.fields, self.pairs, strict=True):
+        for view, pairs, outline in zip(self.fields, self.pairs, outlines, strict=True):
             uv = np.nan_to_num(np.stack([view.camera.project(posed)[0] for posed in points]), nan=-1e3)
             outside, gradient = view.sample(uv[:, self.region].reshape(-1, 2))
             outside, gradient = outside.reshape(count, -1), gradient.reshape(count, -1, 2)
-            outline = self.on_outline(points, normals, view.camera)
             paired = len(pairs) and features.weight > 0
             if paired:
                 corners = self.body.faces[pairs.faces]
@@ -333,3 +327,31 @@ class SilhouetteFit:
             if gain < settings.tolerance * current:
                 break
         return pose, fitted
+
+
+@numba.njit(cache=True, nogil=True)
+def _outlines(
+    blended: np.ndarray, rest_normals: np.ndarray, points: np.ndarray, positions: np.ndarray, outline_cos: float
+) -> np.ndarray:
+    """`SilhouetteFit.outlines` from each pose's vertices' blended bone rotations ``blended`` ``(n, V, 9)`` (row by
+    row), the rest normals ``(V, 3)``, the posed vertices ``(n, V, 3)`` and the cameras' ``positions`` ``(views, 3)``.
+    As numpy made them before, to the bit: each rotated normal's and each dot product's three products added x, z,
+    then y (numpy's einsum's order here), a length's squares x, y, then z (np.linalg.norm's), each divided by it."""
+    count, vertices = points.shape[0], points.shape[1]
+    outline = np.empty((len(positions), count, vertices), np.bool_)
+    normal = np.empty(3)
+    for pose in range(count):
+        for v in range(vertices):
+            b, n = blended[pose, v], rest_normals[v]
+            for a in range(3):
+                normal[a] = (b[3 * a] * n[0] + b[3 * a + 2] * n[2]) + b[3 * a + 1] * n[1]
+            length = max(np.sqrt((normal[0] * normal[0] + normal[1] * normal[1]) + normal[2] * normal[2]), 1e-12)
+            nx, ny, nz = normal[0] / length, normal[1] / length, normal[2] / length
+            for view in range(len(positions)):
+                rx = points[pose, v, 0] - positions[view, 0]
+                ry = points[pose, v, 1] - positions[view, 1]
+                rz = points[pose, v, 2] - positions[view, 2]
+                distance = np.sqrt((rx * rx + ry * ry) + rz * rz)
+                rx, ry, rz = rx / distance, ry / distance, rz / distance
+                outline[view, pose, v] = abs((nx * rx + nz * rz) + ny * ry) < outline_cos
+    return outline
