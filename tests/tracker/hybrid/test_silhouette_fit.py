@@ -227,3 +227,25 @@ def test_feature_pairs_on_the_textured_skin_follow_a_turn_of_the_body(renderer):
         errors(alone),
         errors(paired),
     )
+
+
+def test_the_outline_is_where_the_skinned_normal_is_square_to_each_cameras_ray(body, pose):
+    """`SilhouetteFit.outlines` against the definition written independently: each vertex's normal rotated by its
+    bones' blended rotation (from the mesh's rest normals), normalised, dotted with the unit ray from each camera;
+    the same flags but where the dot lies within rounding of the threshold."""
+    fit = SilhouetteFit(body, RIG)
+    poses = np.stack([pose, perturbed(pose)])
+    rotations, heads = body.bone_transforms(poses)
+    points = body.posed_vertices(poses, transforms=(rotations, heads))
+    flags = fit.outlines(rotations, points)
+    for k in range(len(poses)):
+        blended = np.einsum("vj,jab->vab", body.weights, rotations[k])
+        normals = np.einsum("vab,vb->va", blended, fit.rest_normals)
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        for view, camera in enumerate(RIG):
+            rays = points[k] - camera.position
+            rays /= np.linalg.norm(rays, axis=1, keepdims=True)
+            dot = np.abs((normals * rays).sum(axis=1))
+            clear = np.abs(dot - fit.settings.outline_cos) > 1e-9
+            np.testing.assert_array_equal(flags[view, k][clear], (dot < fit.settings.outline_cos)[clear])
+            assert 0.1 < flags[view, k].mean() < 0.6 and clear.mean() > 0.999  # an outline, not all or nothing
