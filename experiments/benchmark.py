@@ -11,8 +11,9 @@ dictionary's floor.
 The split (`experiments.benchmark_split`, ``conf/benchmark/cmu.yaml``) is checked before anything runs. Every
 row that searches a dictionary (its tracker has ``samples``) builds it from the split's dictionary clips, at the
 split's rate; a subject drawn per clip (`Split.subject`) is tracked by each row's own choice of body (the presets':
-the nearest standard body). A run finished earlier with the same overrides is kept, so adding a row or a clip runs
-only what is new; a failed run is a row of the table, marked failed, and the others go on.
+the nearest standard body). A run finished earlier with the same overrides and the same config they compose today
+is kept, so adding a row or a clip runs only what is new (a preset changed since runs again); a failed run is a row
+of the table, marked failed, and the others go on.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import sys
 from pathlib import Path
 
 import yaml
+from omegaconf import open_dict
 
 from eval.benchmark import COLUMNS, LOSS_LEGEND, benchmark_table, loss_table, summary_table
 from eval.body_figures import error_against_floor, fig5_strip
@@ -30,6 +32,7 @@ from eval.runs import markdown
 from experiments.benchmark_split import Row, Split, SplitError, load_split
 from experiments.cli_runs import exit_interrupted, run_child, write_text
 from experiments.components import compose
+from experiments.job import finished_metrics
 from experiments.steps import Section, Step
 from tracker.motion.mocap import available_frames, read_clip
 
@@ -65,11 +68,15 @@ def clip_overrides(split: Split, clip: str, dictionary: bool) -> list[str]:
 
 
 def finished_with(run_dir: Path, overrides: list[str]) -> bool:
-    """Whether ``run_dir`` holds a finished run of these very overrides (kept: a benchmark resumes)."""
-    metrics, recorded = run_dir / "metrics.json", run_dir / ".hydra" / "overrides.yaml"
-    if not metrics.exists() or not recorded.exists():
+    """Whether ``run_dir`` holds a finished run of these very overrides that composes the same config today (kept: a
+    benchmark resumes; a preset changed since, or a default, runs again)."""
+    recorded = run_dir / ".hydra" / "overrides.yaml"
+    if not recorded.exists() or yaml.safe_load(recorded.read_text()) != overrides:
         return False
-    return json.loads(metrics.read_text())["status"] == "ok" and yaml.safe_load(recorded.read_text()) == overrides
+    config = compose(overrides)
+    with open_dict(config):
+        del config["hydra"]  # a run's own config holds no hydra node (`experiments.run`)
+    return finished_metrics(config, run_dir) is not None
 
 
 def run_row(row: Row, run_dir: Path, overrides: list[str]) -> None:
