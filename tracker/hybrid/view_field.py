@@ -77,8 +77,8 @@ def _bilinear(fields: np.ndarray, local: np.ndarray) -> np.ndarray:
     ``1 - (1 - x)``, its corners row by row, each value times the row's weight, then the column's, added to 0."""
     height, width = fields.shape[1], fields.shape[2]
     sampled = np.empty((len(local), len(fields)))
+    corners, weights = np.empty((2, 2), np.int64), np.empty((2, 2))  # a point's, by axis (row, column)
     for k in range(len(local)):
-        corners, weights = np.empty((2, 2), np.int64), np.empty((2, 2))
         for axis, (at, size) in enumerate(((local[k, 1], height), (local[k, 0], width))):
             first = np.floor(at)
             for corner in range(2):  # beyond the border, the border's pixel
