@@ -115,9 +115,9 @@ def _every_triangle(points, vertices, faces):
     return np.array([point_triangle_distance(np.repeat(p[None], len(faces), 0), *corners).min() for p in points])
 
 
-def test_across_a_dsq_meshs_seam_the_triangles_around_are_tried_and_give_every_triangles_answer():
+def test_across_a_dsq_meshs_seam_points_get_every_triangles_answer():
     """The omega seam repeats its vertices (the topology's weld says which): points on and beside its edges tie
-    between the triangles on either side, which share no vertex index."""
+    between the triangles on either side, which share no vertex index, and get what trying every triangle gives."""
     from experiments.components import build, compose
 
     components = build(compose(["frames=2"]))
