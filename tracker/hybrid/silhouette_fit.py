@@ -329,7 +329,7 @@ class SilhouetteFit:
         return pose, fitted
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model="numpy")  # a vertex on a camera's centre: NaN, not on the outline
 def _outlines(
     blended: np.ndarray, rest_normals: np.ndarray, points: np.ndarray, positions: np.ndarray, outline_cos: float
 ) -> np.ndarray:
