@@ -34,9 +34,9 @@ class ViewField:
         high = np.array([rows.max(), cols.max()]) + self.MARGIN_PX + 1 if len(rows) else np.array(silhouette.shape)
         self.offset = np.array([low[1], low[0]], dtype=np.float64)  # the window's corner, (u, v)
         window = silhouette[low[0] : high[0], low[1] : high[1]]
-        self.outside = distance_transform_edt(~window) if window.any() else np.zeros(window.shape)  # none: no term
-        self.gradient = np.stack(np.gradient(self.outside)[::-1])  # (d/du, d/dv), each (h, w)
-        self._sampled = np.ascontiguousarray(np.concatenate([self.outside[None], self.gradient]))  # what `sample` reads
+        outside = distance_transform_edt(~window) if window.any() else np.zeros(window.shape)  # none: no term
+        self._sampled = np.stack([outside, *np.gradient(outside)[::-1]])  # what `sample` reads, one array
+        self.outside, self.gradient = self._sampled[0], self._sampled[1:]  # (h, w); (d/du, d/dv), each (h, w)
         rows, cols = np.nonzero(window & ~binary_erosion(window))
         on_border = (rows + low[0] == 0) | (rows + low[0] == silhouette.shape[0] - 1)
         on_border |= (cols + low[1] == 0) | (cols + low[1] == silhouette.shape[1] - 1)
