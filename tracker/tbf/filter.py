@@ -85,9 +85,9 @@ class TreeFilter:
     is placed on one sample's spot (the reference's, given to `step`); each sample is scored moved by whole pixels,
     the reference's spot pixel minus its own, as if the observation had been placed on its own spot. Scored where
     they stand, the samples whose limbs put their spot where the reference's is would win (the cost would prefer
-    poses farther from the truth than the dictionary's nearest). The top level, scored whole, moves a sample by the
-    difference of the two pixels each rounded, which makes it one sparse product (`ShiftedRunBoundaries`); the
-    levels below by the difference rounded."""
+    poses farther from the truth than the dictionary's nearest). The top level moves a sample by the difference of
+    the two pixels each rounded, which makes its sums one product with its run boundaries (`ShiftedRunBoundaries`);
+    the levels below by the difference rounded."""
 
     def __init__(
         self,
@@ -276,10 +276,9 @@ class TreeFilter:
         (all of them for None); with spot pixels, each moved from its spot to the reference's (`shifts`)."""
         if level == 0 and self.spot_pixels is None:
             return scorer.scores_of_runs(self.top_boundaries[view], nodes)
-        if level == 0:  # every node at once (ShiftedRunBoundaries)
+        if level == 0:  # the nodes' sums from their run boundaries, moved (ShiftedRunBoundaries)
             reference = np.rint(self.spot_pixels[0][self._reference, view])
-            scores = scorer.scores_of_placed(self.top_boundaries[view], reference)
-            return scores if nodes is None else scores[nodes]
+            return scorer.scores_of_placed(self.top_boundaries[view], reference, nodes)
         representatives = self.tree.levels[level].representatives
         samples = representatives if nodes is None else representatives[nodes]
         runs = self._stacks[level][view].runs
@@ -290,7 +289,7 @@ class TreeFilter:
     def shifts(self, level: int, view: int, samples: np.ndarray, reference: int) -> np.ndarray:
         """``(len(samples), 2)`` the whole pixels ``(du, dv)`` by which ``samples`` are moved at ``level`` in view
         ``view`` when the observation is on sample ``reference``'s spot: the difference of the two spot pixels
-        rounded; at the top level, the difference of the two each rounded (what makes it one sparse product)."""
+        rounded; at the top level, the difference of the two each rounded (what makes it one product)."""
         pixels = self.spot_pixels[level][:, view]
         if level == 0:
             return (np.rint(pixels[reference]) - np.rint(pixels[samples])).astype(np.int64)

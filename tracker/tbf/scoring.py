@@ -8,15 +8,14 @@ is stored as its runs of inside pixels along the window's pixels in row-major or
 ``A`` the prefix sum of ``a`` the sum over Q is ``sum over runs [s, e) of A(e) - A(s)``: two reads per run (a few
 hundred per silhouette at 320x240) instead of one per inside pixel (thousands). Where many silhouettes are scored
 at every frame (a tree's top level), their runs are kept as a sparse matrix with -1 at each run's start and +1 at
-its end (`RunBoundaries`), and the sums are one sparse product with A, faster than gathering A at the runs and
-adding them up per silhouette, for twice the memory of the runs (the same sums, to rounding). A silhouette
+its end (`RunBoundaries`), and the sums are its product with A, read row by row in a compiled loop (the rows asked
+only, none copied), for twice the memory of the runs (the same sums, to rounding). A silhouette
 moved by whole pixels first (each sample scored on its own spot: `tracker.tbf.filter.TreeFilter`) is scored from the
 same runs, moved (`SilhouetteRuns.shifted_sums`, `ShiftedRunBoundaries`).
 """
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 from typing import Any
 
@@ -35,12 +34,6 @@ class SilhouetteRuns:
     starts: np.ndarray  # (runs,) int32
     ends: np.ndarray  # (runs,) int32, exclusive
     ptr: np.ndarray  # (n + 1,) int64
-
-    @functools.cached_property
-    def owner(self) -> np.ndarray:
-        """``(runs,)`` int32: the silhouette of each run (made when first asked: scoring every silhouette at once
-        needs it, a few silhouettes' scoring gathers its own)."""
-        return np.repeat(np.arange(len(self), dtype=np.int32), np.diff(self.ptr))
 
     @classmethod
     def from_masks(cls, masks: np.ndarray, block: int = 1024) -> SilhouetteRuns:
@@ -71,10 +64,7 @@ class SilhouetteRuns:
         prefix = np.empty(len(values) + 1)
         prefix[0] = 0.0
         np.cumsum(values, out=prefix[1:])
-        if rows is None:
-            return np.bincount(self.owner, weights=prefix[self.ends] - prefix[self.starts], minlength=len(self))
-        index, owner = self.runs_of(rows)
-        return np.bincount(owner, weights=prefix[self.ends[index]] - prefix[self.starts[index]], minlength=len(rows))
+        return _run_sums(prefix, self.starts, self.ends, self.ptr, _rows(rows, len(self)))
 
     def shifted_sums(self, values: np.ndarray, width: int, rows: np.ndarray, shifts: np.ndarray) -> np.ndarray:
         """As `sums` over silhouettes ``rows`` of a window ``width`` pixels wide, each moved by its whole-pixel
@@ -158,7 +148,7 @@ class RunBoundaries:
         prefix = np.empty(len(values) + 1)
         prefix[0] = 0.0
         np.cumsum(values, out=prefix[1:])
-        return (self.matrix if rows is None else self.matrix[np.asarray(rows)]) @ prefix
+        return _boundary_sums(self.matrix, prefix, _rows(rows, len(self)))
 
 
 class ShiftedRunBoundaries:
@@ -167,8 +157,7 @@ class ShiftedRunBoundaries:
     placed: `tracker.tbf.filter.TreeFilter`'s spot pixels). The window is framed by the pixels' spread, so that
     no shift takes a silhouette out of it; along the flattened frame a move by ``reference - pixels[i]`` adds
     ``flat(reference) - flat(pixels[i])`` to every index, so each row's boundaries are stored already moved by
-    ``-flat(pixels[i])``, and a frame's sums are one sparse product with the prefix sums slid by
-    ``flat(reference)``."""
+    ``-flat(pixels[i])``, and a frame's sums are the product with the prefix sums slid by ``flat(reference)``."""
 
     def __init__(self, images: np.ndarray, pixels: np.ndarray) -> None:
         """From ``(n, h, w)`` silhouettes and their ``(n, 2)`` int pixels ``(u, v)``."""
@@ -198,9 +187,10 @@ class ShiftedRunBoundaries:
     def __len__(self) -> int:
         return self.matrix.shape[0]
 
-    def sums(self, values: np.ndarray, reference: np.ndarray) -> np.ndarray:
-        """Per silhouette, the sum of ``values`` (one per pixel of the window, row-major) over its pixels once
-        moved by ``reference`` minus its own pixel; ``reference`` within the pixels' range (a sample's)."""
+    def sums(self, values: np.ndarray, reference: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
+        """Per silhouette (or per silhouette of ``rows``), the sum of ``values`` (one per pixel of the window,
+        row-major) over its pixels once moved by ``reference`` minus its own pixel; ``reference`` within the pixels'
+        range (a sample's)."""
         mu, mv = self.margin
         framed = np.pad(np.asarray(values).reshape(self.shape), ((mv, mv), (mu, mu)))
         flat = (framed.T if self.by_columns else framed).ravel()
@@ -212,7 +202,7 @@ class ShiftedRunBoundaries:
         if np.any(reference < self.low) or np.any(reference > self.low + self.margin):
             raise ValueError(f"reference pixel {reference.tolist()} is outside the silhouettes' pixels")
         start = int(self.flat(reference - self.low))
-        return self.matrix @ prefix[start : start + self.matrix.shape[1]]
+        return _boundary_sums(self.matrix, prefix[start : start + self.matrix.shape[1]], _rows(rows, len(self)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -280,9 +270,53 @@ class ObservationScorer:
         width = self.window[2] - self.window[0]
         return (self._constant + runs.shifted_sums(self._slope, width, rows, shifts)) / self._pixels
 
-    def scores_of_placed(self, boundaries: ShiftedRunBoundaries, reference: np.ndarray) -> np.ndarray:
-        """The distance to every silhouette of ``boundaries``, each moved by ``reference`` minus its own pixel."""
-        return (self._constant + boundaries.sums(self._slope, reference)) / self._pixels
+    def scores_of_placed(
+        self, boundaries: ShiftedRunBoundaries, reference: np.ndarray, rows: np.ndarray | None = None
+    ) -> np.ndarray:
+        """The distance to every silhouette of ``boundaries`` (or to those of ``rows``), each moved by ``reference``
+        minus its own pixel."""
+        return (self._constant + boundaries.sums(self._slope, reference, rows)) / self._pixels
+
+
+def _rows(rows: np.ndarray | None, count: int) -> np.ndarray:
+    """The silhouettes asked (None: all ``count``) as the compiled sums take them: one signature for every caller."""
+    return np.arange(count, dtype=np.int64) if rows is None else np.ascontiguousarray(rows, dtype=np.int64)
+
+
+def _boundary_sums(matrix: sparse.csr_matrix, prefix: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """``(matrix[rows] @ prefix)`` for a `RunBoundaries` matrix (-1 at each run's start, +1 at its end, in that
+    order), without the rows' copy: `_signed_sums` on the matrix's structure, its indices read unsigned."""
+    indices = matrix.indices.view(np.uint32 if matrix.indices.dtype == np.int32 else np.uint64)
+    return _signed_sums(matrix.indptr.astype(np.int64, copy=False), indices, prefix, rows)
+
+
+@numba.njit(cache=True, nogil=True)
+def _signed_sums(indptr: np.ndarray, indices: np.ndarray, prefix: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Per row ``rows[i]`` of a CSR structure whose entries alternate -1 and +1, the sum of ``prefix`` at its entries
+    so signed: added one by one in the entries' order from 0, as scipy's sparse product adds them (a product by -1
+    or +1 is exact), so the same bits. The indices come unsigned: a signed index is checked for wrapping around at
+    every read, which made this loop slower than scipy's."""
+    sums = np.empty(len(rows))
+    for i in range(len(rows)):
+        total = 0.0
+        for k in range(indptr[rows[i]], indptr[rows[i] + 1], 2):
+            total -= prefix[indices[k]]
+            total += prefix[indices[k + 1]]
+        sums[i] = total
+    return sums
+
+
+@numba.njit(cache=True, nogil=True)
+def _run_sums(
+    prefix: np.ndarray, starts: np.ndarray, ends: np.ndarray, ptr: np.ndarray, rows: np.ndarray
+) -> np.ndarray:
+    """`SilhouetteRuns.sums`'s loop: per silhouette ``rows[i]``, ``prefix`` read at each run's end less at its start,
+    added from 0 in the runs' order (as a weighted `np.bincount` over them added them: the same bits)."""
+    sums = np.zeros(len(rows))
+    for i in range(len(rows)):
+        for run in range(ptr[rows[i]], ptr[rows[i] + 1]):
+            sums[i] += prefix[np.uint32(ends[run])] - prefix[np.uint32(starts[run])]
+    return sums
 
 
 @numba.njit(cache=True, nogil=True)
