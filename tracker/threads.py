@@ -59,6 +59,15 @@ class TwoEndedJobs(Generic[Result]):
             self._do(index)
         return self._results[index].result()
 
+    def settle(self) -> None:
+        """No job not yet taken will start; those under way are waited for, their results and errors dropped: the
+        jobs' state is the caller's again."""
+        for index, result in enumerate(self._results):
+            if self._take(index):
+                result.cancel()
+            else:
+                result.exception()  # waits; an error is dropped with the result
+
     def _take(self, index: int) -> bool:
         with self._lock:
             taken, self._taken[index] = self._taken[index], True

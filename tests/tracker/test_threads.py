@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from tracker.threads import TwoEndedJobs, worker_pool
+from tracker.threads import WORKERS, TwoEndedJobs, worker_pool
 
 
 def _thread_name() -> str:
@@ -58,3 +58,27 @@ def test_a_forked_child_makes_its_own_pool():
         child.kill()
     assert not alive and child.exitcode == 0
     assert queue.get(timeout=1).startswith("worker")
+
+
+def test_settled_jobs_not_taken_never_start_and_those_under_way_are_waited_for():
+    release, lock = threading.Event(), threading.Lock()
+    started, finished = [], []
+
+    def job(index: int):
+        with lock:
+            started.append(index)
+        release.wait(timeout=10)
+        time.sleep(0.02)
+        with lock:
+            finished.append(index)
+        raise ValueError("dropped with its result")
+
+    jobs = TwoEndedJobs([lambda index=index: job(index) for index in range(20)])
+    while not started:  # the workers take some (each blocks until released)
+        time.sleep(0.001)
+    threading.Timer(0.05, release.set).start()
+    jobs.settle()
+    with lock:
+        assert sorted(finished) == sorted(started) and 1 <= len(started) <= WORKERS  # under way: waited for
+    time.sleep(0.1)
+    assert len(started) <= WORKERS  # the others never started

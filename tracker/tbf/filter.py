@@ -4,7 +4,8 @@ Per frame, given the observed silhouette P_o (one per view with several cameras:
 product of its views' likelihoods, its log-likelihood the sum of theirs, each view with its own sigma; a view that
 lost the person, None, has no say):
     prior     eq 14 at every sample from the previous posterior (`PosePrior`, sparse), occlusion flags of the
-              previous estimate widening the occluded parts' sigmas (DM2);
+              previous estimate widening the occluded parts' sigmas (DM2); made by a worker thread between the
+              frames, as soon as that posterior is known;
     levels    from the top: the nodes under the surviving nodes of the level above are scored by their
               representative's silhouette distance at the level's resolution (the observation's weight maps,
               one per level and view, each made when the descent reaches it unless a worker thread, started
@@ -127,11 +128,14 @@ class TreeFilter:
         self._posterior: np.ndarray | None = None
         self._reference: int | None = None  # with spot pixels: the sample whose spot this frame's observation is on
         self._previous_flags: np.ndarray | None = None
+        # The next frame's prior, made by a worker thread from the last posterior between the frames (`_next_prior`)
+        self._coming_prior: TwoEndedJobs[tuple[np.ndarray, int]] | None = None
         self.last_evaluated: list[np.ndarray] = []  # per level, the nodes the last step scored
         self.observed: tuple[np.ndarray | None, ...] = ()  # the last step's observations as it took them (`_seeing`)
 
     def start(self, initial_pose: np.ndarray) -> None:
         """Frame 0's prior: a Gaussian around ``initial_pose`` (the paper: upright, facing the camera)."""
+        self._settle_prior()
         sigmas = self.motion.base_sigmas(self.space) / self.motion.sigma * self.settings.initial_sigma
         z = (np.asarray(self.samples.poses) - initial_pose) / sigmas
         log_prior = -0.5 * np.einsum("nk,nk->n", z, z)
@@ -161,7 +165,7 @@ class TreeFilter:
             prior, terms = self._posterior.copy(), 0
             self._first = False
         else:
-            prior, terms = self._prior.prior(self._posterior, self._previous_flags)
+            prior, terms = self._next_prior()
             if self.settings.jump_share > 0:
                 prior = (1 - self.settings.jump_share) * prior / prior.sum() + self.settings.jump_share / len(prior)
         timings["prior"] = elapsed_ms(start)
@@ -179,6 +183,7 @@ class TreeFilter:
         best = int(members[np.argmax(weights)])
         self._posterior = posterior
         self._previous_flags = self._occluded[best]
+        self._coming_prior = TwoEndedJobs([functools.partial(self._prior.prior, posterior, self._previous_flags)])
         nonzero = posterior[posterior > 0]
         timings["leaves"] = elapsed_ms(start)
         return FilterResult(
@@ -208,9 +213,25 @@ class TreeFilter:
     def feed(self, sample: int, share: float) -> None:
         """Move ``share`` of the posterior onto ``sample`` (an estimate made outside the filter, e.g. refined, that
         the next frame's prior should start from)."""
+        self._settle_prior()  # made from the posterior before this
         self._posterior = (1 - share) * self._posterior
         self._posterior[sample] += share
         self._previous_flags = self._occluded[sample]
+
+    def _next_prior(self) -> tuple[np.ndarray, int]:
+        """Eq 14 from the last posterior (`PosePrior.prior`): made by a worker thread since the last step ended, or
+        here. Made between the frames, a frame that meets a new occlusion pattern does not wait for its KD-tree."""
+        coming, self._coming_prior = self._coming_prior, None
+        if coming is None:
+            return self._prior.prior(self._posterior, self._previous_flags)
+        return coming.result(0)
+
+    def _settle_prior(self) -> None:
+        """The prior under way dropped (the posterior it came from has changed), once no worker uses the prior's
+        caches."""
+        if self._coming_prior is not None:
+            self._coming_prior.settle()
+            self._coming_prior = None
 
     def _descend(
         self, prior: np.ndarray, scorers: list[list[Callable[[], ObservationScorer]]], timings: dict[str, float]

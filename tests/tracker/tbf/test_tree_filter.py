@@ -237,3 +237,47 @@ def test_the_learned_prior_is_the_normalised_mixture_of_walk_and_learned_moves(s
 def test_learned_motion_needs_transitions(samples):
     with pytest.raises(ValueError, match="motion=learned learns from the clips"):
         PosePrior(samples.poses, LearnedTransitions(), transitions=np.zeros((0, 3), int))
+
+
+def _observed(samples, index):
+    stack = samples.silhouettes((320, 240))
+    u0, v0, u1, v1 = stack.window
+    observed = np.zeros((240, 320), bool)
+    observed[v0:v1, u0:u1] = stack.mask(index)
+    return observed
+
+
+def test_each_frames_prior_made_between_the_frames_is_the_one_the_step_would_make(samples, tree):
+    """Eq 14's prior of the next frame is made by a worker thread as soon as a step ends. A filter whose prior is
+    made in the step instead (a feed of nothing drops the one made ahead) steps to the same posteriors, bit for
+    bit."""
+    settings = FilterSettings(initial_sigma=1.0, likelihood_sigma=0.5, prune_fraction=1e-6)
+    ahead, in_step = (TreeFilter(samples, tree, COSTS.defaults("nwxor"), OccludedWiderWalk(), settings) for _ in "ab")
+    for filter_ in (ahead, in_step):
+        filter_.start(samples.poses[60])
+    for held in (60, 63, 66, 72, 78, 84):
+        observed = _observed(samples, held)
+        result = ahead.step(observed)
+        assert in_step.step(observed).sample == result.sample
+        in_step.feed(result.sample, 0.0)  # the posterior as it was (times 1, plus 0), its prior made in the step
+        np.testing.assert_array_equal(ahead.posterior, in_step.posterior)
+
+
+def test_a_feed_drops_the_prior_made_ahead_and_the_next_step_starts_from_the_fed_posterior(samples, tree):
+    """After ``feed`` the next frame's prior comes from the fed posterior: all of it on one sample far from the
+    estimate, the step's posterior lies within that sample's kernels (an independent prior, made here)."""
+    motion = OccludedWiderWalk()
+    settings = FilterSettings(initial_sigma=1.0, likelihood_sigma=0.5, prune_fraction=1e-6)
+    fed, unfed = (TreeFilter(samples, tree, COSTS.defaults("nwxor"), motion, settings) for _ in "ab")
+    for filter_ in (fed, unfed):
+        filter_.start(samples.poses[60])
+        estimate = filter_.step(_observed(samples, 60)).sample
+    far = int(np.argmax(np.abs(samples.poses - samples.poses[estimate]).sum(axis=1)))
+    fed.feed(far, 1.0)
+    for filter_ in (fed, unfed):
+        filter_.step(_observed(samples, 63))
+    onto_far = np.zeros(len(samples.poses))
+    onto_far[far] = 1.0
+    prior, _ = PosePrior(samples.poses, motion).prior(onto_far, samples.occluded(motion.occlusion_area_px)[far])
+    assert np.all(prior[fed.posterior > 0] > 0) and not np.array_equal(fed.posterior, unfed.posterior)
+    assert not np.all(prior[unfed.posterior > 0] > 0)  # not a vacuous check: the unfed filter's lies elsewhere
