@@ -9,9 +9,8 @@ lost the person, None, has no say):
     levels    from the top: the nodes under the surviving nodes of the level above are scored by their
               representative's silhouette distance at the level's resolution (the observation's weight maps,
               one per level and view, each made when the descent reaches it unless a worker thread, started
-              from the finest level's while the prior is made, has made it; each representative scored from its
-              runs of inside pixels,
-              `tracker.tbf.scoring.ObservationScorer`); a node's posterior
+              from the finest level's as the step starts, has made it; each representative scored from its runs
+              of inside pixels, `tracker.tbf.scoring.ObservationScorer`); a node's posterior
               is ``exp(-d^2 / 2 sigma_l^2)`` (eq 10-11, vol(S) constant) times its members' prior mass; nodes
               below ``prune_fraction`` of the level's best are pruned;
     leaves    each member sample of a surviving leaf gets ``p(z | leaf) * prior(sample)`` (eq 12-13); the best
@@ -159,7 +158,7 @@ class TreeFilter:
             raise ValueError("a filter with spot pixels scores from a reference sample's spot, and only such a filter")
         self._reference = reference
         timings: dict[str, float] = {}
-        scorers = self._scorers(observed)  # the worker threads start on them while the prior is made here
+        scorers = self._scorers(observed)  # the worker threads start on them (after the prior, if under way)
         start = time.perf_counter()
         if self._first:  # frame 0's prior is the initial Gaussian itself
             prior, terms = self._posterior.copy(), 0

@@ -8,14 +8,19 @@ is stored as its runs of inside pixels along the window's pixels in row-major or
 ``A`` the prefix sum of ``a`` the sum over Q is ``sum over runs [s, e) of A(e) - A(s)``: two reads per run (a few
 hundred per silhouette at 320x240) instead of one per inside pixel (thousands). Where many silhouettes are scored
 at every frame (a tree's top level), their runs are kept as a sparse matrix with -1 at each run's start and +1 at
-its end (`RunBoundaries`), and the sums are its product with A, read row by row in a compiled loop (the rows asked
-only, none copied), for twice the memory of the runs (the same sums, to rounding). A silhouette
+its end (`RunBoundaries`), and the sums are one sparse product with A, faster than gathering A at the runs and
+adding them up per silhouette, for twice the memory of the runs (the same sums, to rounding). A silhouette
 moved by whole pixels first (each sample scored on its own spot: `tracker.tbf.filter.TreeFilter`) is scored from the
-same runs, moved (`SilhouetteRuns.shifted_sums`, `ShiftedRunBoundaries`).
+same runs, moved (`SilhouetteRuns.shifted_sums`, `ShiftedRunBoundaries`: the product read row by row in a compiled
+loop, for the rows asked only).
+
+The compiled loops (numba) are used only where a run already uses compiled code: its first call in a process takes
+about half a second, more than a short run of one camera spends on the sums.
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any
 
@@ -34,6 +39,12 @@ class SilhouetteRuns:
     starts: np.ndarray  # (runs,) int32
     ends: np.ndarray  # (runs,) int32, exclusive
     ptr: np.ndarray  # (n + 1,) int64
+
+    @functools.cached_property
+    def owner(self) -> np.ndarray:
+        """``(runs,)`` int32: the silhouette of each run (made when first asked: scoring every silhouette at once
+        needs it, a few silhouettes' scoring gathers its own)."""
+        return np.repeat(np.arange(len(self), dtype=np.int32), np.diff(self.ptr))
 
     @classmethod
     def from_masks(cls, masks: np.ndarray, block: int = 1024) -> SilhouetteRuns:
@@ -64,7 +75,10 @@ class SilhouetteRuns:
         prefix = np.empty(len(values) + 1)
         prefix[0] = 0.0
         np.cumsum(values, out=prefix[1:])
-        return _run_sums(prefix, self.starts, self.ends, self.ptr, _rows(rows, len(self)))
+        if rows is None:
+            return np.bincount(self.owner, weights=prefix[self.ends] - prefix[self.starts], minlength=len(self))
+        index, owner = self.runs_of(rows)
+        return np.bincount(owner, weights=prefix[self.ends[index]] - prefix[self.starts[index]], minlength=len(rows))
 
     def shifted_sums(self, values: np.ndarray, width: int, rows: np.ndarray, shifts: np.ndarray) -> np.ndarray:
         """As `sums` over silhouettes ``rows`` of a window ``width`` pixels wide, each moved by its whole-pixel
@@ -148,7 +162,8 @@ class RunBoundaries:
         prefix = np.empty(len(values) + 1)
         prefix[0] = 0.0
         np.cumsum(values, out=prefix[1:])
-        return _boundary_sums(self.matrix, prefix, _rows(rows, len(self)))
+        sums = self.matrix @ prefix  # every row: a product takes less time than copying the rows asked
+        return sums if rows is None else sums[np.asarray(rows)]
 
 
 class ShiftedRunBoundaries:
@@ -202,7 +217,10 @@ class ShiftedRunBoundaries:
         if np.any(reference < self.low) or np.any(reference > self.low + self.margin):
             raise ValueError(f"reference pixel {reference.tolist()} is outside the silhouettes' pixels")
         start = int(self.flat(reference - self.low))
-        return _boundary_sums(self.matrix, prefix[start : start + self.matrix.shape[1]], _rows(rows, len(self)))
+        indices = self.matrix.indices.view(np.uint32 if self.matrix.indices.dtype == np.int32 else np.uint64)
+        rows = np.arange(len(self), dtype=np.int64) if rows is None else np.ascontiguousarray(rows, dtype=np.int64)
+        slid = prefix[start : start + self.matrix.shape[1]]
+        return _signed_sums(self.matrix.indptr.astype(np.int64, copy=False), indices, slid, rows)
 
 
 @dataclass(frozen=True, eq=False)
@@ -278,24 +296,13 @@ class ObservationScorer:
         return (self._constant + boundaries.sums(self._slope, reference, rows)) / self._pixels
 
 
-def _rows(rows: np.ndarray | None, count: int) -> np.ndarray:
-    """The silhouettes asked (None: all ``count``) as the compiled sums take them: one signature for every caller."""
-    return np.arange(count, dtype=np.int64) if rows is None else np.ascontiguousarray(rows, dtype=np.int64)
-
-
-def _boundary_sums(matrix: sparse.csr_matrix, prefix: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """``(matrix[rows] @ prefix)`` for a `RunBoundaries` matrix (-1 at each run's start, +1 at its end, in that
-    order), without the rows' copy: `_signed_sums` on the matrix's structure, its indices read unsigned."""
-    indices = matrix.indices.view(np.uint32 if matrix.indices.dtype == np.int32 else np.uint64)
-    return _signed_sums(matrix.indptr.astype(np.int64, copy=False), indices, prefix, rows)
-
-
 @numba.njit(cache=True, nogil=True)
 def _signed_sums(indptr: np.ndarray, indices: np.ndarray, prefix: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """Per row ``rows[i]`` of a CSR structure whose entries alternate -1 and +1, the sum of ``prefix`` at its entries
-    so signed: added one by one in the entries' order from 0, as scipy's sparse product adds them (a product by -1
-    or +1 is exact), so the same bits. The indices come unsigned: a signed index is checked for wrapping around at
-    every read, which made this loop slower than scipy's."""
+    """`ShiftedRunBoundaries.sums`'s loop, ``(matrix[rows] @ prefix)`` without the rows' copy: per row ``rows[i]`` of
+    a CSR structure whose entries alternate -1 and +1 (a run's start, then its end), the sum of ``prefix`` at its
+    entries so signed, added one by one in the entries' order from 0, as scipy's sparse product adds them (a product
+    by -1 or +1 is exact): the same bits. The indices come unsigned: a signed index is checked for wrapping around
+    at every read, which made this loop slower than scipy's."""
     sums = np.empty(len(rows))
     for i in range(len(rows)):
         total = 0.0
@@ -303,19 +310,6 @@ def _signed_sums(indptr: np.ndarray, indices: np.ndarray, prefix: np.ndarray, ro
             total -= prefix[indices[k]]
             total += prefix[indices[k + 1]]
         sums[i] = total
-    return sums
-
-
-@numba.njit(cache=True, nogil=True)
-def _run_sums(
-    prefix: np.ndarray, starts: np.ndarray, ends: np.ndarray, ptr: np.ndarray, rows: np.ndarray
-) -> np.ndarray:
-    """`SilhouetteRuns.sums`'s loop: per silhouette ``rows[i]``, ``prefix`` read at each run's end less at its start,
-    added from 0 in the runs' order (as a weighted `np.bincount` over them added them: the same bits)."""
-    sums = np.zeros(len(rows))
-    for i in range(len(rows)):
-        for run in range(ptr[rows[i]], ptr[rows[i] + 1]):
-            sums[i] += prefix[np.uint32(ends[run])] - prefix[np.uint32(starts[run])]
     return sums
 
 

@@ -106,34 +106,26 @@ def test_silhouettes_moved_by_whole_pixels_score_as_if_moved_first(tall):
         ShiftedRunBoundaries(masks, pixels).sums(np.ones(height * width), pixels.max(axis=0) + 1)
 
 
-def test_the_compiled_sums_add_as_the_sparse_product_and_the_bincount_did():
-    """The sums read the prefix sums in a loop: each silhouette's runs added one by one from 0, the order in which
-    scipy's sparse product (boundaries) and a weighted bincount (runs) add them, so the same bits, for any rows
-    (repeated, unordered, none)."""
+def test_the_top_levels_sums_of_some_rows_are_the_sparse_products_of_those_rows():
+    """A top level's sums of the rows asked, unmoved (every row's product, then those rows) and moved (a compiled
+    loop over those rows alone, each row's entries added one by one from 0 as scipy's product adds them), are the
+    product of those rows' copy, bit for bit, for any rows (repeated, unordered, none)."""
     rng = np.random.default_rng(11)
     masks = rng.random((60, 19, 23)) < 0.45
     masks[5] = False
     values = rng.normal(size=19 * 23) * 10.0 ** rng.integers(-6, 7, 19 * 23)  # widely spread: rounding shows
-    prefix = np.r_[0.0, np.cumsum(values)]
+    pixels = rng.integers(-2, 3, (60, 2))
+    boundaries, placed = RunBoundaries(masks), ShiftedRunBoundaries(masks, pixels)
+    framed = np.pad(values.reshape(19, 23), ((placed.margin[1],) * 2, (placed.margin[0],) * 2))
+    flat = (framed.T if placed.by_columns else framed).ravel()
+    slid = np.zeros(len(flat) + 1 + 2 * placed.reach)
+    np.cumsum(flat, out=slid[placed.reach + 1 : placed.reach + 1 + len(flat)])
+    slid[placed.reach + 1 + len(flat) :] = slid[placed.reach + len(flat)]
+    start = int(placed.flat(pixels[9] - placed.low))
     for rows in (None, np.array([7, 3, 3, 59, 0, 5]), np.zeros(0, np.int64)):
         picked = np.arange(60) if rows is None else rows
-        runs = SilhouetteRuns.from_masks(masks)
-        index, owner = runs.runs_of(picked)
-        by_bincount = np.bincount(
-            owner, weights=prefix[runs.ends[index]] - prefix[runs.starts[index]], minlength=len(picked)
-        )
-        np.testing.assert_array_equal(runs.sums(values, rows), by_bincount)
-        boundaries = RunBoundaries(masks)
-        flat = values.reshape(19, 23).T.ravel() if boundaries.by_columns else values
-        by_product = boundaries.matrix[picked] @ np.r_[0.0, np.cumsum(flat)]
+        unmoved = values.reshape(19, 23).T.ravel() if boundaries.by_columns else values
+        by_product = boundaries.matrix[picked] @ np.r_[0.0, np.cumsum(unmoved)]
         np.testing.assert_array_equal(boundaries.sums(values, rows), by_product)
-        pixels = rng.integers(-2, 3, (60, 2))
-        placed = ShiftedRunBoundaries(masks, pixels)
-        framed = np.pad(values.reshape(19, 23), ((placed.margin[1],) * 2, (placed.margin[0],) * 2))
-        flat = (framed.T if placed.by_columns else framed).ravel()
-        slid = np.zeros(len(flat) + 1 + 2 * placed.reach)
-        np.cumsum(flat, out=slid[placed.reach + 1 : placed.reach + 1 + len(flat)])
-        slid[placed.reach + 1 + len(flat) :] = slid[placed.reach + len(flat)]
-        start = int(placed.flat(pixels[9] - placed.low))
         by_product = placed.matrix[picked] @ slid[start : start + placed.matrix.shape[1]]
         np.testing.assert_array_equal(placed.sums(values, pixels[9], rows), by_product)
