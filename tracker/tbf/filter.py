@@ -219,7 +219,7 @@ class TreeFilter:
 
     def _next_prior(self) -> tuple[np.ndarray, int]:
         """Eq 14 from the last posterior (`PosePrior.prior`): made by a worker thread since the last step ended, or
-        here. Made between the frames, a frame that meets a new occlusion pattern does not wait for its KD-tree."""
+        here. Made between the frames, a frame that meets a new occlusion pattern waits less for its KD-tree."""
         coming, self._coming_prior = self._coming_prior, None
         if coming is None:
             return self._prior.prior(self._posterior, self._previous_flags)
