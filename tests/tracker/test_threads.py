@@ -74,9 +74,10 @@ def test_settled_jobs_not_taken_never_start_and_those_under_way_are_waited_for()
         raise ValueError("dropped with its result")
 
     jobs = TwoEndedJobs([lambda index=index: job(index) for index in range(20)])
-    while not started:  # the workers take some (each blocks until released)
+    deadline = time.monotonic() + 10
+    while not started and time.monotonic() < deadline:  # the workers take some (each blocks until released)
         time.sleep(0.001)
-    threading.Timer(0.05, release.set).start()
+    threading.Timer(0.3, release.set).start()  # long after settle has kept the others from starting
     jobs.settle()
     with lock:
         assert sorted(finished) == sorted(started) and 1 <= len(started) <= WORKERS  # under way: waited for
