@@ -24,7 +24,6 @@ from omegaconf import DictConfig
 from experiments.checks import ConfigError
 from experiments.cli_runs import exit_interrupted
 from experiments.components import import_plugins
-from experiments.job import OutputsLost, finished_metrics, run_job
 from experiments.schemas import CONFIG_DIR, CONFIG_NAME
 from experiments.stopping import Interrupted, StopRequest, SweepStop
 from experiments.validate import plugins_named, validate_command_line
@@ -34,6 +33,10 @@ log = logging.getLogger(__name__)
 
 @hydra.main(version_base="1.3", config_path=str(CONFIG_DIR), config_name=CONFIG_NAME)
 def hydra_main(cfg: DictConfig) -> dict:
+    # The run's machinery (rendering, recording, tables: a second of imports) only once the command line is checked:
+    # a bad override is reported without it.
+    from experiments.job import OutputsLost, finished_metrics, run_job
+
     hydra_cfg = HydraConfig.get()
     choices = {k: v for k, v in hydra_cfg.runtime.choices.items() if not k.startswith("hydra") and v is not None}
     output_dir = Path(hydra_cfg.runtime.output_dir)
