@@ -39,7 +39,7 @@ from typing import Annotated, Literal, NamedTuple
 import numba
 import numpy as np
 
-from tracker.geometry.cameras import Camera, projection_jacobian
+from tracker.geometry.cameras import Camera
 from tracker.geometry.nearest_points import nearest_points
 from tracker.hybrid.feature_pairs import FeaturePairSettings, ViewPairs
 from tracker.hybrid.view_field import ViewField
@@ -117,19 +117,52 @@ class Term(NamedTuple):
 def residual_rows(camera: Camera, points: np.ndarray, directions: np.ndarray, levers: SkinningLevers) -> np.ndarray:
     """``(n, 3 + 3 K)``: the derivatives of the residuals ``directions . pixel`` (``directions`` ``(n, 2)``) of
     ``points`` ``(n, 3)`` seen by ``camera``, by the fitted parameters (`fit_columns` of the K joints the points'
-    skinning ``levers`` are taken by). With g the pixel direction pulled back to the world (``J_proj^T d``), the
-    root's columns are the weight sum times g, and a joint's column c ``g . (a_c x L) = a_c . (L x g)``: a scalar
-    triple product per joint, not a 3-row Jacobian per point."""
-    pulled = np.einsum("na,nab->nb", directions, projection_jacobian(camera, points))  # g, (n, 3)
-    rows = np.empty((len(points), 3 + 3 * len(levers.axes)))
-    rows[:, :3] = levers.weight_sums[:, None] * pulled
-    # L x g (n, K, 3), component by component: np.cross's products and differences, without its copies
-    lever, g = levers.levers, pulled[:, None, :]
-    turns = np.empty(lever.shape)
-    for d, (e, f) in enumerate(((1, 2), (2, 0), (0, 1))):
-        turns[..., d] = lever[..., e] * g[..., f] - lever[..., f] * g[..., e]
-    turns = turns.transpose(1, 0, 2)  # (K, n, 3)
-    rows[:, 3:] = (turns @ levers.axes.transpose(0, 2, 1)).transpose(1, 0, 2).reshape(rows[:, 3:].shape)
+    skinning ``levers`` are taken by). With g the pixel direction pulled back to the world (``J_proj^T d``,
+    `projection_jacobian`), the root's columns are the weight sum times g, and a joint's column c
+    ``g . (a_c x L) = a_c . (L x g)``: a scalar triple product per joint, not a 3-row Jacobian per point."""
+    return _residual_rows(
+        camera.world_to_camera(points),
+        camera.fx,
+        camera.fy,
+        np.ascontiguousarray(camera.rotation.T),
+        np.ascontiguousarray(directions, dtype=np.float64),
+        np.ascontiguousarray(levers.weight_sums, dtype=np.float64),
+        np.ascontiguousarray(levers.levers, dtype=np.float64),
+        np.ascontiguousarray(levers.axes, dtype=np.float64),
+    )
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")  # a point on the camera's plane: inf, as numpy gives
+def _residual_rows(
+    p: np.ndarray,
+    fx: float,
+    fy: float,
+    axes_cam: np.ndarray,
+    directions: np.ndarray,
+    weight_sums: np.ndarray,
+    levers: np.ndarray,
+    axes: np.ndarray,
+) -> np.ndarray:
+    """`residual_rows` from the points in the camera's frame ``p`` ``(n, 3)`` and the camera's rotation transposed
+    ``axes_cam`` (d p_camera / d p_world), one residual at a time (a few hundred residuals of 66 columns: numpy's
+    calls on such small arrays cost more than their arithmetic)."""
+    count, joints = levers.shape[0], levers.shape[1]
+    rows = np.empty((count, 3 + 3 * joints))
+    g = np.empty(3)
+    for i in range(count):
+        x, y, z = p[i, 0], p[i, 1], p[i, 2]
+        for b in range(3):  # g = J_proj^T d, J_proj as `projection_jacobian` has it
+            du = fx * (axes_cam[0, b] * z - x * axes_cam[2, b]) / z**2
+            dv = fy * (axes_cam[1, b] * z - y * axes_cam[2, b]) / z**2
+            g[b] = directions[i, 0] * du + directions[i, 1] * dv
+            rows[i, b] = weight_sums[i] * g[b]
+        for k in range(joints):
+            lever = levers[i, k]
+            turn0 = lever[1] * g[2] - lever[2] * g[1]  # L x g
+            turn1 = lever[2] * g[0] - lever[0] * g[2]
+            turn2 = lever[0] * g[1] - lever[1] * g[0]
+            for c in range(3):
+                rows[i, 3 + 3 * k + c] = axes[k, c, 0] * turn0 + axes[k, c, 1] * turn1 + axes[k, c, 2] * turn2
     return rows
 
 

@@ -178,7 +178,7 @@ class BodyMesh:
         bones = np.concatenate([rotations, offsets[..., None]], axis=3)  # (n, J, 3, 4): x' = R x + o per bone
         # Each vertex's blend of its few bones, for every pose in one sparse product: (V, J) @ (J, n * 12).
         if subset is None:
-            weights = self._sparse_weights
+            weights = self.sparse_weights
         else:
             weights = self._subset_weights(np.asarray(subset, dtype=np.int64).tobytes())
         blended = (weights @ bones.transpose(1, 0, 2, 3).reshape(joints, -1)).reshape(-1, count, 3, 4)
@@ -218,15 +218,16 @@ class BodyMesh:
         return np.flatnonzero(np.isin(np.argmax(self.weights, axis=1), bones))
 
     @cached_property
-    def _sparse_weights(self):
+    def sparse_weights(self):
+        """`weights` as a CSR matrix: each vertex's few bones."""
         from scipy.sparse import csr_matrix
 
         return csr_matrix(self.weights)
 
     @functools.lru_cache(maxsize=64)  # noqa: B019 (a fit skins the same few vertices at every step: slicing once)
     def _subset_weights(self, subset: bytes):
-        """The rows of `_sparse_weights` of the vertices ``subset`` (int64 indices, their bytes)."""
-        return self._sparse_weights[np.frombuffer(subset, dtype=np.int64)]
+        """The rows of `sparse_weights` of the vertices ``subset`` (int64 indices, their bytes)."""
+        return self.sparse_weights[np.frombuffer(subset, dtype=np.int64)]
 
     def surface_meshes(self, pose: np.ndarray, color: tuple[int, int, int] = SKIN_RGB) -> list[SurfaceMesh]:
         """One lit mesh per body part (label = part index + 1), each with only its own vertices."""

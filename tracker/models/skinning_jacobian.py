@@ -14,6 +14,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import NamedTuple
 
+import numba
 import numpy as np
 
 from tracker.geometry.rotations import right_jacobian
@@ -42,24 +43,58 @@ def skinning_levers(
     pose = np.asarray(pose, dtype=np.float64)
     rotations, heads = transforms or body.bone_transforms(pose)
     from_t_pose = rotations @ np.transpose(body.t_pose_alignment, (0, 2, 1))  # F_j
-    subset = np.asarray(subset)
-    vertices, weights = body.rest_vertices[subset], body.weights[subset]
+    subset = np.asarray(subset, dtype=np.int64)
     joints = np.arange(len(body.parents)) if joints is None else np.fromiter(joints, dtype=np.int64)
-    if not len(joints):
-        return SkinningLevers(weights.sum(axis=1), np.zeros((len(subset), 0, 3)), np.zeros((0, 3, 3)))
-    # lever about joint k: the vertex carried by the transforms [R_b | o_b - h'_k] of the bones b below k, blended
-    # by their weights; every joint's blend in one product (V, J) @ (J, K * 12)
+    weights = body.sparse_weights
     offsets = heads - np.einsum("jab,jb->ja", rotations, body.rest_heads)  # o_b = h'_b - R_b h_b
-    below = body.descendants[joints].T.astype(np.float64)  # (J, K): the bones each joint turns
-    carriers = np.empty((len(below), len(joints), 3, 4))  # (J, K, 3, 4)
-    carriers[..., :3] = rotations[:, None]
-    carriers[..., 3] = offsets[:, None] - heads[joints]
-    carriers *= below[:, :, None, None]
-    blended = (weights @ carriers.reshape(len(below), -1)).reshape(len(subset), len(joints), 3, 4)
-    lever = blended[..., 3] + sum(blended[..., b] * vertices[:, None, None, b] for b in range(3))  # (V, K, 3)
+    weight_sums, levers = _levers(
+        weights.indptr.astype(np.int64, copy=False),
+        weights.indices.astype(np.int64, copy=False),
+        weights.data,
+        subset,
+        body.rest_vertices,
+        np.ascontiguousarray(rotations),
+        offsets,
+        np.ascontiguousarray(heads[joints]),
+        np.ascontiguousarray(body.descendants[joints].T),
+    )
     rates = right_jacobian(pose[3:].reshape(-1, 3)[joints])
     axes = np.transpose(from_t_pose[joints] @ rates, (0, 2, 1))  # (K, 3, 3): dr's three components -> axes
-    return SkinningLevers(weights.sum(axis=1), lever, axes)
+    return SkinningLevers(weight_sums, levers, axes)
+
+
+@numba.njit(cache=True, nogil=True)
+def _levers(
+    indptr: np.ndarray,
+    indices: np.ndarray,
+    weights: np.ndarray,
+    subset: np.ndarray,
+    rest: np.ndarray,
+    rotations: np.ndarray,
+    offsets: np.ndarray,
+    joint_heads: np.ndarray,
+    below: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """`skinning_levers`' weight sums ``(len(subset),)`` and levers ``(len(subset), K, 3)``, from the skinning
+    weights (CSR: a vertex's few bones), the bones' ``rotations`` and ``offsets`` o_b, the K joints' posed heads
+    and ``below`` ``(J, K)``, the bones each joint turns: each bone b of a vertex carries it to ``p_b = R_b v +
+    o_b`` and adds ``w_b (p_b - h'_k)`` to its lever about every joint k above b (numpy's dense product of every
+    vertex's weights by every bone's carrier took four times as long)."""
+    weight_sums, levers = np.zeros(len(subset)), np.zeros((len(subset), joint_heads.shape[0], 3))
+    carried = np.empty(3)
+    for i in range(len(subset)):
+        vertex = rest[subset[i]]
+        for entry in range(indptr[subset[i]], indptr[subset[i] + 1]):
+            bone, weight = indices[entry], weights[entry]
+            weight_sums[i] += weight
+            for a in range(3):
+                r = rotations[bone, a]
+                carried[a] = r[0] * vertex[0] + r[1] * vertex[1] + r[2] * vertex[2] + offsets[bone, a]
+            for k in range(joint_heads.shape[0]):
+                if below[bone, k]:
+                    for a in range(3):
+                        levers[i, k, a] += weight * (carried[a] - joint_heads[k, a])
+    return weight_sums, levers
 
 
 def vertex_jacobian(
