@@ -19,12 +19,12 @@ samples. `PosePrior.prior` keeps the terms that matter: from the previous poster
 ``max_support`` largest samples among those with at least ``support_fraction`` of its peak) to every sample
 within ``reach`` standard deviations, found by a KD-tree over pose space divided by the frame's sigmas (one tree
 per distinct sigma vector, i.e. per DM2 occlusion pattern, built on first use) and kept per sample
-(`KernelNeighbours`): the support moves little from frame to frame, and in a pose space of ~100 components the
-tree spends its time proving that a sample has few neighbours (a few dozen terms a frame at ~52,000 samples).
-A tree holds the sample set scaled (29 MB at 37,000 samples; two trees a pattern with the learned motion's kernels)
-and a clip meets a new occlusion pattern every ~30 frames (indian_14: 12 in 374): only the `KERNEL_TREES_KEPT` last
-used keep their trees; the others keep the neighbours they found, and build their tree again only for a sample not
-asked before.
+(`KernelNeighbours`): the support moves little from frame to frame, and in a pose space of ~100 components a sample
+has few neighbours (a few dozen terms a frame at ~52,000 samples). The tree searches the scaled samples' first
+`SEARCH_AXES` principal axes for candidates, whose distances are then taken in full. A tree holds those projections
+(2.4 MB at 37,000 samples; two trees a pattern with the learned motion's kernels) and a clip meets a new occlusion
+pattern every ~30 frames (indian_14: 12 in 374): only the `KERNEL_TREES_KEPT` last used keep their trees; the
+others keep the neighbours they found, and build their tree again only for a sample not asked before.
 Terms beyond ``reach`` sigmas weigh less than ``exp(-reach^2 / 2)`` each (reach 4: 3e-4); the posterior mass left
 out of the support is reported per frame (`PosePrior.last_mass_used`).
 """
@@ -120,6 +120,7 @@ class LearnedTransitions(OccludedWiderWalk):
 
 
 KERNEL_TREES_KEPT = 12  # `PosePrior`'s KD-trees kept, the last used: 6 occlusion patterns' walk and learned kernels
+SEARCH_AXES = 8  # the principal axes of the scaled samples a `KernelNeighbours` tree searches along
 
 
 class KernelNeighbours:
@@ -127,17 +128,23 @@ class KernelNeighbours:
     found on first ask (one KD-tree query for all of a call's new samples) and kept. `release` lets the tree go
     (the neighbours found stay); a sample asked after it builds it again, the same.
 
-    The tree splits each node at the midpoint of its points' spread (scipy's ``balanced_tree=False``; its default,
-    the median, takes longer to build and to query). A tree ``made_up_front`` (the kernels of no occlusion, before
-    the first frame) shrinks each node's box to its points: queried every frame, 2-3 times faster than scipy's
-    default. A tree built while tracking (an occlusion pattern met) keeps the boxes unshrunk: a third of the time to
-    build, for queries slower by a fifth. The pairs within reach and their distances are the same bytes with any
-    tree (a pair's distance does not depend on it)."""
+    The tree holds the scaled samples (divided by the sigmas) projected onto their `SEARCH_AXES` principal axes
+    (of ``covariance``, the unscaled samples' covariance). A projection onto orthonormal axes lengthens no distance,
+    so every sample within reach is among the tree's candidates (searched a hair beyond reach, for rounding); each
+    candidate's distance is then taken over every component, as scipy's cKDTree takes it (`squared_distances`).
+    The pairs and their distances are the same bytes as a tree over every component finds, sooner: in ~100
+    components such a tree spends its time proving that a sample has no neighbour but itself. The tree splits each
+    node at the midpoint of its points' spread (scipy's ``balanced_tree=False``; its default, the median, takes
+    longer to build and to query). A tree ``made_up_front`` (the kernels of no occlusion, before the first frame)
+    shrinks each node's box to its points; a tree built while tracking (an occlusion pattern met) keeps the boxes
+    unshrunk, quicker to build."""
 
-    def __init__(self, poses: np.ndarray, sigmas: np.ndarray, reach: float, made_up_front: bool = False) -> None:
+    def __init__(
+        self, poses: np.ndarray, sigmas: np.ndarray, reach: float, covariance: np.ndarray, made_up_front: bool = False
+    ) -> None:
         self.poses, self.sigmas, self.reach = poses, np.array(sigmas, dtype=np.float64), reach  # its own sigmas
-        self.made_up_front = made_up_front
-        self.scaled: np.ndarray | None = None
+        self.covariance, self.made_up_front = covariance, made_up_front
+        self.projected: np.ndarray | None = None
         self.tree: cKDTree | None = None
         self._build()
         self._first = np.full(len(poses), -1)  # per sample: where its neighbours start in the kept arrays, -1: unasked
@@ -151,25 +158,48 @@ class KernelNeighbours:
         if len(new):
             if self.tree is None:
                 self._build()
-            found = self.tree.sparse_distance_matrix(cKDTree(self.scaled[new]), self.reach, output_type="ndarray")
-            order = np.lexsort((found["i"], found["j"]))  # by centre, then by sample
-            counts = np.bincount(found["j"], minlength=len(new))  # >= 1: a centre is its own neighbour
+            found = self.tree.sparse_distance_matrix(
+                cKDTree(self.projected[new]), self.reach * (1 + 1e-9), output_type="ndarray"
+            )
+            sample, centre = found["i"], found["j"]
+            squared = squared_distances(self.poses[sample] / self.sigmas, self.poses[new[centre]] / self.sigmas)
+            within = squared <= self.reach**2
+            sample, centre, distance = sample[within], centre[within], np.sqrt(squared[within])
+            order = np.lexsort((sample, centre))  # by centre, then by sample
+            counts = np.bincount(centre, minlength=len(new))  # >= 1: a centre is its own neighbour
             self._first[new] = len(self._neighbours) + np.cumsum(counts) - counts
             self._count[new] = counts
-            self._neighbours = np.concatenate([self._neighbours, found["i"][order]])
-            self._distances = np.concatenate([self._distances, found["v"][order]])
+            self._neighbours = np.concatenate([self._neighbours, sample[order]])
+            self._distances = np.concatenate([self._distances, distance[order]])
         counts = self._count[centres]
         rows = np.repeat(np.arange(len(centres)), counts)
         index = np.repeat(self._first[centres] - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())
         return rows, self._neighbours[index], self._distances[index]
 
     def release(self) -> None:
-        """Let the tree and the scaled samples go; the neighbours found stay."""
-        self.scaled, self.tree = None, None
+        """Let the tree and the projected samples go; the neighbours found stay."""
+        self.projected, self.tree = None, None
 
     def _build(self) -> None:
-        self.scaled = self.poses / self.sigmas
-        self.tree = cKDTree(self.scaled, balanced_tree=False, compact_nodes=self.made_up_front)
+        _, axes = np.linalg.eigh(self.covariance / np.outer(self.sigmas, self.sigmas))  # the scaled samples' axes
+        self.projected = self.poses @ (axes[:, ::-1][:, :SEARCH_AXES] / self.sigmas[:, None])  # scaled, projected
+        self.tree = cKDTree(self.projected, balanced_tree=False, compact_nodes=self.made_up_front)
+
+
+def squared_distances(first: np.ndarray, second: np.ndarray) -> np.ndarray:
+    """``|first - second|^2`` row by row (``(n, d)`` each), summed as scipy's cKDTree sums a distance's squares
+    (so that its bytes are the tree's): four running sums over the components 4b, 4b + 1, 4b + 2 and 4b + 3,
+    added ((s0 + s1) + s2) + s3, then the remaining components' squares one by one."""
+    differences = first - second
+    squares = differences * differences
+    blocks = squares.shape[1] // 4
+    sums = np.zeros((len(squares), 4))
+    for block in range(blocks):
+        sums += squares[:, 4 * block : 4 * block + 4]
+    total = ((sums[:, 0] + sums[:, 1]) + sums[:, 2]) + sums[:, 3]
+    for component in range(4 * blocks, squares.shape[1]):
+        total += squares[:, component]
+    return total
 
 
 class PosePrior:
@@ -190,6 +220,7 @@ class PosePrior:
         self.motion, self.reach, self.space = motion, reach, space
         self.support_fraction, self.max_support = support_fraction, max_support
         self._neighbours: dict[bytes, KernelNeighbours] = {}
+        self._covariance = np.cov(self.poses, rowvar=False)  # each sigma vector's trees search its principal axes
         self.last_mass_used = 1.0
         self._within_reach(motion.base_sigmas(space), made_up_front=True)  # the no-occlusion tree
         self.learned = isinstance(motion, LearnedTransitions)
@@ -209,7 +240,7 @@ class PosePrior:
         key = sigmas.tobytes()
         neighbours = self._neighbours.pop(key, None)
         if neighbours is None:
-            neighbours = KernelNeighbours(self.poses, sigmas, self.reach, made_up_front)
+            neighbours = KernelNeighbours(self.poses, sigmas, self.reach, self._covariance, made_up_front)
         self._neighbours[key] = neighbours  # the most recent last
         for older in list(self._neighbours.values())[:-KERNEL_TREES_KEPT]:
             older.release()

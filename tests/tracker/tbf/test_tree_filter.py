@@ -104,22 +104,49 @@ def test_the_sparse_prior_matches_the_dense_sum(samples):
 
 def test_kernel_neighbours_are_the_same_bytes_with_either_tree_and_every_pair_within_reach(samples):
     """The trees made up front (boxes shrunk) and while tracking (boxes as split) find the same pairs, the same
-    distances bit for bit; the pairs are exactly those a naive search finds within reach, at the same distances."""
+    distances bit for bit; the pairs are exactly those a naive search finds within reach, and the pairs and their
+    distances are the bytes scipy's KD-tree over every component finds."""
+    from scipy.spatial import cKDTree
+
     from tracker.tbf.motion import KernelNeighbours
 
     sigmas = OccludedWiderWalk(sigma=0.15, m=5.0).sigmas(np.eye(len(PART_NAMES), dtype=bool)[2])
     centres = np.array([5, 40, 3, 40, 77])
-    found = [KernelNeighbours(samples.poses, sigmas, 5.0, made_up_front).pairs(centres) for made_up_front in (1, 0)]
+    poses = np.asarray(samples.poses, dtype=np.float64)
+    covariance = np.cov(poses, rowvar=False)
+    found = [KernelNeighbours(poses, sigmas, 5.0, covariance, up_front).pairs(centres) for up_front in (True, False)]
     for up_front, tracking in zip(*found, strict=True):
         assert up_front.tobytes() == tracking.tobytes()
     rows, neighbours, distances = found[0]
-    scaled = np.asarray(samples.poses, dtype=np.float64) / sigmas
+    scaled = poses / sigmas
     naive = np.linalg.norm(scaled[centres][:, None] - scaled[None], axis=2)
     within = np.nonzero(naive <= 5.0)  # by centre, then by sample: the order pairs gives
     np.testing.assert_array_equal(rows, within[0])
     np.testing.assert_array_equal(neighbours, within[1])
     np.testing.assert_allclose(distances, naive[within], rtol=1e-12)
     assert 5 < len(rows) < len(centres) * len(samples)  # neither only the centres nor everything
+    full = cKDTree(scaled).sparse_distance_matrix(cKDTree(scaled[np.unique(centres)]), 5.0, output_type="ndarray")
+    order = np.lexsort((full["i"], full["j"]))
+    unique_rows = np.searchsorted(np.unique(centres), centres[rows])
+    kept = {(int(c), int(n)): d for c, n, d in zip(full["j"][order], full["i"][order], full["v"][order], strict=True)}
+    assert len(kept) == len(set(zip(unique_rows.tolist(), neighbours.tolist(), strict=True)))
+    for centre, neighbour, distance in zip(unique_rows, neighbours, distances, strict=True):
+        assert kept[int(centre), int(neighbour)].tobytes() == distance.tobytes()
+
+
+@pytest.mark.parametrize("dims", [96, 94, 7])
+def test_squared_distances_are_the_bytes_of_scipys_kd_tree(dims):
+    """Sums of squares as cKDTree sums them, whole blocks of four and a remainder: the distances of every pair of
+    random points, bit for bit against the tree's own."""
+    from scipy.spatial import cKDTree
+
+    from tracker.tbf.motion import squared_distances
+
+    points = np.random.default_rng(dims).normal(size=(60, dims)) * np.linspace(0.1, 30, dims)
+    found = cKDTree(points).sparse_distance_matrix(cKDTree(points), np.inf, output_type="ndarray")
+    assert len(found) == 60 * 60  # every pair
+    ours = np.sqrt(squared_distances(points[found["i"]], points[found["j"]]))
+    assert ours.tobytes() == found["v"].tobytes()
 
 
 def test_the_prior_keeps_few_trees_and_finds_the_same_terms_after_letting_one_go(samples):
