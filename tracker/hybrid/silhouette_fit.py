@@ -21,9 +21,9 @@ by default the two hip bones (``LHipJoint``, ``RHipJoint``: pelvis to thigh), wh
 skeleton gives them no channels of motion, and the retargeting leaves them at rest) and which, turned, let the
 pelvis float off the legs while the silhouettes stay explained. Levenberg-Marquardt steps them by the Gauss-Newton
 system of the residuals' Jacobian, analytic: the image gradient of ``outside`` (for cover, the edge's normal) times
-the projection's Jacobian (`projection_jacobian`) times the skinned vertices' (`tracker.models.skinning_jacobian`;
-a pair's point: its face's corners' blended by its barycentric coordinates), taken by the joints' levers
-(`residual_rows`).
+the projection's Jacobian (`tracker.geometry.cameras.projection_jacobian`) times the skinned vertices'
+(`tracker.models.skinning_jacobian`; a pair's point: its face's corners' blended by its barycentric coordinates),
+taken by the joints' levers (`residual_rows`).
 
 `fit_cost` is the silhouettes' terms alone: what the hybrid compares candidates by (the same vertices and edge
 points for every candidate, so the numbers compare). The pairs guide each candidate's fit but do not judge between
@@ -118,8 +118,8 @@ def residual_rows(camera: Camera, points: np.ndarray, directions: np.ndarray, le
     """``(n, 3 + 3 K)``: the derivatives of the residuals ``directions . pixel`` (``directions`` ``(n, 2)``) of
     ``points`` ``(n, 3)`` seen by ``camera``, by the fitted parameters (`fit_columns` of the K joints the points'
     skinning ``levers`` are taken by). With g the pixel direction pulled back to the world (``J_proj^T d``,
-    `projection_jacobian`), the root's columns are the weight sum times g, and a joint's column c
-    ``g . (a_c x L) = a_c . (L x g)``: a scalar triple product per joint, not a 3-row Jacobian per point."""
+    `tracker.geometry.cameras.projection_jacobian`), the root's columns are the weight sum times g, and a joint's
+    column c ``g . (a_c x L) = a_c . (L x g)``: a scalar triple product per joint, not a 3-row Jacobian per point."""
     return _residual_rows(
         camera.world_to_camera(points),
         camera.fx,
