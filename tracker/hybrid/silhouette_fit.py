@@ -195,10 +195,18 @@ class SilhouetteFit:
         """``(views, n, V)`` bool: the vertices ``points`` ``(n, V, 3)`` of ``n`` poses (their bones' ``rotations``
         ``(n, J, 3, 3)``) on the body's outline seen from each camera: where the posed vertex's unit normal, skinned
         as the vertex is, is near square to the camera's ray to it."""
-        # the products pose by pose: BLAS may sum a wider product in another order, and a batch must not change bits
-        blended = np.stack([self.body.weights @ pose.reshape(len(pose), 9) for pose in rotations])
+        weights = self.body.sparse_weights
         positions = np.array([camera.position for camera in self.cameras], dtype=np.float64)
-        return _outlines(blended, self.rest_normals, np.ascontiguousarray(points), positions, self.settings.outline_cos)
+        return _outlines(
+            weights.indptr.astype(np.int64, copy=False),
+            weights.indices.astype(np.int64, copy=False),
+            weights.data,
+            np.ascontiguousarray(rotations),
+            self.rest_normals,
+            np.ascontiguousarray(points),
+            positions,
+            self.settings.outline_cos,
+        )
 
     def residuals(self, pose: np.ndarray, jacobian: bool = True) -> list[Term]:
         """Per view, the region term, the cover term and, with pairs observed, the feature term (a pair's ``u`` then
@@ -364,27 +372,36 @@ class SilhouetteFit:
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")  # a vertex on a camera's centre: NaN, not on the outline
 def _outlines(
-    blended: np.ndarray, rest_normals: np.ndarray, points: np.ndarray, positions: np.ndarray, outline_cos: float
+    indptr: np.ndarray,
+    indices: np.ndarray,
+    weights: np.ndarray,
+    rotations: np.ndarray,
+    rest_normals: np.ndarray,
+    points: np.ndarray,
+    positions: np.ndarray,
+    outline_cos: float,
 ) -> np.ndarray:
-    """`SilhouetteFit.outlines` from each pose's vertices' blended bone rotations ``blended`` ``(n, V, 9)`` (row by
-    row), the rest normals ``(V, 3)``, the posed vertices ``(n, V, 3)`` and the cameras' ``positions`` ``(views, 3)``.
-    As numpy made them before, to the bit: each rotated normal's and each dot product's three products added x, z,
-    then y (numpy's einsum's order here), a length's squares x, y, then z (np.linalg.norm's), each divided by it."""
+    """`SilhouetteFit.outlines` from the skinning weights (CSR: each vertex's few bones), each pose's bone
+    ``rotations`` ``(n, J, 3, 3)``, the rest normals ``(V, 3)``, the posed vertices ``(n, V, 3)`` and the cameras'
+    ``positions`` ``(views, 3)``: a vertex's normal is its rest normal turned by each of its bones, blended by their
+    weights, then made unit."""
     count, vertices = points.shape[0], points.shape[1]
     outline = np.empty((len(positions), count, vertices), np.bool_)
     normal = np.empty(3)
     for pose in range(count):
         for v in range(vertices):
-            b, n = blended[pose, v], rest_normals[v]
-            for a in range(3):
-                normal[a] = (b[3 * a] * n[0] + b[3 * a + 2] * n[2]) + b[3 * a + 1] * n[1]
-            length = max(np.sqrt((normal[0] * normal[0] + normal[1] * normal[1]) + normal[2] * normal[2]), 1e-12)
+            n = rest_normals[v]
+            normal[:] = 0.0
+            for entry in range(indptr[v], indptr[v + 1]):
+                turn, weight = rotations[pose, indices[entry]], weights[entry]
+                for a in range(3):
+                    normal[a] += weight * (turn[a, 0] * n[0] + turn[a, 1] * n[1] + turn[a, 2] * n[2])
+            length = max(np.sqrt(normal[0] * normal[0] + normal[1] * normal[1] + normal[2] * normal[2]), 1e-12)
             nx, ny, nz = normal[0] / length, normal[1] / length, normal[2] / length
             for view in range(len(positions)):
                 rx = points[pose, v, 0] - positions[view, 0]
                 ry = points[pose, v, 1] - positions[view, 1]
                 rz = points[pose, v, 2] - positions[view, 2]
-                distance = np.sqrt((rx * rx + ry * ry) + rz * rz)
-                rx, ry, rz = rx / distance, ry / distance, rz / distance
-                outline[view, pose, v] = abs((nx * rx + nz * rz) + ny * ry) < outline_cos
+                distance = np.sqrt(rx * rx + ry * ry + rz * rz)
+                outline[view, pose, v] = abs(nx * rx + ny * ry + nz * rz) / distance < outline_cos
     return outline
