@@ -220,7 +220,10 @@ class PosePrior:
         self.motion, self.reach, self.space = motion, reach, space
         self.support_fraction, self.max_support = support_fraction, max_support
         self._neighbours: dict[bytes, KernelNeighbours] = {}
-        self._covariance = np.cov(self.poses, rowvar=False)  # each sigma vector's trees search its principal axes
+        # each sigma vector's trees search its principal axes (a set of one sample has none: any axes do)
+        self._covariance = (
+            np.atleast_2d(np.cov(self.poses, rowvar=False)) if len(self.poses) > 1 else np.eye(self.poses.shape[1])
+        )
         self.last_mass_used = 1.0
         self._within_reach(motion.base_sigmas(space), made_up_front=True)  # the no-occlusion tree
         self.learned = isinstance(motion, LearnedTransitions)

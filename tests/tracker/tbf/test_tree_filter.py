@@ -308,3 +308,16 @@ def test_a_feed_drops_the_prior_made_ahead_and_the_next_step_starts_from_the_fed
     prior, _ = PosePrior(samples.poses, motion).prior(onto_far, samples.occluded(motion.occlusion_area_px)[far])
     assert np.all(prior[fed.posterior > 0] > 0) and not np.array_equal(fed.posterior, unfed.posterior)
     assert not np.all(prior[unfed.posterior > 0] > 0)  # not a vacuous check: the unfed filter's lies elsewhere
+
+
+@pytest.mark.parametrize(("count", "size"), [(1, 5), (2, 1), (40, 3)])
+def test_the_sparse_prior_equals_the_dense_sum_for_sets_of_few_samples_or_components(count, size):
+    """A set of one sample, of one component, or of fewer components than the trees' search axes: the prior's
+    terms within reach are the dense sum's (a single sample has no covariance to take axes from)."""
+    from tracker.tbf.motion import PosePrior, PoseSpace
+
+    poses = np.random.default_rng(count).normal(0.0, 0.2, size=(count, size))
+    prior = PosePrior(poses, RandomWalk(sigma=0.15), reach=6.0, space=PoseSpace(size, ()))
+    posterior = np.random.default_rng(size).random(count)
+    sparse, _ = prior.prior(posterior, np.zeros(0, bool))
+    np.testing.assert_allclose(sparse, prior.dense_prior(posterior, np.zeros(0, bool)), rtol=1e-6, atol=1e-9)
