@@ -198,8 +198,8 @@ class SilhouetteFit:
         weights = self.body.sparse_weights
         positions = np.array([camera.position for camera in self.cameras], dtype=np.float64)
         return _outlines(
-            weights.indptr.astype(np.int64, copy=False),
-            weights.indices.astype(np.int64, copy=False),
+            weights.indptr,
+            weights.indices,
             weights.data,
             np.ascontiguousarray(rotations),
             self.rest_normals,

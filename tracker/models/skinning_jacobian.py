@@ -48,8 +48,8 @@ def skinning_levers(
     weights = body.sparse_weights
     offsets = heads - np.einsum("jab,jb->ja", rotations, body.rest_heads)  # o_b = h'_b - R_b h_b
     weight_sums, levers = _levers(
-        weights.indptr.astype(np.int64, copy=False),
-        weights.indices.astype(np.int64, copy=False),
+        weights.indptr,
+        weights.indices,
         weights.data,
         subset,
         body.rest_vertices,
