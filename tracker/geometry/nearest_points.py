@@ -15,25 +15,23 @@ import numpy as np
 def nearest_points(points: np.ndarray, queries: np.ndarray) -> np.ndarray:
     """``(m,)`` int64: for each of ``queries`` ``(m, 2)``, the index of its nearest of ``points`` ``(n, 2)``
     (Euclidean; n >= 1)."""
-    points = np.ascontiguousarray(points, dtype=np.float64)
     if len(points) == 0:
         raise ValueError("nearest_points: no points to search")
-    queries = np.ascontiguousarray(queries, dtype=np.float64).reshape(-1, 2)
-    along = 0 if np.ptp(points[:, 0]) >= np.ptp(points[:, 1]) else 1
-    order = np.argsort(points[:, along], kind="stable")
-    sorted_points, queries = points[order][:, [along, 1 - along]], queries[:, [along, 1 - along]]
-    first_after = np.searchsorted(sorted_points[:, 0], queries[:, 0])
-    return _nearest(np.ascontiguousarray(sorted_points), order, np.ascontiguousarray(queries), first_after)
+    return nearest_points_compiled(
+        np.ascontiguousarray(points, dtype=np.float64), np.ascontiguousarray(queries, dtype=np.float64).reshape(-1, 2)
+    )
 
 
 @numba.njit(cache=True, nogil=True)
-def _nearest(points: np.ndarray, order: np.ndarray, queries: np.ndarray, first_after: np.ndarray) -> np.ndarray:
-    """`nearest_points` of ``points`` sorted along their first coordinate (the original ``order``), the queries'
-    coordinates in the same order, each's place in that order given (``first_after``)."""
-    sorted_along, sorted_across = points[:, 0], points[:, 1]
+def nearest_points_compiled(points: np.ndarray, queries: np.ndarray) -> np.ndarray:
+    """`nearest_points`, for compiled callers: float64 ``points`` ``(n >= 1, 2)`` and ``queries`` ``(m, 2)``."""
+    along = 0 if np.ptp(points[:, 0]) >= np.ptp(points[:, 1]) else 1
+    order = np.argsort(points[:, along], kind="mergesort")
+    sorted_along, sorted_across = points[order, along], points[order, 1 - along]
+    first_after = np.searchsorted(sorted_along, queries[:, along])
     nearest = np.empty(len(queries), np.int64)
     for q in range(len(queries)):
-        at, across = queries[q, 0], queries[q, 1]
+        at, across = queries[q, along], queries[q, 1 - along]
         best, found = np.inf, -1
         for step in (1, -1):  # from the query's place upwards, then downwards
             j = first_after[q] if step == 1 else first_after[q] - 1

@@ -36,16 +36,14 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Annotated, Literal, NamedTuple
 
-import numba
 import numpy as np
 
 from tracker.geometry.cameras import Camera
-from tracker.geometry.nearest_points import nearest_points
 from tracker.hybrid.feature_pairs import FeaturePairSettings, ViewPairs
+from tracker.hybrid.pose_terms import FrameViews, PoseTerms, pose_terms, residual_rows
 from tracker.hybrid.view_field import ViewField
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.body_skeleton import JOINT_INDEX, JOINT_NAMES, POSE_SIZE
-from tracker.models.skinning_jacobian import SkinningLevers, skinning_levers
 from tracker.ranges import NonNegative, Positive, Range
 from tracker.render.mesh import vertex_normals
 from tracker.settings import validate
@@ -114,58 +112,6 @@ class Term(NamedTuple):
     silhouette: bool = True
 
 
-def residual_rows(camera: Camera, points: np.ndarray, directions: np.ndarray, levers: SkinningLevers) -> np.ndarray:
-    """``(n, 3 + 3 K)``: the derivatives of the residuals ``directions . pixel`` (``directions`` ``(n, 2)``) of
-    ``points`` ``(n, 3)`` seen by ``camera``, by the fitted parameters (`fit_columns` of the K joints the points'
-    skinning ``levers`` are taken by). With g the pixel direction pulled back to the world (``J_proj^T d``,
-    `tracker.geometry.cameras.projection_jacobian`), the root's columns are the weight sum times g, and a joint's
-    column c ``g . (a_c x L) = a_c . (L x g)``: a scalar triple product per joint, not a 3-row Jacobian per point."""
-    return _residual_rows(
-        camera.world_to_camera(points),
-        camera.fx,
-        camera.fy,
-        np.ascontiguousarray(camera.rotation.T),
-        np.ascontiguousarray(directions, dtype=np.float64),
-        np.ascontiguousarray(levers.weight_sums, dtype=np.float64),
-        np.ascontiguousarray(levers.levers, dtype=np.float64),
-        np.ascontiguousarray(levers.axes, dtype=np.float64),
-    )
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")  # a point on the camera's plane: inf, as numpy gives
-def _residual_rows(
-    p: np.ndarray,
-    fx: float,
-    fy: float,
-    axes_cam: np.ndarray,
-    directions: np.ndarray,
-    weight_sums: np.ndarray,
-    levers: np.ndarray,
-    axes: np.ndarray,
-) -> np.ndarray:
-    """`residual_rows` from the points in the camera's frame ``p`` ``(n, 3)`` and the camera's rotation transposed
-    ``axes_cam`` (d p_camera / d p_world), one residual at a time (a few hundred residuals of 66 columns: numpy's
-    calls on such small arrays cost more than their arithmetic)."""
-    count, joints = levers.shape[0], levers.shape[1]
-    rows = np.empty((count, 3 + 3 * joints))
-    g = np.empty(3)
-    for i in range(count):
-        x, y, z = p[i, 0], p[i, 1], p[i, 2]
-        for b in range(3):  # g = J_proj^T d, J_proj as `projection_jacobian` has it
-            du = fx * (axes_cam[0, b] * z - x * axes_cam[2, b]) / z**2
-            dv = fy * (axes_cam[1, b] * z - y * axes_cam[2, b]) / z**2
-            g[b] = directions[i, 0] * du + directions[i, 1] * dv
-            rows[i, b] = weight_sums[i] * g[b]
-        for k in range(joints):
-            lever = levers[i, k]
-            turn0 = lever[1] * g[2] - lever[2] * g[1]  # L x g
-            turn1 = lever[2] * g[0] - lever[0] * g[2]
-            turn2 = lever[0] * g[1] - lever[1] * g[0]
-            for c in range(3):
-                rows[i, 3 + 3 * k + c] = axes[k, c, 0] * turn0 + axes[k, c, 1] * turn1 + axes[k, c, 2] * turn2
-    return rows
-
-
 class SilhouetteFit:
     """The fit of ``body`` to the silhouettes of ``cameras`` (one frame's `ViewField` each: `observe`)."""
 
@@ -177,10 +123,12 @@ class SilhouetteFit:
         self.body, self.cameras, self.settings = body, tuple(cameras), settings
         self.joints = settings.joints
         self.columns = fit_columns(self.joints)
+        self._joints = np.array(self.joints, dtype=np.int64)
         self.region = np.arange(0, len(body.rest_vertices), settings.vertex_stride)
         self.rest_normals = vertex_normals(body.rest_vertices, body.faces)
         self.fields: list[ViewField] = []
         self.pairs: list[ViewPairs] = []
+        self._views = FrameViews.of([], [], body.faces)  # `observe`'s fields and pairs as `pose_terms` reads them
         self._asked: dict[bytes, tuple] = {}  # this frame's last poses asked (their bytes), and their `_terms`
 
     def observe(self, silhouettes: Sequence[np.ndarray], pairs: Sequence[ViewPairs] | None = None) -> None:
@@ -189,24 +137,9 @@ class SilhouetteFit:
             ViewField(s, camera, self.settings.edge_points) for s, camera in zip(silhouettes, self.cameras, strict=True)
         ]
         self.pairs = list(pairs) if pairs is not None else [ViewPairs.empty() for _ in self.cameras]
+        paired = self.pairs if self.settings.features.weight > 0 else [ViewPairs.empty() for _ in self.cameras]
+        self._views = FrameViews.of(self.fields, paired, self.body.faces)
         self._asked = {}
-
-    def outlines(self, rotations: np.ndarray, points: np.ndarray) -> np.ndarray:
-        """``(views, n, V)`` bool: the vertices ``points`` ``(n, V, 3)`` of ``n`` poses (their bones' ``rotations``
-        ``(n, J, 3, 3)``) on the body's outline seen from each camera: where the posed vertex's unit normal, skinned
-        as the vertex is, is near square to the camera's ray to it."""
-        weights = self.body.sparse_weights
-        positions = np.array([camera.position for camera in self.cameras], dtype=np.float64)
-        return _outlines(
-            weights.indptr,
-            weights.indices,
-            weights.data,
-            np.ascontiguousarray(rotations),
-            self.rest_normals,
-            np.ascontiguousarray(points),
-            positions,
-            self.settings.outline_cos,
-        )
 
     def residuals(self, pose: np.ndarray, jacobian: bool = True) -> list[Term]:
         """Per view, the region term, the cover term and, with pairs observed, the feature term (a pair's ``u`` then
@@ -216,26 +149,12 @@ class SilhouetteFit:
         it has just taken a step, whose cost it computed to accept it, and the hybrid refines on, and judges, poses
         it screened."""
         pose = np.asarray(pose, dtype=np.float64)
-        terms, moves, points, transforms = self._kept_terms(pose[None])[0]
+        terms, found = self._kept_terms(pose[None])[0]
         if not jacobian:
             return list(terms)
-        needed, where = np.unique(np.concatenate([corners.ravel() for *_, corners, _ in moves]), return_inverse=True)
-        levers = skinning_levers(self.body, pose, needed, self.joints, transforms)
-        rows, first = [], 0
-        for term, (camera, directions, corners, blend) in zip(terms, moves, strict=True):
-            at = where[first : first + corners.size].reshape(corners.shape)
-            first += corners.size
-            if blend is None:  # one vertex a residual
-                point = points[corners[:, 0]]
-                moving = levers._replace(weight_sums=levers.weight_sums[at[:, 0]], levers=levers.levers[at[:, 0]])
-            else:  # the levers are linear in the vertex: a point blended of vertices has their blend
-                point = np.einsum("nc,ncd->nd", blend, points[corners])
-                moving = levers._replace(
-                    weight_sums=np.einsum("nc,nc->n", blend, levers.weight_sums[at]),
-                    levers=np.einsum("nc,nckd->nkd", blend, levers.levers[at]),
-                )
-            rows.append(term._replace(rows=residual_rows(camera, point, directions, moving)))
-        return rows
+        rows = residual_rows(self.body, pose, found, self._views, self.region, self._joints)
+        ends = np.cumsum([len(term.values) for term in terms])[:-1]
+        return [term._replace(rows=block) for term, block in zip(terms, np.split(rows, ends), strict=True)]
 
     def _kept_terms(self, poses: np.ndarray) -> list[tuple]:
         """`_terms` of ``poses`` ``(n, POSE_SIZE)``: those kept (`residuals`), the others made in one batch and
@@ -250,54 +169,27 @@ class SilhouetteFit:
             self._asked[key] = found[key]
         return [found[key] for key in keys]
 
-    def _terms(self, poses: np.ndarray) -> list[tuple[list[Term], list[tuple], np.ndarray, tuple]]:
-        """Per pose of ``poses`` ``(n, POSE_SIZE)`` (n may be 0): its terms without their rows, what moves each
-        (below), its posed vertices and its bones' transforms. The poses are posed, skinned, projected and read
-        from each view's field together (the products BLAS makes, pose by pose): each pose's numbers are those of
-        a batch of one, bit for bit."""
-        if len(poses) == 0:
-            return []
-        rotations, heads = self.body.bone_transforms(poses)
-        points = self.body.posed_vertices(poses, transforms=(rotations, heads))  # (n, V, 3)
-        outlines = self.outlines(rotations, points)
+    def _terms(self, poses: np.ndarray) -> list[tuple[list[Term], PoseTerms]]:
+        """Per pose of ``poses`` ``(n, POSE_SIZE)`` (n may be 0): its terms without their rows, and what
+        `pose_terms` made of it (what `residual_rows` reads), each pose in one compiled pass."""
         settings, features = self.settings, self.settings.features
-        count = len(points)
-        # Per term, what moves its residuals: the camera, each residual's direction on the pixel of its point, and
-        # the point: a blend of vertices (``corners`` (n, c), ``blend`` (n, c): a face's corners), or one vertex
-        # (``corners`` (n, 1), ``blend`` None).
-        made: list[tuple[list, list]] = [([], []) for _ in range(count)]
-        for view, pairs, outline in zip(self.fields, self.pairs, outlines, strict=True):
-            uv = np.nan_to_num(np.stack([view.camera.project(posed)[0] for posed in points]), nan=-1e3)
-            outside, gradient = view.sample(uv[:, self.region].reshape(-1, 2))
-            outside, gradient = outside.reshape(count, -1), gradient.reshape(count, -1, 2)
-            paired = len(pairs) and features.weight > 0
-            if paired:
-                corners = self.body.faces[pairs.faces]
-                on_body = np.einsum("kc,nkcd->nkd", pairs.barycentric, points[:, corners])
-                seen = np.nan_to_num(np.stack([view.camera.project(posed)[0] for posed in on_body]), nan=-1e3)
-            for pose, (terms, moves) in enumerate(made):
-                on_outline = np.flatnonzero(outline[pose])
-                if len(on_outline) and len(view.edge):
-                    nearest = nearest_points(uv[pose, on_outline], view.edge)
-                    cover_vertices, edge, edge_normals = on_outline[nearest], view.edge, view.edge_normals
-                else:
-                    cover_vertices = np.zeros(0, dtype=np.int64)
-                    edge, edge_normals = view.edge[:0], view.edge_normals[:0]
-                cover = np.einsum("na,na->n", uv[pose, cover_vertices] - edge, edge_normals)
+        made = []
+        for pose in poses:
+            found = pose_terms(self.body, self.rest_normals, pose, self._views, self.region, settings.outline_cos)
+            terms = []
+            for k, pairs in enumerate(self.pairs):
+                edges = slice(*self._views.edge_starts[k : k + 2])
+                if len(found.cover_vertices[edges]) and found.cover_vertices[edges][0] < 0:  # no outline: no cover
+                    edges = slice(0, 0)
                 terms += [
-                    Term(outside[pose], None, settings.robust_px, 1.0),
-                    Term(cover, None, settings.robust_px, 1.0),
+                    Term(found.outside[k], None, settings.robust_px, 1.0),
+                    Term(found.cover[edges], None, settings.robust_px, 1.0),
                 ]
-                for directions, moved in ((gradient[pose], self.region), (edge_normals, cover_vertices)):
-                    moves.append((view.camera, directions, moved[:, None], None))
-                if paired:
-                    values = (seen[pose] - pairs.pixels).ravel()  # u0, v0, u1, v1, ...
+                if len(pairs) and features.weight > 0:
+                    values = found.seen[slice(*self._views.pair_starts[k : k + 2])].ravel()  # u0, v0, u1, v1, ...
                     terms.append(Term(values, None, features.robust_px, features.weight, silhouette=False))
-                    directions = np.tile(np.eye(2), (len(pairs), 1))
-                    moves.append(
-                        (view.camera, directions, np.repeat(corners, 2, 0), np.repeat(pairs.barycentric, 2, 0))
-                    )
-        return [(terms, moves, points[k], (rotations[k], heads[k])) for k, (terms, moves) in enumerate(made)]
+            made.append((terms, found))
+        return made
 
     def fit_cost(self, pose: np.ndarray) -> float:
         """How well ``pose`` explains the views' silhouettes: their terms' cost (see the module docstring)."""
@@ -342,12 +234,14 @@ class SilhouetteFit:
         for _ in range(settings.iterations if iterations is None else iterations):
             hessian = np.diag(prior_rows**2)
             gradient = prior_rows**2 * (pose[self.columns] - anchor)
-            for term in self.residuals(pose):
-                if not len(term.values):
-                    continue
-                weight = term.weight * huber_weights(term.values, term.robust_px) / len(term.values)
-                hessian += term.rows.T @ (term.rows * weight[:, None])
-                gradient += term.rows.T @ (weight * term.values)
+            terms = [term for term in self.residuals(pose) if len(term.values)]
+            if terms:  # every term's rows in one product
+                rows, values = np.concatenate([term.rows for term in terms]), np.concatenate([t.values for t in terms])
+                weight = np.concatenate(
+                    [term.weight * huber_weights(term.values, term.robust_px) / len(term.values) for term in terms]
+                )
+                hessian += rows.T @ (rows * weight[:, None])
+                gradient += rows.T @ (weight * values)
             while damping < 1e8:
                 system = hessian + damping * np.diag(np.diag(hessian) + 1e-9)
                 trial = pose.copy()
@@ -368,40 +262,3 @@ class SilhouetteFit:
             if gain < settings.tolerance * current:
                 break
         return pose, fitted
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")  # a vertex on a camera's centre: NaN, not on the outline
-def _outlines(
-    indptr: np.ndarray,
-    indices: np.ndarray,
-    weights: np.ndarray,
-    rotations: np.ndarray,
-    rest_normals: np.ndarray,
-    points: np.ndarray,
-    positions: np.ndarray,
-    outline_cos: float,
-) -> np.ndarray:
-    """`SilhouetteFit.outlines` from the skinning weights (CSR: each vertex's few bones), each pose's bone
-    ``rotations`` ``(n, J, 3, 3)``, the rest normals ``(V, 3)``, the posed vertices ``(n, V, 3)`` and the cameras'
-    ``positions`` ``(views, 3)``: a vertex's normal is its rest normal turned by each of its bones, blended by their
-    weights, then made unit."""
-    count, vertices = points.shape[0], points.shape[1]
-    outline = np.empty((len(positions), count, vertices), np.bool_)
-    normal = np.empty(3)
-    for pose in range(count):
-        for v in range(vertices):
-            n = rest_normals[v]
-            normal[:] = 0.0
-            for entry in range(indptr[v], indptr[v + 1]):
-                turn, weight = rotations[pose, indices[entry]], weights[entry]
-                for a in range(3):
-                    normal[a] += weight * (turn[a, 0] * n[0] + turn[a, 1] * n[1] + turn[a, 2] * n[2])
-            length = max(np.sqrt(normal[0] * normal[0] + normal[1] * normal[1] + normal[2] * normal[2]), 1e-12)
-            nx, ny, nz = normal[0] / length, normal[1] / length, normal[2] / length
-            for view in range(len(positions)):
-                rx = points[pose, v, 0] - positions[view, 0]
-                ry = points[pose, v, 1] - positions[view, 1]
-                rz = points[pose, v, 2] - positions[view, 2]
-                distance = np.sqrt(rx * rx + ry * ry + rz * rz)
-                outline[view, pose, v] = abs(nx * rx + ny * ry + nz * rz) / distance < outline_cos
-    return outline

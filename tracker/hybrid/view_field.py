@@ -52,7 +52,7 @@ class ViewField:
     def sample(self, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``outside`` and its ``(n, 2)`` gradient at pixels ``uv`` (bilinear; beyond the window, its border's;
         beyond the image, 0)."""
-        sampled = _bilinear(self._sampled, np.ascontiguousarray(uv - self.offset, dtype=np.float64))
+        sampled = bilinear(self._sampled, np.ascontiguousarray(uv - self.offset, dtype=np.float64))
         value, gradient = sampled[:, 0], sampled[:, 1:]
         unseen = np.any((uv < -0.5) | (uv > self.image_size - 0.5), axis=1)
         if unseen.any():
@@ -70,7 +70,7 @@ class ViewField:
 
 
 @numba.njit(cache=True, nogil=True)
-def _bilinear(fields: np.ndarray, local: np.ndarray) -> np.ndarray:
+def bilinear(fields: np.ndarray, local: np.ndarray) -> np.ndarray:
     """``(n, F)``: each of ``fields`` ``(F, h, w)`` at the window's pixels ``local`` ``(n, 2)`` ``(u, v)``, bilinear;
     beyond the window, each corner read at the border's pixel. Every field at once, and as
     `scipy.ndimage.map_coordinates` (``order=1, mode="nearest"``) makes each to the bit: its weights ``1 - x`` and
