@@ -36,6 +36,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Annotated, Literal, NamedTuple
 
+import numba
 import numpy as np
 
 from tracker.geometry.cameras import Camera
@@ -95,21 +96,32 @@ def huber_weights(residuals: np.ndarray, scale: float) -> np.ndarray:
     return np.where(size <= scale, 1.0, scale / np.maximum(size, 1e-12))
 
 
-def huber(residuals: np.ndarray, scale: float) -> np.ndarray:
-    size = np.abs(residuals)
-    return np.where(size <= scale, size**2, 2 * scale * size - scale**2)
+@numba.njit(cache=True, nogil=True)
+def mean_huber(residuals: np.ndarray, scale: float) -> float:
+    """The mean Huber rho of ``residuals`` (0 of none): ``r^2`` within ``scale``, ``2 scale |r| - scale^2`` beyond."""
+    total = 0.0
+    for residual in residuals:
+        size = abs(residual)
+        total += size * size if size <= scale else 2 * scale * size - scale * scale
+    return total / len(residuals) if len(residuals) else 0.0
 
 
 class Term(NamedTuple):
     """A block of the fit's residuals: their ``values``, their ``rows`` of the Jacobian by the fit's columns (None when
-    not asked for), the Huber scale and the ``weight`` of their mean robust square in the cost; ``silhouette``: a
-    silhouette's term (what `SilhouetteFit.fit_cost` counts), not the feature pairs'."""
+    not asked for), the Huber scale, the ``weight`` of their mean robust square in the cost, and that mean
+    (``robust``, `mean_huber`); ``silhouette``: a silhouette's term (what `SilhouetteFit.fit_cost` counts), not the
+    feature pairs'. Make one with `Term.of`."""
 
     values: np.ndarray
     rows: np.ndarray | None
     robust_px: float
     weight: float
+    robust: float
     silhouette: bool = True
+
+    @classmethod
+    def of(cls, values: np.ndarray, robust_px: float, weight: float, silhouette: bool = True) -> Term:
+        return cls(values, None, robust_px, weight, mean_huber(values, robust_px), silhouette)
 
 
 class SilhouetteFit:
@@ -182,12 +194,12 @@ class SilhouetteFit:
                 if len(found.cover_vertices[edges]) and found.cover_vertices[edges][0] < 0:  # no outline: no cover
                     edges = slice(0, 0)
                 terms += [
-                    Term(found.outside[k], None, settings.robust_px, 1.0),
-                    Term(found.cover[edges], None, settings.robust_px, 1.0),
+                    Term.of(found.outside[k], settings.robust_px, 1.0),
+                    Term.of(found.cover[edges], settings.robust_px, 1.0),
                 ]
                 if len(pairs) and features.weight > 0:
                     values = found.seen[slice(*self._views.pair_starts[k : k + 2])].ravel()  # u0, v0, u1, v1, ...
-                    terms.append(Term(values, None, features.robust_px, features.weight, silhouette=False))
+                    terms.append(Term.of(values, features.robust_px, features.weight, silhouette=False))
             made.append((terms, found))
         return made
 
@@ -203,13 +215,7 @@ class SilhouetteFit:
     @staticmethod
     def cost(terms: Sequence[Term], silhouettes_only: bool = False) -> float:
         """Each term's weight times its mean robust square, summed (over the silhouettes' terms only, or all)."""
-        return float(
-            sum(
-                term.weight * huber(term.values, term.robust_px).mean()
-                for term in terms
-                if len(term.values) and (term.silhouette or not silhouettes_only)
-            )
-        )
+        return float(sum(term.weight * term.robust for term in terms if term.silhouette or not silhouettes_only))
 
     def refine(
         self, start: np.ndarray, iterations: int | None = None, root: np.ndarray | None = None

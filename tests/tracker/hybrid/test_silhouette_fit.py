@@ -9,7 +9,7 @@ from tracker.evaluation.body import joint_errors_mm
 from tracker.geometry.cameras import wholly_in_view
 from tracker.geometry.rigs import View, cameras
 from tracker.hybrid.feature_pairs import FeaturePairs, FeaturePairSettings, ViewPairs
-from tracker.hybrid.silhouette_fit import FitSettings, SilhouetteFit
+from tracker.hybrid.silhouette_fit import FitSettings, SilhouetteFit, mean_huber
 from tracker.models.body_skeleton import JOINT_INDEX
 from tracker.tbf.pose_sets import arm_grid
 
@@ -244,3 +244,11 @@ def test_feature_pairs_on_the_textured_skin_follow_a_turn_of_the_body(renderer):
         errors(alone),
         errors(paired),
     )
+
+
+def test_the_mean_huber_is_the_mean_of_the_robust_squares():
+    values = np.random.default_rng(2).normal(0, 10, 500)
+    size = np.abs(values)
+    expected = np.where(size <= 8.0, size**2, 2 * 8.0 * size - 8.0**2).mean()
+    assert mean_huber(values, 8.0) == pytest.approx(expected, rel=1e-12)
+    assert mean_huber(values[:0], 8.0) == 0.0
