@@ -14,6 +14,7 @@ import numpy as np
 from scipy.ndimage import binary_erosion, distance_transform_edt
 
 from tracker.geometry.cameras import Camera
+from tracker.tbf.costs import euclidean_distance
 
 
 class ViewField:
@@ -34,7 +35,7 @@ class ViewField:
         high = np.array([rows.max(), cols.max()]) + self.MARGIN_PX + 1 if len(rows) else np.array(silhouette.shape)
         self.offset = np.array([low[1], low[0]], dtype=np.float64)  # the window's corner, (u, v)
         window = silhouette[low[0] : high[0], low[1] : high[1]]
-        outside = distance_transform_edt(~window) if window.any() else np.zeros(window.shape)  # none: no term
+        outside = euclidean_distance(~window) if window.any() else np.zeros(window.shape)  # none: no term
         self._sampled = np.stack([outside, *np.gradient(outside)[::-1]])  # what `sample` reads, one array
         self.outside, self.gradient = self._sampled[0], self._sampled[1:]  # (h, w); (d/du, d/dv), each (h, w)
         rows, cols = np.nonzero(window & ~binary_erosion(window))
@@ -45,7 +46,8 @@ class ViewField:
         rows, cols = rows[::step], cols[::step]
         self.edge = np.stack([cols, rows], axis=1) + self.offset  # (n, 2) pixels (u, v)
         # The outward normal at each edge point: the gradient of the signed distance (outside minus inside).
-        self.inside = distance_transform_edt(window)
+        # (a window all inside has no pixel to measure from: scipy's transform then measures from beyond its border)
+        self.inside = euclidean_distance(window) if not window.all() else distance_transform_edt(window)
         normals = np.stack([g[rows, cols] for g in np.gradient(self.outside - self.inside)[::-1]], axis=1)
         self.edge_normals = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
 

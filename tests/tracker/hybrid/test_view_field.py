@@ -2,7 +2,7 @@
 person, and beyond the image nothing is observed."""
 
 import numpy as np
-from scipy.ndimage import map_coordinates
+from scipy.ndimage import distance_transform_edt, map_coordinates
 
 from tracker.geometry.rigs import cameras
 from tracker.hybrid.view_field import ViewField
@@ -55,3 +55,20 @@ def test_the_field_reads_as_scipy_interpolates_it_to_the_bit():
     np.testing.assert_array_equal(value, expected[0])
     np.testing.assert_array_equal(gradient, np.stack(expected[1:], axis=1))
     assert len(uv) > 2000 and len(np.unique(value)) > 1000  # not a vacuous comparison
+
+
+def test_the_distance_fields_are_scipys_exact_transform_to_the_bit():
+    """The outside and inside distances (OpenCV's exact transform, snapped to whole squared pixels) against
+    `scipy.ndimage.distance_transform_edt`, on a ragged blob; and a silhouette that fills its whole image, whose
+    inside has no outside pixel to measure from."""
+    camera = cameras(width=120, height=90)[0]
+    rows, cols = np.mgrid[:90, :120]
+    silhouette = (rows - 45) ** 2 / 500 + (cols - 60) ** 2 / 300 + 0.4 * np.sin(cols / 2) * np.cos(rows / 3) < 1
+    field = ViewField(silhouette, camera, edge_points=100)
+    v0, u0 = int(field.offset[1]), int(field.offset[0])
+    window = silhouette[v0 : v0 + field.outside.shape[0], u0 : u0 + field.outside.shape[1]]
+    np.testing.assert_array_equal(field.outside, distance_transform_edt(~window))
+    np.testing.assert_array_equal(field.inside, distance_transform_edt(window))
+    assert field.outside.max() > 30 and field.inside.max() > 10
+    full = ViewField(np.ones((90, 120), bool), camera, edge_points=100)
+    np.testing.assert_array_equal(full.inside, distance_transform_edt(np.ones((90, 120), bool)))
