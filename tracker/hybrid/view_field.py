@@ -9,12 +9,13 @@ that he is not in its image, which the views that see him place him by."""
 
 from __future__ import annotations
 
+import cv2
 import numba
 import numpy as np
-from scipy.ndimage import binary_erosion, distance_transform_edt
+from scipy.ndimage import distance_transform_edt
 
 from tracker.geometry.cameras import Camera
-from tracker.tbf.costs import euclidean_distance
+from tracker.tbf.costs import bounding_box, euclidean_distance
 
 
 class ViewField:
@@ -30,15 +31,16 @@ class ViewField:
         silhouette = np.asarray(silhouette, dtype=bool)
         self.camera = camera
         self.image_size = np.array(silhouette.shape[::-1], dtype=np.float64)  # (width, height)
-        rows, cols = np.nonzero(silhouette)
-        low = np.maximum([rows.min(), cols.min()] if len(rows) else [0, 0], self.MARGIN_PX) - self.MARGIN_PX
-        high = np.array([rows.max(), cols.max()]) + self.MARGIN_PX + 1 if len(rows) else np.array(silhouette.shape)
+        box = bounding_box(silhouette)
+        seen = box[0].stop > box[0].start
+        low = np.maximum([box[0].start, box[1].start] if seen else [0, 0], self.MARGIN_PX) - self.MARGIN_PX
+        high = np.array([box[0].stop, box[1].stop]) + self.MARGIN_PX if seen else np.array(silhouette.shape)
         self.offset = np.array([low[1], low[0]], dtype=np.float64)  # the window's corner, (u, v)
         window = silhouette[low[0] : high[0], low[1] : high[1]]
         outside = euclidean_distance(~window) if window.any() else np.zeros(window.shape)  # none: no term
         self._sampled = np.stack([outside, *np.gradient(outside)[::-1]])  # what `sample` reads, one array
         self.outside, self.gradient = self._sampled[0], self._sampled[1:]  # (h, w); (d/du, d/dv), each (h, w)
-        rows, cols = np.nonzero(window & ~binary_erosion(window))
+        rows, cols = np.nonzero(window & ~eroded(window))
         on_border = (rows + low[0] == 0) | (rows + low[0] == silhouette.shape[0] - 1)
         on_border |= (cols + low[1] == 0) | (cols + low[1] == silhouette.shape[1] - 1)
         rows, cols = rows[~on_border], cols[~on_border]
@@ -48,7 +50,7 @@ class ViewField:
         # The outward normal at each edge point: the gradient of the signed distance (outside minus inside).
         # (a window all inside has no pixel to measure from: scipy's transform then measures from beyond its border)
         self.inside = euclidean_distance(window) if not window.all() else distance_transform_edt(window)
-        normals = np.stack([g[rows, cols] for g in np.gradient(self.outside - self.inside)[::-1]], axis=1)
+        normals = gradient_at(self.outside - self.inside, rows, cols)
         self.edge_normals = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
 
     def sample(self, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -69,6 +71,28 @@ class ViewField:
         distance = np.zeros(len(uv))
         distance[within] = self.inside[local[within, 1], local[within, 0]]
         return distance
+
+
+_CROSS = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], np.uint8)
+
+
+def eroded(mask: np.ndarray) -> np.ndarray:
+    """``mask`` eroded by the 4-neighbour cross, beyond the border outside (`scipy.ndimage.binary_erosion`'s
+    default)."""
+    return cv2.erode(mask.view(np.uint8), _CROSS, borderType=cv2.BORDER_CONSTANT, borderValue=0).view(bool)
+
+
+def gradient_at(values: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """``(n, 2)``: `np.gradient` of ``values`` ``(h, w)`` at its pixels ``rows``, ``cols`` as ``(d/du, d/dv)``,
+    without the whole image's: central differences, one-sided on the border (h, w >= 2)."""
+    height, width = values.shape
+    gradient = np.empty((len(rows), 2))
+    for axis, (index, size) in enumerate(((cols, width), (rows, height))):
+        after, before = np.minimum(index + 1, size - 1), np.maximum(index - 1, 0)
+        ahead = values[rows, after] if axis == 0 else values[after, cols]
+        behind = values[rows, before] if axis == 0 else values[before, cols]
+        gradient[:, axis] = (ahead - behind) / np.where((index > 0) & (index < size - 1), 2.0, 1.0)
+    return gradient
 
 
 @numba.njit(cache=True, nogil=True)

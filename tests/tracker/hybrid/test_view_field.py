@@ -2,10 +2,10 @@
 person, and beyond the image nothing is observed."""
 
 import numpy as np
-from scipy.ndimage import distance_transform_edt, map_coordinates
+from scipy.ndimage import binary_erosion, distance_transform_edt, map_coordinates
 
 from tracker.geometry.rigs import cameras
-from tracker.hybrid.view_field import ViewField
+from tracker.hybrid.view_field import ViewField, eroded, gradient_at
 
 
 def test_a_silhouette_cut_by_the_border_has_no_edge_there_and_nothing_beyond_the_image():
@@ -72,3 +72,13 @@ def test_the_distance_fields_are_scipys_exact_transform_to_the_bit():
     assert field.outside.max() > 30 and field.inside.max() > 10
     full = ViewField(np.ones((90, 120), bool), camera, edge_points=100)
     np.testing.assert_array_equal(full.inside, distance_transform_edt(np.ones((90, 120), bool)))
+
+
+def test_the_erosion_and_the_gradient_at_pixels_are_scipys_and_numpys():
+    rng = np.random.default_rng(5)
+    mask = rng.random((40, 50)) < 0.7
+    np.testing.assert_array_equal(eroded(mask), binary_erosion(mask))
+    values = rng.normal(size=(40, 50))
+    rows, cols = np.r_[0, 39, 0, 39, rng.integers(0, 40, 200)], np.r_[0, 0, 49, 49, rng.integers(0, 50, 200)]
+    expected = np.stack([g[rows, cols] for g in np.gradient(values)[::-1]], axis=1)
+    np.testing.assert_array_equal(gradient_at(values, rows, cols), expected)
