@@ -324,7 +324,28 @@ def residual_rows(
     `tracker.geometry.cameras.projection_jacobian`), the root's columns the point's weight sum times g, and a joint's
     column c ``g . (a_c x L) = a_c . (L x g)`` (`tracker.models.skinning_jacobian`: a_c the world axis the rotation
     vector's component c turns about, L the point's lever about the joint): a scalar triple product per joint."""
-    weights = body.sparse_weights
+    return _rows_or_normal_equations(body, pose, found, views, region, joints, np.empty(0), np.empty(0))[0]
+
+
+def normal_equations(
+    body: BodyMesh,
+    pose: np.ndarray,
+    found: PoseTerms,
+    views: FrameViews,
+    region: np.ndarray,
+    joints: np.ndarray,
+    values: np.ndarray,
+    weights: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """``J^T W J`` ``(C, C)`` and ``J^T W r`` ``(C,)`` of the rows J (`residual_rows`), the residuals ``values`` r
+    and their ``weights`` W ``(N,)``, without the rows: each residual's product is taken over the columns that move
+    it (the root's, and the joints above its bones: a hand's point is moved by 8 of 21 joints, a foot's by 4), and
+    over one triangle of the symmetric product."""
+    return _rows_or_normal_equations(body, pose, found, views, region, joints, values, weights)[1:]
+
+
+def _rows_or_normal_equations(body, pose, found, views, region, joints, values, weights):
+    skinning = body.sparse_weights
     return _residual_rows(
         np.ascontiguousarray(pose, dtype=np.float64),
         found.rotations,
@@ -333,9 +354,9 @@ def residual_rows(
         body.t_pose_alignment,
         np.asarray(joints, dtype=np.int64),
         np.ascontiguousarray(body.descendants[joints].T),
-        weights.indptr,
-        weights.indices,
-        weights.data,
+        skinning.indptr,
+        skinning.indices,
+        skinning.data,
         body.rest_vertices,
         found.points,
         views.positions,
@@ -349,6 +370,8 @@ def residual_rows(
         views.pair_corners,
         views.pair_barycentric,
         views.pair_starts,
+        np.ascontiguousarray(values, dtype=np.float64),
+        np.ascontiguousarray(weights, dtype=np.float64),
     )
 
 
@@ -387,9 +410,9 @@ def _joint_axes(pose, rotations, alignment, joints):
 
 
 @numba.njit(cache=True, nogil=True)
-def _add_levers(vertex, share, rest, indptr, indices, weights, rotations, offsets, joint_heads, below, out):
+def _add_levers(vertex, share, rest, indptr, indices, weights, rotations, offsets, joint_heads, below, out, reached):
     """Adds ``share`` times `tracker.models.skinning_jacobian`'s weight sum and levers of ``vertex`` to ``out``
-    ``(1 + 3 K,)``: ``[0]`` the weight sum, then each joint's lever."""
+    ``(1 + 3 K,)``: ``[0]`` the weight sum, then each joint's lever; marks the joints that move it in ``reached``."""
     carried = np.empty(3)
     for entry in range(indptr[vertex], indptr[vertex + 1]):
         bone, weight = indices[entry], share * weights[entry]
@@ -399,6 +422,7 @@ def _add_levers(vertex, share, rest, indptr, indices, weights, rotations, offset
             carried[a] = r[0] * rest[vertex, 0] + r[1] * rest[vertex, 1] + r[2] * rest[vertex, 2] + offsets[bone, a]
         for k in range(joint_heads.shape[0]):
             if below[bone, k]:
+                reached[k] = True
                 for a in range(3):
                     out[1 + 3 * k + a] += weight * (carried[a] - joint_heads[k, a])
 
@@ -428,7 +452,10 @@ def _residual_rows(
     pair_corners,
     pair_barycentric,
     pair_starts,
+    values,
+    residual_weights,
 ):
+    """`residual_rows` (``values`` empty), or `normal_equations`: the rows, or the product and gradient."""
     views, count = len(positions), len(joints)
     offsets = np.empty((len(rotations), 3))  # o_b = h'_b - R_b h_b: bone b carries x to R_b x + o_b
     for bone in range(len(rotations)):
@@ -446,8 +473,11 @@ def _residual_rows(
         first, last = edge_starts[view], edge_starts[view + 1]
         covered = last - first if last > first and cover_vertices[first] >= 0 else 0
         size += len(region) + covered + 2 * (pair_starts[view + 1] - pair_starts[view])
-    rows = np.empty((size, 3 + 3 * count))
+    columns, accumulate = 3 + 3 * count, len(values) > 0
+    rows = np.empty((0 if accumulate else size, columns))
+    product, pulled = np.zeros((columns, columns)), np.zeros(columns)  # J^T W J, J^T W r
     levers, point, g = np.empty(1 + 3 * count), np.empty(3), np.empty(3)
+    reached, moving, line = np.zeros(count, np.bool_), np.empty(columns, np.int64), np.empty(columns)
     row = 0
     for view in range(views):
         fx, fy, turn, at = intrinsics[view, 0], intrinsics[view, 1], camera_rotations[view], positions[view]
@@ -457,16 +487,30 @@ def _residual_rows(
         for r in range(residuals):
             levers[:] = 0.0
             point[:] = 0.0
+            reached[:] = False
             if r < len(region) + covered:  # a vertex
                 vertex = region[r] if r < len(region) else cover_vertices[first + r - len(region)]
-                _add_levers(vertex, 1.0, rest, indptr, indices, weights, rotations, offsets, joint_heads, below, levers)
+                _add_levers(
+                    vertex, 1.0, rest, indptr, indices, weights, rotations, offsets, joint_heads, below, levers, reached
+                )
                 point[:] = points[vertex]
             else:  # a pair's point, blended of its face's corners
                 pair = pair_starts[view] + r - len(region) - covered
                 for c in range(3):
                     share, vertex = pair_barycentric[pair, c], pair_corners[pair, c]
                     _add_levers(
-                        vertex, share, rest, indptr, indices, weights, rotations, offsets, joint_heads, below, levers
+                        vertex,
+                        share,
+                        rest,
+                        indptr,
+                        indices,
+                        weights,
+                        rotations,
+                        offsets,
+                        joint_heads,
+                        below,
+                        levers,
+                        reached,
                     )
                     for a in range(3):
                         point[a] += share * points[vertex, a]
@@ -482,17 +526,35 @@ def _residual_rows(
                     du_weight, dv_weight = edge_normals[e, 0], edge_normals[e, 1]
                 else:
                     du_weight, dv_weight = (1.0, 0.0) if direction == 0 else (0.0, 1.0)
+                moved = 3
                 for b in range(3):  # g = J_proj^T d, J_proj as `projection_jacobian` has it (axes: turn^T)
                     du = fx * (turn[b, 0] * z - x * turn[b, 2]) / z**2
                     dv = fy * (turn[b, 1] * z - y * turn[b, 2]) / z**2
                     g[b] = du_weight * du + dv_weight * dv
-                    rows[row, b] = levers[0] * g[b]
+                    line[b] = levers[0] * g[b]
+                    moving[b] = b
                 for k in range(count):
                     lever = levers[1 + 3 * k : 4 + 3 * k]
                     turn0 = lever[1] * g[2] - lever[2] * g[1]  # L x g
                     turn1 = lever[2] * g[0] - lever[0] * g[2]
                     turn2 = lever[0] * g[1] - lever[1] * g[0]
                     for c in range(3):
-                        rows[row, 3 + 3 * k + c] = axes[k, c, 0] * turn0 + axes[k, c, 1] * turn1 + axes[k, c, 2] * turn2
+                        line[3 + 3 * k + c] = axes[k, c, 0] * turn0 + axes[k, c, 1] * turn1 + axes[k, c, 2] * turn2
+                        if reached[k]:
+                            moving[moved] = 3 + 3 * k + c
+                            moved += 1
+                if not accumulate:
+                    rows[row] = line
+                else:  # the upper triangle, over the columns that move the residual (the others' rows are 0)
+                    weight = residual_weights[row]
+                    for i in range(moved):
+                        a = moving[i]
+                        pulled[a] += weight * line[a] * values[row]
+                        weighted = weight * line[a]
+                        for j in range(i, moved):
+                            product[a, moving[j]] += weighted * line[moving[j]]
                 row += 1
-    return rows
+    for a in range(columns):  # the lower triangle from the upper
+        for b in range(a):
+            product[a, b] = product[b, a]
+    return rows, product, pulled

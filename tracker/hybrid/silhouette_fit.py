@@ -23,7 +23,8 @@ pelvis float off the legs while the silhouettes stay explained. Levenberg-Marqua
 system of the residuals' Jacobian, analytic: the image gradient of ``outside`` (for cover, the edge's normal) times
 the projection's Jacobian (`tracker.geometry.cameras.projection_jacobian`) times the skinned vertices'
 (`tracker.models.skinning_jacobian`; a pair's point: its face's corners' blended by its barycentric coordinates),
-taken by the joints' levers (`residual_rows`).
+taken by the joints' levers (`tracker.hybrid.pose_terms.residual_rows`; the system itself is summed residual by
+residual over the columns that move each, `normal_equations`).
 
 `fit_cost` is the silhouettes' terms alone: what the hybrid compares candidates by (the same vertices and edge
 points for every candidate, so the numbers compare). The pairs guide each candidate's fit but do not judge between
@@ -41,7 +42,7 @@ import numpy as np
 
 from tracker.geometry.cameras import Camera
 from tracker.hybrid.feature_pairs import FeaturePairSettings, ViewPairs
-from tracker.hybrid.pose_terms import FrameViews, PoseTerms, pose_terms, residual_rows
+from tracker.hybrid.pose_terms import FrameViews, PoseTerms, normal_equations, pose_terms, residual_rows
 from tracker.hybrid.view_field import ViewField
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.body_skeleton import JOINT_INDEX, JOINT_NAMES, POSE_SIZE
@@ -168,6 +169,19 @@ class SilhouetteFit:
         ends = np.cumsum([len(term.values) for term in terms])[:-1]
         return [term._replace(rows=block) for term, block in zip(terms, np.split(rows, ends), strict=True)]
 
+    def _normal_equations(self, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The Gauss-Newton system of the terms at ``pose`` (`pose_terms.normal_equations`): ``J^T W J`` and
+        ``J^T W r``, each residual weighted by its term's weight, its IRLS weight and one over the term's count."""
+        terms, found = self._kept_terms(pose[None])[0]
+        terms = [term for term in terms if len(term.values)]
+        if not terms:
+            return np.zeros((len(self.columns), len(self.columns))), np.zeros(len(self.columns))
+        values = np.concatenate([term.values for term in terms])
+        weights = np.concatenate(
+            [term.weight * huber_weights(term.values, term.robust_px) / len(term.values) for term in terms]
+        )
+        return normal_equations(self.body, pose, found, self._views, self.region, self._joints, values, weights)
+
     def _kept_terms(self, poses: np.ndarray) -> list[tuple]:
         """`_terms` of ``poses`` ``(n, POSE_SIZE)``: those kept (`residuals`), the others made in one batch and
         kept."""
@@ -238,16 +252,9 @@ class SilhouetteFit:
 
         (current, fitted), damping = total(pose), settings.damping
         for _ in range(settings.iterations if iterations is None else iterations):
-            hessian = np.diag(prior_rows**2)
-            gradient = prior_rows**2 * (pose[self.columns] - anchor)
-            terms = [term for term in self.residuals(pose) if len(term.values)]
-            if terms:  # every term's rows in one product
-                rows, values = np.concatenate([term.rows for term in terms]), np.concatenate([t.values for t in terms])
-                weight = np.concatenate(
-                    [term.weight * huber_weights(term.values, term.robust_px) / len(term.values) for term in terms]
-                )
-                hessian += rows.T @ (rows * weight[:, None])
-                gradient += rows.T @ (weight * values)
+            hessian, gradient = self._normal_equations(pose)
+            hessian += np.diag(prior_rows**2)
+            gradient += prior_rows**2 * (pose[self.columns] - anchor)
             while damping < 1e8:
                 system = hessian + damping * np.diag(np.diag(hessian) + 1e-9)
                 trial = pose.copy()

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from tracker.hybrid.feature_pairs import ViewPairs
-from tracker.hybrid.pose_terms import UNSEEN_PX, FrameViews, bone_chain, pose_terms
+from tracker.hybrid.pose_terms import UNSEEN_PX, FrameViews, bone_chain, normal_equations, pose_terms, residual_rows
 from tracker.hybrid.silhouette_fit import SilhouetteFit
 from tracker.hybrid.view_field import ViewField
 from tracker.models.body_skeleton import JOINT_INDEX
@@ -93,3 +93,23 @@ def test_the_bone_chain_is_the_bodys(body, poses):
         expected = body.bone_transforms(pose)
         np.testing.assert_allclose(rotations, expected[0], rtol=0, atol=1e-14)
         np.testing.assert_allclose(heads, expected[1], rtol=0, atol=1e-14)
+
+
+def test_the_normal_equations_are_the_rows_product(body, poses, renderer):
+    """`normal_equations` (each residual over the columns that move it, one triangle) against ``J^T W J`` and
+    ``J^T W r`` of the whole rows (`residual_rows`), with the skin's pairs and weights of every size."""
+    fit = SilhouetteFit(body, RIG)
+    pairs = [some_pairs(body, poses[0], camera) for camera in RIG]
+    fields = [
+        ViewField(s, camera, 400) for s, camera in zip(silhouettes(renderer, body, poses[0], RIG), RIG, strict=True)
+    ]
+    views = FrameViews.of(fields, pairs, body.faces)
+    rng = np.random.default_rng(6)
+    for pose in poses:
+        found = pose_terms(body, fit.rest_normals, pose, views, fit.region, fit.settings.outline_cos)
+        rows = residual_rows(body, pose, found, views, fit.region, fit._joints)
+        values, weights = rng.normal(0, 5, len(rows)), rng.uniform(0.01, 2.0, len(rows))
+        hessian, gradient = normal_equations(body, pose, found, views, fit.region, fit._joints, values, weights)
+        np.testing.assert_allclose(hessian, rows.T @ (rows * weights[:, None]), rtol=1e-9, atol=1e-6)
+        np.testing.assert_allclose(gradient, rows.T @ (weights * values), rtol=1e-9, atol=1e-6)
+        assert np.array_equal(hessian, hessian.T) and (rows == 0).mean() > 0.3  # the skipped columns were zeros
