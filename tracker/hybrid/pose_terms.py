@@ -477,7 +477,7 @@ def _residual_rows(
     rows = np.empty((0 if accumulate else size, columns))
     product, pulled = np.zeros((columns, columns)), np.zeros(columns)  # J^T W J, J^T W r
     levers, point, g = np.empty(1 + 3 * count), np.empty(3), np.empty(3)
-    reached, moving, line = np.zeros(count, np.bool_), np.empty(columns, np.int64), np.empty(columns)
+    reached, starts_of, line = np.zeros(count, np.bool_), np.empty(count + 1, np.int64), np.empty(columns)
     row = 0
     for view in range(views):
         fx, fy, turn, at = intrinsics[view, 0], intrinsics[view, 1], camera_rotations[view], positions[view]
@@ -526,35 +526,51 @@ def _residual_rows(
                     du_weight, dv_weight = edge_normals[e, 0], edge_normals[e, 1]
                 else:
                     du_weight, dv_weight = (1.0, 0.0) if direction == 0 else (0.0, 1.0)
-                moved = 3
+                blocks = 1  # the root's columns, then those of each joint that moves the point: 3 each
+                starts_of[0] = 0
                 for b in range(3):  # g = J_proj^T d, J_proj as `projection_jacobian` has it (axes: turn^T)
                     du = fx * (turn[b, 0] * z - x * turn[b, 2]) / z**2
                     dv = fy * (turn[b, 1] * z - y * turn[b, 2]) / z**2
                     g[b] = du_weight * du + dv_weight * dv
                     line[b] = levers[0] * g[b]
-                    moving[b] = b
                 for k in range(count):
+                    if not reached[k]:  # its lever is 0
+                        continue
                     lever = levers[1 + 3 * k : 4 + 3 * k]
                     turn0 = lever[1] * g[2] - lever[2] * g[1]  # L x g
                     turn1 = lever[2] * g[0] - lever[0] * g[2]
                     turn2 = lever[0] * g[1] - lever[1] * g[0]
                     for c in range(3):
                         line[3 + 3 * k + c] = axes[k, c, 0] * turn0 + axes[k, c, 1] * turn1 + axes[k, c, 2] * turn2
-                        if reached[k]:
-                            moving[moved] = 3 + 3 * k + c
-                            moved += 1
+                    starts_of[blocks] = 3 + 3 * k
+                    blocks += 1
                 if not accumulate:
-                    rows[row] = line
-                else:  # the upper triangle, over the columns that move the residual (the others' rows are 0)
+                    rows[row] = 0.0
+                    for i in range(blocks):
+                        for c in range(3):
+                            rows[row, starts_of[i] + c] = line[starts_of[i] + c]
+                else:  # the upper triangle, block by block over the columns that move the residual
                     weight = residual_weights[row]
-                    for i in range(moved):
-                        a = moving[i]
-                        pulled[a] += weight * line[a] * values[row]
-                        weighted = weight * line[a]
-                        for j in range(i, moved):
-                            product[a, moving[j]] += weighted * line[moving[j]]
+                    for i in range(blocks):
+                        a = starts_of[i]
+                        w0, w1, w2 = weight * line[a], weight * line[a + 1], weight * line[a + 2]
+                        pulled[a] += w0 * values[row]
+                        pulled[a + 1] += w1 * values[row]
+                        pulled[a + 2] += w2 * values[row]
+                        for j in range(i, blocks):
+                            c = starts_of[j]
+                            l0, l1, l2 = line[c], line[c + 1], line[c + 2]
+                            product[a, c] += w0 * l0
+                            product[a, c + 1] += w0 * l1
+                            product[a, c + 2] += w0 * l2
+                            product[a + 1, c] += w1 * l0
+                            product[a + 1, c + 1] += w1 * l1
+                            product[a + 1, c + 2] += w1 * l2
+                            product[a + 2, c] += w2 * l0
+                            product[a + 2, c + 1] += w2 * l1
+                            product[a + 2, c + 2] += w2 * l2
                 row += 1
-    for a in range(columns):  # the lower triangle from the upper
+    for a in range(columns):  # the lower triangle from the upper (a diagonal block's own lower part too)
         for b in range(a):
             product[a, b] = product[b, a]
     return rows, product, pulled
