@@ -2,12 +2,14 @@
 every pose it tries, 25-50 poses a frame.
 
 The pass is the numpy pipeline's arithmetic, pose by pose: the bone chain (`BodyMesh.bone_transforms`), linear-blend
-skinning over each vertex's few bones (`BodyMesh.posed_vertices`), the outline (`outline_flags`), and per view the
-vertices' pixels (`Camera.project`; behind the camera, -1000 px), the field at the region's vertices
-(`ViewField.sample`), the outline vertex nearest each edge point (`tracker.geometry.nearest_points`) with its cover
-residual, and the feature pairs' residuals. On a body of ~2,000 vertices each of these is a few microseconds of
-arithmetic; as numpy calls (~60 a pose) they took ten times as long. Sums run in another order than numpy's BLAS
-products, so the numbers agree with the numpy pipeline to rounding, not to the bit (`tests/tracker/hybrid`).
+skinning over each vertex's few bones (`BodyMesh.posed_vertices`), the outline (each vertex whose skinned unit normal
+is within ``outline_cos`` of square to a camera's ray), and per view the vertices' pixels (`Camera.project`; behind
+the camera, -1000 px), the field at the region's vertices (`ViewField.sample`), the outline vertex nearest each edge
+point (`tracker.geometry.nearest_points`) with its cover residual, and the feature pairs' residuals. A second pass
+gives the residuals' Jacobian rows (`residual_rows`), or the Gauss-Newton system they make (`normal_equations`). On a
+body of ~2,000 vertices each step is a few microseconds of arithmetic; as numpy calls (~60 a pose) they took ten
+times as long. Sums run in another order than numpy's BLAS products, so the numbers agree with the numpy pipeline to
+rounding, not to the bit (`tests/tracker/hybrid`).
 
 `FrameViews` packs one frame's views (cameras, fields, edges, pairs) into flat arrays, each view's rows from
 ``starts[view]`` to ``starts[view + 1]``.
@@ -225,6 +227,7 @@ def _pose_terms(
     region,
     outline_cos,
 ):
+    """`pose_terms`' pass, from the body's and the views' arrays."""
     rotations, heads = bone_chain(pose, parents, rest_heads, alignment)
     joints, vertices, views = len(parents), len(rest), len(positions)
     offsets_bone = np.empty((joints, 3))  # x' = R_b x + o_b, o_b = h'_b - R_b h_b
