@@ -50,6 +50,7 @@ def test_runs_hold_exactly_the_inside_pixels():
         assert len(boundaries) == 7 and by_columns in (None, boundaries.by_columns)
         np.testing.assert_allclose(boundaries.sums(values), shapes.reshape(7, -1) @ values, atol=1e-12)
         np.testing.assert_allclose(boundaries.sums(values, rows), shapes.reshape(7, -1)[rows] @ values, atol=1e-12)
+        assert boundaries.sums(values, rows).tobytes() == boundaries.sums(values)[rows].tobytes()  # the product's bits
 
 
 def _moved(mask, du, dv):
