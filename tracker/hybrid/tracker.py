@@ -55,7 +55,7 @@ from tracker.tbf.costs import Cost
 from tracker.tbf.motion import RandomWalk
 from tracker.tbf.samples import LEVEL_RESOLUTIONS
 from tracker.tbf.settings import TbfSettings, check_settings
-from tracker.tbf.tracker import TBF_LOOK, TbfResult, TbfTracker
+from tracker.tbf.tracker import TBF_LOOK, TbfResult, TbfTracker, most_probable
 from tracker.threads import TwoEndedJobs
 from tracker.timing import elapsed_ms
 
@@ -181,15 +181,14 @@ class HybridTracker(TbfTracker):
     def proposals(self, found: TbfResult, placed: np.ndarray) -> list[np.ndarray]:
         """The filter's best ``proposals`` samples by their posterior, each with its root at ``placed``."""
         posterior = self.filter.posterior
-        ranked = np.argsort(-posterior, kind="stable")[: self.settings.proposals]
+        ranked = most_probable(posterior, self.settings.proposals)
         best = found.estimate.copy()
         best[:3] = placed
         poses = [best]
         for sample in ranked[ranked != found.filter.sample][: self.settings.proposals - 1]:
-            if posterior[sample] > 0:
-                pose = np.asarray(self.samples.poses[sample], dtype=np.float64).copy()
-                pose[:3] = placed
-                poses.append(pose)
+            pose = np.asarray(self.samples.poses[sample], dtype=np.float64).copy()
+            pose[:3] = placed
+            poses.append(pose)
         return poses
 
     def step(self, observation: Observation) -> TbfResult:

@@ -11,6 +11,7 @@ from tracker.tbf.motion import LearnedTransitions, OccludedWiderWalk, PosePrior,
 from tracker.tbf.pose_sets import arm_grid
 from tracker.tbf.sample_build import load_or_build
 from tracker.tbf.scoring import ObservationScorer
+from tracker.tbf.tracker import most_probable
 from tracker.tbf.tree import build_tree, thresholds_for_shares
 
 CAMERA = mono(position=(4.0, 0.0, 0.9), target=(0.0, 0.0, 0.9), focal_px=480.0, width=320, height=240)[0]
@@ -321,3 +322,12 @@ def test_the_sparse_prior_equals_the_dense_sum_for_sets_of_few_samples_or_compon
     posterior = np.random.default_rng(size).random(count)
     sparse, _ = prior.prior(posterior, np.zeros(0, bool))
     np.testing.assert_allclose(sparse, prior.dense_prior(posterior, np.zeros(0, bool)), rtol=1e-6, atol=1e-9)
+
+
+def test_the_most_probable_samples_are_a_full_stable_sorts_nonzero_head():
+    rng = np.random.default_rng(7)
+    posterior = np.where(rng.random(5000) < 0.01, rng.choice([0.5, 0.25, 0.125], 5000), 0.0)  # sparse, with ties
+    for count in (1, 3, 12, 60, 1000):
+        full = np.argsort(-posterior, kind="stable")[:count]
+        np.testing.assert_array_equal(most_probable(posterior, count), full[posterior[full] > 0])
+    assert len(most_probable(np.zeros(10), 3)) == 0
