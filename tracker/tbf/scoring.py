@@ -151,6 +151,7 @@ class RunBoundaries:
         signs = np.empty(len(columns))
         signs[0::2], signs[1::2] = -1.0, 1.0
         self.matrix = sparse.csr_matrix((signs, columns, 2 * runs.ptr), shape=(len(runs), images[0].size + 1))
+        self.sums(np.zeros(images[0].size), np.zeros(0, np.int64))  # `sums`' compiled loop loaded here, not at frame 0
 
     def __len__(self) -> int:
         return self.matrix.shape[0]
