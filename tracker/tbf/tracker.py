@@ -95,8 +95,8 @@ TBF_LOOK = Presentation(
 
 def most_probable(posterior: np.ndarray, count: int) -> np.ndarray:
     """The indices of the ``count`` largest nonzero entries of ``posterior``, largest first (of equal ones, the lower
-    index first): the stable sort of the nonzero entries alone (a posterior is zero on most samples, and sorting all
-    of them took a millisecond a frame)."""
+    index first): the stable sort of the nonzero entries alone, as a stable sort of all would rank them (a posterior
+    is zero on most samples)."""
     nonzero = np.flatnonzero(posterior > 0)
     return nonzero[np.argsort(-posterior[nonzero], kind="stable")[:count]]
 
