@@ -64,7 +64,7 @@ class FrameViews:
         shapes = np.array([view.outside.shape for view in fields], dtype=np.int64).reshape(-1, 2)
         packed = np.zeros((len(fields), 3, *shapes.max(axis=0, initial=1)))
         for k, view in enumerate(fields):
-            packed[k, :, : shapes[k, 0], : shapes[k, 1]] = view._sampled
+            packed[k, :, : shapes[k, 0], : shapes[k, 1]] = view.sampled
 
         def starts(sizes: Sequence[int]) -> np.ndarray:
             return np.r_[0, np.cumsum(sizes, dtype=np.int64)].astype(np.int64)

@@ -38,8 +38,8 @@ class ViewField:
         self.offset = np.array([low[1], low[0]], dtype=np.float64)  # the window's corner, (u, v)
         window = silhouette[low[0] : high[0], low[1] : high[1]]
         outside = euclidean_distance(~window) if window.any() else np.zeros(window.shape)  # none: no term
-        self._sampled = np.stack([outside, *np.gradient(outside)[::-1]])  # what `sample` reads, one array
-        self.outside, self.gradient = self._sampled[0], self._sampled[1:]  # (h, w); (d/du, d/dv), each (h, w)
+        self.sampled = np.stack([outside, *np.gradient(outside)[::-1]])  # (3, h, w): what `sample` reads
+        self.outside, self.gradient = self.sampled[0], self.sampled[1:]  # (h, w); (d/du, d/dv), each (h, w)
         rows, cols = np.nonzero(window & ~eroded(window))
         on_border = (rows + low[0] == 0) | (rows + low[0] == silhouette.shape[0] - 1)
         on_border |= (cols + low[1] == 0) | (cols + low[1] == silhouette.shape[1] - 1)
@@ -56,7 +56,7 @@ class ViewField:
     def sample(self, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``outside`` and its ``(n, 2)`` gradient at pixels ``uv`` (bilinear; beyond the window, its border's;
         beyond the image, 0)."""
-        sampled = bilinear(self._sampled, np.ascontiguousarray(uv - self.offset, dtype=np.float64))
+        sampled = bilinear(self.sampled, np.ascontiguousarray(uv - self.offset, dtype=np.float64))
         value, gradient = sampled[:, 0], sampled[:, 1:]
         unseen = np.any((uv < -0.5) | (uv > self.image_size - 0.5), axis=1)
         if unseen.any():
