@@ -28,6 +28,7 @@ from tracker.geometry.nearest_points import nearest_points_compiled
 from tracker.hybrid.feature_pairs import ViewPairs
 from tracker.hybrid.view_field import ViewField, bilinear
 from tracker.models.body_mesh import BodyMesh
+from tracker.models.skinning_jacobian import add_vertex_levers
 from tracker.tol import MIN_DEPTH_M, SERIES_ANGLE_RAD
 
 UNSEEN_PX = -1e3  # the pixel of a point behind a camera (the numpy pipeline's nan_to_num)
@@ -160,6 +161,13 @@ def _rotation_matrix(vector: np.ndarray, out: np.ndarray) -> None:
         first, second = 1.0 - angle**2 / 6, 0.5 - angle**2 / 24
     else:
         first, second = np.sin(angle) / angle, (1 - np.cos(angle)) / angle**2
+    _identity_plus(vector, first, second, out)
+
+
+@numba.njit(cache=True, nogil=True)
+def _identity_plus(vector: np.ndarray, first: float, second: float, out: np.ndarray) -> None:
+    """``out = I + first [v]x + second [v]x^2`` of ``vector`` v: Rodrigues' form, and the right Jacobian's."""
+    x, y, z = vector[0], vector[1], vector[2]
     cross = ((0.0, -z, y), (z, 0.0, -x), (-y, x, 0.0))
     for a in range(3):
         for b in range(3):
@@ -199,6 +207,19 @@ def bone_chain(
     return rotations, heads
 
 
+@numba.njit(cache=True, nogil=True)
+def bone_offsets(rotations: np.ndarray, heads: np.ndarray, rest_heads: np.ndarray) -> np.ndarray:
+    """``(J, 3)``: each bone's o_b = h'_b - R_b h_b, so that it carries a rest point x to ``R_b x + o_b``."""
+    offsets = np.empty((len(rotations), 3))
+    for bone in range(len(rotations)):
+        for a in range(3):
+            r = rotations[bone, a]
+            offsets[bone, a] = heads[bone, a] - (
+                r[0] * rest_heads[bone, 0] + r[1] * rest_heads[bone, 1] + r[2] * rest_heads[bone, 2]
+            )
+    return offsets
+
+
 @numba.njit(cache=True, nogil=True, error_model="numpy")  # a point on a camera's centre: NaN, not on the outline
 def _pose_terms(
     pose,
@@ -229,14 +250,8 @@ def _pose_terms(
 ):
     """`pose_terms`' pass, from the body's and the views' arrays."""
     rotations, heads = bone_chain(pose, parents, rest_heads, alignment)
-    joints, vertices, views = len(parents), len(rest), len(positions)
-    offsets_bone = np.empty((joints, 3))  # x' = R_b x + o_b, o_b = h'_b - R_b h_b
-    for bone in range(joints):
-        for a in range(3):
-            r = rotations[bone, a]
-            offsets_bone[bone, a] = heads[bone, a] - (
-                r[0] * rest_heads[bone, 0] + r[1] * rest_heads[bone, 1] + r[2] * rest_heads[bone, 2]
-            )
+    vertices, views = len(rest), len(positions)
+    offsets_bone = bone_offsets(rotations, heads, rest_heads)  # bone b carries x to R_b x + o_b
     points, normals = np.zeros((vertices, 3)), np.zeros((vertices, 3))
     for v in range(vertices):
         x, n = rest[v], rest_normals[v]
@@ -399,35 +414,13 @@ def _joint_axes(pose, rotations, alignment, joints):
             first, second = 0.5 - angle**2 / 24, 1.0 / 6 - angle**2 / 120
         else:
             first, second = (1 - np.cos(angle)) / angle**2, (angle - np.sin(angle)) / angle**3
-        cross = ((0.0, -z, y), (z, 0.0, -x), (-y, x, 0.0))
-        for a in range(3):
-            for b in range(3):
-                square = cross[a][0] * cross[0][b] + cross[a][1] * cross[1][b] + cross[a][2] * cross[2][b]
-                rate[a, b] = (1.0 if a == b else 0.0) - first * cross[a][b] + second * square
+        _identity_plus(pose[3 + 3 * joint : 6 + 3 * joint], -first, second, rate)
         for c in range(3):
             for a in range(3):
                 axes[k, c, a] = (
                     from_t_pose[a, 0] * rate[0, c] + from_t_pose[a, 1] * rate[1, c] + from_t_pose[a, 2] * rate[2, c]
                 )
     return axes
-
-
-@numba.njit(cache=True, nogil=True)
-def _add_levers(vertex, share, rest, indptr, indices, weights, rotations, offsets, joint_heads, below, out, reached):
-    """Adds ``share`` times `tracker.models.skinning_jacobian`'s weight sum and levers of ``vertex`` to ``out``
-    ``(1 + 3 K,)``: ``[0]`` the weight sum, then each joint's lever; marks the joints that move it in ``reached``."""
-    carried = np.empty(3)
-    for entry in range(indptr[vertex], indptr[vertex + 1]):
-        bone, weight = indices[entry], share * weights[entry]
-        out[0] += weight
-        for a in range(3):
-            r = rotations[bone, a]
-            carried[a] = r[0] * rest[vertex, 0] + r[1] * rest[vertex, 1] + r[2] * rest[vertex, 2] + offsets[bone, a]
-        for k in range(joint_heads.shape[0]):
-            if below[bone, k]:
-                reached[k] = True
-                for a in range(3):
-                    out[1 + 3 * k + a] += weight * (carried[a] - joint_heads[k, a])
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")  # a point on the camera's plane: inf, as numpy gives
@@ -460,13 +453,7 @@ def _residual_rows(
 ):
     """`residual_rows` (``values`` empty), or `normal_equations`: the rows, or the product and gradient."""
     views, count = len(positions), len(joints)
-    offsets = np.empty((len(rotations), 3))  # o_b = h'_b - R_b h_b: bone b carries x to R_b x + o_b
-    for bone in range(len(rotations)):
-        for a in range(3):
-            r = rotations[bone, a]
-            offsets[bone, a] = heads[bone, a] - (
-                r[0] * rest_heads[bone, 0] + r[1] * rest_heads[bone, 1] + r[2] * rest_heads[bone, 2]
-            )
+    offsets = bone_offsets(rotations, heads, rest_heads)
     axes = _joint_axes(pose, rotations, alignment, joints)
     joint_heads = np.empty((count, 3))
     for k in range(count):
@@ -493,7 +480,7 @@ def _residual_rows(
             reached[:] = False
             if r < len(region) + covered:  # a vertex
                 vertex = region[r] if r < len(region) else cover_vertices[first + r - len(region)]
-                _add_levers(
+                add_vertex_levers(
                     vertex, 1.0, rest, indptr, indices, weights, rotations, offsets, joint_heads, below, levers, reached
                 )
                 point[:] = points[vertex]
@@ -501,7 +488,7 @@ def _residual_rows(
                 pair = pair_starts[view] + r - len(region) - covered
                 for c in range(3):
                     share, vertex = pair_barycentric[pair, c], pair_corners[pair, c]
-                    _add_levers(
+                    add_vertex_levers(
                         vertex,
                         share,
                         rest,

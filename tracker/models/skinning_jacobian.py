@@ -47,7 +47,7 @@ def skinning_levers(
     joints = np.arange(len(body.parents)) if joints is None else np.fromiter(joints, dtype=np.int64)
     weights = body.sparse_weights
     offsets = heads - np.einsum("jab,jb->ja", rotations, body.rest_heads)  # o_b = h'_b - R_b h_b
-    weight_sums, levers = _levers(
+    levers = _levers(
         weights.indptr,
         weights.indices,
         weights.data,
@@ -58,6 +58,7 @@ def skinning_levers(
         np.ascontiguousarray(heads[joints]),
         np.ascontiguousarray(body.descendants[joints].T),
     )
+    weight_sums, levers = levers[:, 0], levers[:, 1:].reshape(len(subset), len(joints), 3)
     rates = right_jacobian(pose[3:].reshape(-1, 3)[joints])
     axes = np.transpose(from_t_pose[joints] @ rates, (0, 2, 1))  # (K, 3, 3): dr's three components -> axes
     return SkinningLevers(weight_sums, levers, axes)
@@ -74,27 +75,39 @@ def _levers(
     offsets: np.ndarray,
     joint_heads: np.ndarray,
     below: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
-    """`skinning_levers`' weight sums ``(len(subset),)`` and levers ``(len(subset), K, 3)``, from the skinning
-    weights (CSR: a vertex's few bones), the bones' ``rotations`` and ``offsets`` o_b, the K joints' posed heads
-    and ``below`` ``(J, K)``, the bones each joint turns: each bone b of a vertex carries it to ``p_b = R_b v +
-    o_b`` and adds ``w_b (p_b - h'_k)`` to its lever about every joint k above b (numpy's dense product of every
-    vertex's weights by every bone's carrier took four times as long)."""
-    weight_sums, levers = np.zeros(len(subset)), np.zeros((len(subset), joint_heads.shape[0], 3))
-    carried = np.empty(3)
+) -> np.ndarray:
+    """`skinning_levers`' weight sums and levers, ``(len(subset), 1 + 3 K)``: per vertex of ``subset``
+    `add_vertex_levers` (numpy's dense product of every vertex's weights by every bone's carrier took four times as
+    long)."""
+    levers, reached = np.zeros((len(subset), 1 + 3 * joint_heads.shape[0])), np.zeros(joint_heads.shape[0], np.bool_)
     for i in range(len(subset)):
-        vertex = rest[subset[i]]
-        for entry in range(indptr[subset[i]], indptr[subset[i] + 1]):
-            bone, weight = indices[entry], weights[entry]
-            weight_sums[i] += weight
-            for a in range(3):
-                r = rotations[bone, a]
-                carried[a] = r[0] * vertex[0] + r[1] * vertex[1] + r[2] * vertex[2] + offsets[bone, a]
-            for k in range(joint_heads.shape[0]):
-                if below[bone, k]:
-                    for a in range(3):
-                        levers[i, k, a] += weight * (carried[a] - joint_heads[k, a])
-    return weight_sums, levers
+        add_vertex_levers(
+            subset[i], 1.0, rest, indptr, indices, weights, rotations, offsets, joint_heads, below, levers[i], reached
+        )
+    return levers
+
+
+@numba.njit(cache=True, nogil=True)
+def add_vertex_levers(
+    vertex, share, rest, indptr, indices, weights, rotations, offsets, joint_heads, below, out, reached
+):
+    """Adds ``share`` times the weight sum and the levers of ``vertex`` to ``out`` ``(1 + 3 K,)`` (``[0]`` the
+    weight sum, then each of the K joints' lever), from the skinning weights (CSR: a vertex's few bones), the bones'
+    ``rotations`` and ``offsets`` o_b, the joints' posed heads and ``below`` ``(J, K)``, the bones each joint turns:
+    each bone b of the vertex carries it to ``p_b = R_b v + o_b`` and adds ``w_b (p_b - h'_k)`` to its lever about
+    every joint k above b, which it marks in ``reached`` ``(K,)``."""
+    carried = np.empty(3)
+    for entry in range(indptr[vertex], indptr[vertex + 1]):
+        bone, weight = indices[entry], share * weights[entry]
+        out[0] += weight
+        for a in range(3):
+            r = rotations[bone, a]
+            carried[a] = r[0] * rest[vertex, 0] + r[1] * rest[vertex, 1] + r[2] * rest[vertex, 2] + offsets[bone, a]
+        for k in range(joint_heads.shape[0]):
+            if below[bone, k]:
+                reached[k] = True
+                for a in range(3):
+                    out[1 + 3 * k + a] += weight * (carried[a] - joint_heads[k, a])
 
 
 def vertex_jacobian(
