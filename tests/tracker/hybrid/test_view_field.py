@@ -58,7 +58,7 @@ def test_the_field_reads_as_scipy_interpolates_it_to_the_bit():
 
 
 def test_the_distance_fields_are_scipys_exact_transform_to_the_bit():
-    """The outside and inside distances (OpenCV's exact transform, snapped to whole squared pixels) against
+    """The outside and inside distances (`tracker.tbf.costs.euclidean_distance`) against
     `scipy.ndimage.distance_transform_edt`, on a ragged blob; and a silhouette that fills its whole image, whose
     inside has no outside pixel to measure from."""
     camera = cameras(width=120, height=90)[0]

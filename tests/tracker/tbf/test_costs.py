@@ -74,3 +74,25 @@ def test_distances_are_exact_euclidean_and_the_same_bits_after_rendering(body_si
     np.testing.assert_array_equal(before, exact)
     renderer.render_depth_labels([], [])  # an OpenGL context at work in this process
     assert euclidean_distance(~silhouette).tobytes() == before.tobytes()
+
+
+def test_the_exact_distance_is_scipys_to_the_bit_on_any_shape():
+    from scipy import ndimage
+
+    from tracker.tbf.costs import euclidean_distance
+
+    rng = np.random.default_rng(7)
+    shapes = [np.zeros((1, 1), bool), np.ones((1, 9), bool), np.ones((9, 1), bool), np.ones((5, 6), bool)]
+    shapes[1][0, 4] = shapes[2][6, 0] = shapes[3][4, 0] = False  # one pixel off each: every distance measured to it
+    for _ in range(60):  # blobs and specks, thin and wide, scattered over images of every proportion
+        height, width = rng.integers(1, 48, 2)
+        rows, columns = np.ogrid[:height, :width]
+        away = np.ones((height, width), bool)
+        for _ in range(rng.integers(1, 4)):
+            centre, radii = rng.uniform(0, (height, width)), rng.uniform(0.5, 20, 2)
+            away &= ((rows - centre[0]) / radii[0]) ** 2 + ((columns - centre[1]) / radii[1]) ** 2 > 1
+        away &= rng.random((height, width)) > rng.uniform(0, 0.05)
+        shapes += [away, ~away] if away.any() and not away.all() else []
+    for away in shapes:
+        assert euclidean_distance(away).tobytes() == ndimage.distance_transform_edt(away).tobytes()
+    assert np.isinf(euclidean_distance(np.ones((4, 3), bool))).all()  # nothing to measure to
