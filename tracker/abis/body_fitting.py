@@ -4,9 +4,10 @@ A body part (`tracker.models.body_skeleton.PART_BONES`) is moved by the rotation
 (`part_joints`; the pelvis also by the root's position). Fitting is top-down over the part tree (`part_parents`,
 `topdown_parts`): each part's joints are fitted with every ancestor's freshly fitted pose held, as the arm's parts
 are. The pairs' points are skinned surface points (barycentric in a face, `tracker.abis.mesh_pairs`), whose
-Jacobian is the skinned vertices' analytic one (`tracker.models.skinning_jacobian`) blended by the barycentric weights;
-the cost, its robust rho, the prior rows and the optimiser are the arm's (`tracker.abis.fitting`). Rotation vectors
-are stepped additively: the Jacobian is by their components.
+Jacobian is the skinned vertices' analytic one (`tracker.models.skinning_jacobian`) blended by the barycentric weights,
+each made in one compiled pass (`tracker.models.pose_kernels`; numpy's calls on a few hundred vertices took over ten
+times as long); the cost, its robust rho, the prior rows and the optimiser are the arm's (`tracker.abis.fitting`).
+Rotation vectors are stepped additively: the Jacobian is by their components.
 """
 
 from __future__ import annotations
@@ -14,13 +15,14 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from tracker.abis.fitting import PixelProblem, Prior
 from tracker.geometry.cameras import Camera
-from tracker.models.body_mesh import BodyMesh, BoneChain
+from tracker.models.body_mesh import BodyMesh
 from tracker.models.body_skeleton import JOINT_INDEX, PART_BONES, POSE_SIZE
-from tracker.models.skinning_jacobian import vertex_jacobian
+from tracker.models.pose_kernels import add_vertex_levers, bone_chain, bone_offsets, joint_axes
 
 ROOT_POSITION = np.arange(3)  # the pose vector's root position entries
 
@@ -86,27 +88,112 @@ class BodyPartProblem(PixelProblem):
         super().__init__(
             [view.camera for view in views], [view.observed for view in views], free_columns(joints, root), prior
         )
-        self.body, self.joints = body, joints
-        self._columns = slice(0 if root else 3, None)  # `free_columns` among `vertex_jacobian`'s
+        self.body, self.joints, self.root = body, np.asarray(joints, dtype=np.int64), root
         corners = np.concatenate([view.corners for view in views]) if views else np.empty((0, 3), int)
         self._barycentric = np.concatenate([view.barycentric for view in views]) if views else np.empty((0, 3))
         # Each vertex skinned once however many pairs' faces share it.
         self._vertices, inverse = np.unique(corners, return_inverse=True)
-        self._corners = inverse.reshape(corners.shape)
-        self._start: BoneChain | None = None  # the chain of the first pose asked: the others turn only these joints
+        self._corners = inverse.reshape(corners.shape).astype(np.int64)
+        self._below = np.ascontiguousarray(body.descendants[self.joints].T)  # (J, K): the bones each joint turns
 
     def points(self, q: np.ndarray) -> tuple[np.ndarray, Callable[[], np.ndarray]]:
-        if self._start is None:
-            self._start = self.body.chain(q)
-        transforms = self.body.chain(q, self._start, self.joints).transforms  # skinning and its Jacobian start here
-        vertices = self.body.posed_vertices(q, self._vertices, transforms)
-        q = q.copy()  # as asked, whatever becomes of the caller's array
+        q = np.array(q, dtype=np.float64)  # as asked, whatever becomes of the caller's array
+        body, weights = self.body, self.body.sparse_weights
+        rotations, heads = bone_chain(q, body.parents, body.rest_heads, body.t_pose_alignment)
+        skinning = (weights.indptr, weights.indices, weights.data, body.rest_vertices, self._vertices)
+        points = _pair_points(rotations, heads, body.rest_heads, *skinning, self._corners, self._barycentric)
 
         def jacobian() -> np.ndarray:
-            of_vertices = vertex_jacobian(self.body, q, self._vertices, self.joints, transforms)[:, :, self._columns]
-            return np.einsum("mc,mcdk->mdk", self._barycentric, of_vertices[self._corners])
+            return _pair_jacobian(
+                q,
+                rotations,
+                heads,
+                body.rest_heads,
+                body.t_pose_alignment,
+                *skinning,
+                self._corners,
+                self._barycentric,
+                self.joints,
+                self._below,
+                self.root,
+            )
 
-        return np.einsum("mc,mcd->md", self._barycentric, vertices[self._corners]), jacobian
+        return points, jacobian
+
+
+@numba.njit(cache=True, nogil=True)
+def _pair_points(rotations, heads, rest_heads, indptr, indices, weights, rest, vertices, corners, barycentric):
+    """``(M, 3)``: each pair's skinned surface point, its face's ``corners`` (into ``vertices``) blended by its
+    ``barycentric`` weights, each vertex skinned as `BodyMesh.posed_vertices` does."""
+    offsets = bone_offsets(rotations, heads, rest_heads)  # bone b carries x to R_b x + o_b
+    skinned = np.zeros((len(vertices), 3))
+    for i in range(len(vertices)):
+        x = rest[vertices[i]]
+        for entry in range(indptr[vertices[i]], indptr[vertices[i] + 1]):
+            bone, weight = indices[entry], weights[entry]
+            for a in range(3):
+                r = rotations[bone, a]
+                skinned[i, a] += weight * (r[0] * x[0] + r[1] * x[1] + r[2] * x[2] + offsets[bone, a])
+    points = np.zeros((len(corners), 3))
+    for m in range(len(corners)):
+        for c in range(3):
+            for a in range(3):
+                points[m, a] += barycentric[m, c] * skinned[corners[m, c], a]
+    return points
+
+
+@numba.njit(cache=True, nogil=True)
+def _pair_jacobian(
+    pose,
+    rotations,
+    heads,
+    rest_heads,
+    alignment,
+    indptr,
+    indices,
+    weights,
+    rest,
+    vertices,
+    corners,
+    barycentric,
+    joints,
+    below,
+    root,
+):
+    """``(M, 3, n_free)``: d (pair point) / d (the root's position if ``root``, then ``joints``' rotation vectors),
+    `tracker.models.skinning_jacobian.vertex_jacobian`'s per vertex (``a x L``: a joint's axis by the vertex's
+    lever about it) blended as the points are."""
+    count = len(joints)
+    offsets = bone_offsets(rotations, heads, rest_heads)
+    axes = joint_axes(pose, rotations, alignment, joints)
+    joint_heads = np.empty((count, 3))
+    for k in range(count):
+        joint_heads[k] = heads[joints[k]]
+    first = 0 if root else 3  # the root's position's columns kept, or not
+    of_vertices = np.zeros((len(vertices), 3, 3 + 3 * count))
+    levers, reached = np.empty(1 + 3 * count), np.zeros(count, np.bool_)
+    for i in range(len(vertices)):
+        levers[:] = 0.0
+        add_vertex_levers(
+            vertices[i], 1.0, rest, indptr, indices, weights, rotations, offsets, joint_heads, below, levers, reached
+        )
+        for d in range(3):
+            of_vertices[i, d, d] = levers[0]
+        for k in range(count):
+            l0, l1, l2 = levers[1 + 3 * k], levers[2 + 3 * k], levers[3 + 3 * k]
+            for c in range(3):
+                a0, a1, a2 = axes[k, c, 0], axes[k, c, 1], axes[k, c, 2]
+                of_vertices[i, 0, 3 + 3 * k + c] = a1 * l2 - a2 * l1
+                of_vertices[i, 1, 3 + 3 * k + c] = a2 * l0 - a0 * l2
+                of_vertices[i, 2, 3 + 3 * k + c] = a0 * l1 - a1 * l0
+    jacobian = np.zeros((len(corners), 3, 3 + 3 * count - first))
+    for m in range(len(corners)):
+        for c in range(3):
+            share, i = barycentric[m, c], corners[m, c]
+            for d in range(3):
+                for column in range(first, 3 + 3 * count):
+                    jacobian[m, d, column - first] += share * of_vertices[i, d, column]
+    return jacobian
 
 
 def pose_prior_sigmas(translation_m: float, rotation_rad: float) -> np.ndarray:

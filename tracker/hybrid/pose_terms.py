@@ -1,14 +1,15 @@
 """One pose's silhouette and feature residuals in one compiled pass: what `tracker.hybrid.silhouette_fit` asks of
 every pose it tries, 25-50 poses a frame.
 
-The pass is the numpy pipeline's arithmetic, pose by pose: the bone chain (`BodyMesh.bone_transforms`), linear-blend
-skinning over each vertex's few bones (`BodyMesh.posed_vertices`), the outline (each vertex whose skinned unit normal
-is within ``outline_cos`` of square to a camera's ray), and per view the vertices' pixels (`Camera.project`; behind
-the camera, -1000 px), the field at the region's vertices (`ViewField.sample`), the outline vertex nearest each edge
-point (`tracker.geometry.nearest_points`) with its cover residual, and the feature pairs' residuals. A second pass
-gives the residuals' Jacobian rows (`residual_rows`), or the Gauss-Newton system they make (`normal_equations`). On a
-body of ~2,000 vertices each step is a few microseconds of arithmetic; as numpy calls (~60 a pose) they took ten
-times as long. Sums run in another order than numpy's BLAS products, so the numbers agree with the numpy pipeline to
+The pass is the numpy pipeline's arithmetic, pose by pose: the bone chain (`BodyMesh.bone_transforms`, compiled in
+`tracker.models.pose_kernels` with the levers and axes the Jacobian takes), linear-blend skinning over each vertex's
+few bones (`BodyMesh.posed_vertices`), the outline (each vertex whose skinned unit normal is within ``outline_cos``
+of square to a camera's ray), and per view the vertices' pixels (`Camera.project`; behind the camera, -1000 px), the
+field at the region's vertices (`ViewField.sample`), the outline vertex nearest each edge point
+(`tracker.geometry.nearest_points`) with its cover residual, and the feature pairs' residuals. A second pass gives
+the residuals' Jacobian rows (`residual_rows`), or the Gauss-Newton system they make (`normal_equations`). On a body
+of ~2,000 vertices each step is a few microseconds of arithmetic; as numpy calls (~60 a pose) they took ten times as
+long. Sums run in another order than numpy's BLAS products, so the numbers agree with the numpy pipeline to
 rounding, not to the bit (`tests/tracker/hybrid`).
 
 `FrameViews` packs one frame's views (cameras, fields, edges, pairs) into flat arrays, each view's rows from
@@ -28,8 +29,8 @@ from tracker.geometry.nearest_points import nearest_points_compiled
 from tracker.hybrid.feature_pairs import ViewPairs
 from tracker.hybrid.view_field import ViewField, bilinear
 from tracker.models.body_mesh import BodyMesh
-from tracker.models.skinning_jacobian import add_vertex_levers
-from tracker.tol import MIN_DEPTH_M, SERIES_ANGLE_RAD
+from tracker.models.pose_kernels import add_vertex_levers, bone_chain, bone_offsets, joint_axes
+from tracker.tol import MIN_DEPTH_M
 
 UNSEEN_PX = -1e3  # the pixel of a point behind a camera (the numpy pipeline's nan_to_num)
 
@@ -150,74 +151,6 @@ def pose_terms(
             outline_cos,
         )
     )
-
-
-@numba.njit(cache=True, nogil=True)
-def _rotation_matrix(vector: np.ndarray, out: np.ndarray) -> None:
-    """Rodrigues, as `tracker.geometry.rotations.rotation_vectors_to_matrices`: ``I + a [v]x + b [v]x^2``."""
-    x, y, z = vector[0], vector[1], vector[2]
-    angle = np.sqrt(x * x + y * y + z * z)
-    if angle < SERIES_ANGLE_RAD:
-        first, second = 1.0 - angle**2 / 6, 0.5 - angle**2 / 24
-    else:
-        first, second = np.sin(angle) / angle, (1 - np.cos(angle)) / angle**2
-    _identity_plus(vector, first, second, out)
-
-
-@numba.njit(cache=True, nogil=True)
-def _identity_plus(vector: np.ndarray, first: float, second: float, out: np.ndarray) -> None:
-    """``out = I + first [v]x + second [v]x^2`` of ``vector`` v: Rodrigues' form, and the right Jacobian's."""
-    x, y, z = vector[0], vector[1], vector[2]
-    cross = ((0.0, -z, y), (z, 0.0, -x), (-y, x, 0.0))
-    for a in range(3):
-        for b in range(3):
-            square = cross[a][0] * cross[0][b] + cross[a][1] * cross[1][b] + cross[a][2] * cross[2][b]
-            out[a, b] = (1.0 if a == b else 0.0) + first * cross[a][b] + second * square
-
-
-@numba.njit(cache=True, nogil=True)
-def _product(left: np.ndarray, right: np.ndarray, out: np.ndarray) -> None:
-    for a in range(3):
-        for b in range(3):
-            out[a, b] = left[a, 0] * right[0, b] + left[a, 1] * right[1, b] + left[a, 2] * right[2, b]
-
-
-@numba.njit(cache=True, nogil=True)
-def bone_chain(
-    pose: np.ndarray, parents: np.ndarray, rest_heads: np.ndarray, alignment: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """`BodyMesh.bone_transforms` of one pose: each bone's rotation from rest ``(J, 3, 3)`` and posed head
-    ``(J, 3)`` (parents come first)."""
-    joints = len(parents)
-    from_t_pose, rotations, heads = np.empty((joints, 3, 3)), np.empty((joints, 3, 3)), np.empty((joints, 3))
-    local = np.empty((3, 3))
-    for joint in range(joints):
-        _rotation_matrix(pose[3 + 3 * joint : 6 + 3 * joint], local)
-        parent = parents[joint]
-        if parent < 0:
-            from_t_pose[joint] = local
-            heads[joint] = pose[:3]
-        else:
-            _product(from_t_pose[parent], local, from_t_pose[joint])
-            for a in range(3):
-                heads[joint, a] = heads[parent, a]
-                for b in range(3):
-                    heads[joint, a] += rotations[parent, a, b] * (rest_heads[joint, b] - rest_heads[parent, b])
-        _product(from_t_pose[joint], alignment[joint], rotations[joint])
-    return rotations, heads
-
-
-@numba.njit(cache=True, nogil=True)
-def bone_offsets(rotations: np.ndarray, heads: np.ndarray, rest_heads: np.ndarray) -> np.ndarray:
-    """``(J, 3)``: each bone's o_b = h'_b - R_b h_b, so that it carries a rest point x to ``R_b x + o_b``."""
-    offsets = np.empty((len(rotations), 3))
-    for bone in range(len(rotations)):
-        for a in range(3):
-            r = rotations[bone, a]
-            offsets[bone, a] = heads[bone, a] - (
-                r[0] * rest_heads[bone, 0] + r[1] * rest_heads[bone, 1] + r[2] * rest_heads[bone, 2]
-            )
-    return offsets
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")  # a point on a camera's centre: NaN, not on the outline
@@ -393,36 +326,6 @@ def _rows_or_normal_equations(body, pose, found, views, region, joints, values, 
     )
 
 
-@numba.njit(cache=True, nogil=True)
-def _joint_axes(pose, rotations, alignment, joints):
-    """``(K, 3, 3)``: ``[k, c]`` the world axis about which joint k's rotation vector's component c turns its
-    bones, the columns of ``F_j J_r(r_j)`` (F_j: the joint's world rotation from the T-pose)."""
-    axes = np.empty((len(joints), 3, 3))
-    from_t_pose, rate = np.empty((3, 3)), np.empty((3, 3))
-    for k in range(len(joints)):
-        joint = joints[k]
-        for a in range(3):  # F_j = R_j A_j^T
-            for b in range(3):
-                from_t_pose[a, b] = (
-                    rotations[joint, a, 0] * alignment[joint, b, 0]
-                    + rotations[joint, a, 1] * alignment[joint, b, 1]
-                    + rotations[joint, a, 2] * alignment[joint, b, 2]
-                )
-        x, y, z = pose[3 + 3 * joint], pose[4 + 3 * joint], pose[5 + 3 * joint]
-        angle = np.sqrt(x * x + y * y + z * z)  # J_r = I - first [r]x + second [r]x^2 (`right_jacobian`)
-        if angle < SERIES_ANGLE_RAD:
-            first, second = 0.5 - angle**2 / 24, 1.0 / 6 - angle**2 / 120
-        else:
-            first, second = (1 - np.cos(angle)) / angle**2, (angle - np.sin(angle)) / angle**3
-        _identity_plus(pose[3 + 3 * joint : 6 + 3 * joint], -first, second, rate)
-        for c in range(3):
-            for a in range(3):
-                axes[k, c, a] = (
-                    from_t_pose[a, 0] * rate[0, c] + from_t_pose[a, 1] * rate[1, c] + from_t_pose[a, 2] * rate[2, c]
-                )
-    return axes
-
-
 @numba.njit(cache=True, nogil=True, error_model="numpy")  # a point on the camera's plane: inf, as numpy gives
 def _residual_rows(
     pose,
@@ -454,7 +357,7 @@ def _residual_rows(
     """`residual_rows` (``values`` empty), or `normal_equations`: the rows, or the product and gradient."""
     views, count = len(positions), len(joints)
     offsets = bone_offsets(rotations, heads, rest_heads)
-    axes = _joint_axes(pose, rotations, alignment, joints)
+    axes = joint_axes(pose, rotations, alignment, joints)
     joint_heads = np.empty((count, 3))
     for k in range(count):
         joint_heads[k] = heads[joints[k]]

@@ -9,7 +9,7 @@ from __future__ import annotations
 import functools
 from dataclasses import dataclass
 from functools import cached_property
-from typing import ClassVar, NamedTuple
+from typing import ClassVar
 
 import numpy as np
 
@@ -21,21 +21,6 @@ from tracker.tol import ZERO_LENGTH
 
 POSES_AT_ONCE = 4096  # poses whose joints `BodyMesh.joint_positions` computes together
 SKIN_RGB = (214, 168, 140)  # the plain skin, and the tint of the textured one
-
-
-class BoneChain(NamedTuple):
-    """Poses' transforms down the skeleton (`BodyMesh.chain`): the ``(n, POSE_SIZE)`` poses, per bone its world
-    rotation from the T-pose ``(n, J, 3, 3)``, its rotation from rest and its posed head (`BodyMesh.bone_transforms`);
-    ``transforms`` the last two of one pose, as skinning takes them."""
-
-    pose: np.ndarray
-    from_t_pose: np.ndarray
-    rotations: np.ndarray
-    heads: np.ndarray
-
-    @property
-    def transforms(self) -> tuple[np.ndarray, np.ndarray]:
-        return self.rotations[0], self.heads[0]
 
 
 @dataclass(frozen=True, eq=False)
@@ -106,49 +91,20 @@ class BodyMesh:
         """Per bone the rotation from rest to the pose ``(J, 3, 3)`` and its posed head ``(J, 3)``; for ``(n,
         POSE_SIZE)`` poses, ``(n, J, 3, 3)`` and ``(n, J, 3)``."""
         poses = np.asarray(poses, dtype=np.float64)
-        chain = self._chain(poses.reshape(-1, POSE_SIZE), np.arange(len(self.parents)))
-        return (chain.rotations[0], chain.heads[0]) if poses.ndim == 1 else (chain.rotations, chain.heads)
-
-    def chain(self, pose: np.ndarray, base: BoneChain | None = None, turned: np.ndarray | None = None) -> BoneChain:
-        """One pose's transforms down the skeleton (`bone_transforms`: ``transforms``). With a ``base`` chain whose
-        pose differs from ``pose`` only in the rotations of the joints ``turned``, only they and the bones below
-        them are computed again, the rest taken from ``base``: the same bits, for a fit that turns a few joints."""
-        pose = np.asarray(pose, dtype=np.float64).reshape(1, POSE_SIZE)
-        if base is None or turned is None:
-            return self._chain(pose, np.arange(len(self.parents)))
-        below, kept = self._below(np.asarray(turned, dtype=np.int64).tobytes())
-        if not np.array_equal(pose[0, kept], base.pose[0, kept]):
-            return self._chain(pose, np.arange(len(self.parents)))
-        return self._chain(pose, below, base)
-
-    @functools.lru_cache(maxsize=64)  # noqa: B019 (a body lives as long as the run; few sets of joints are turned)
-    def _below(self, turned: bytes) -> tuple[np.ndarray, np.ndarray]:
-        """For the joints ``turned`` (int64 indices, their bytes): the joints they turn (parents first), and the pose
-        vector's entries that stay (the root position goes with the root's rotation)."""
-        below = self.descendants[np.frombuffer(turned, dtype=np.int64)].any(axis=0)
-        return np.flatnonzero(below), np.r_[np.repeat(not below[0], 3), np.repeat(~below, 3)]
-
-    def _chain(self, batch: np.ndarray, joints: np.ndarray, base: BoneChain | None = None) -> BoneChain:
-        """The chain of ``(n, POSE_SIZE)`` poses over ``joints`` (parents first; the others ``base``'s)."""
-        vectors = batch[:, 3:].reshape(len(batch), -1, 3)
-        vectors = vectors if len(joints) == len(self.parents) else vectors[:, joints]
-        local = rotation_vectors_to_matrices(vectors.reshape(-1, 3)).reshape(len(batch), len(joints), 3, 3)
-        if base is None:
-            shape = (len(batch), len(self.parents))
-            from_t_pose, rotations, heads = np.empty(shape + (3, 3)), np.empty(shape + (3, 3)), np.empty(shape + (3,))
-        else:
-            from_t_pose, rotations, heads = base.from_t_pose.copy(), base.rotations.copy(), base.heads.copy()
-        for k, joint in enumerate(joints):  # parents first
-            parent = self.parents[joint]
+        batch = poses.reshape(-1, POSE_SIZE)
+        local = rotation_vectors_to_matrices(batch[:, 3:].reshape(-1, 3)).reshape(len(batch), -1, 3, 3)
+        shape = (len(batch), len(self.parents))
+        from_t_pose, rotations, heads = np.empty(shape + (3, 3)), np.empty(shape + (3, 3)), np.empty(shape + (3,))
+        for joint, parent in enumerate(self.parents):  # parents first
             if parent < 0:
-                from_t_pose[:, joint], heads[:, joint] = local[:, k], batch[:, :3]
+                from_t_pose[:, joint], heads[:, joint] = local[:, joint], batch[:, :3]
             else:
-                from_t_pose[:, joint] = from_t_pose[:, parent] @ local[:, k]
+                from_t_pose[:, joint] = from_t_pose[:, parent] @ local[:, joint]
                 heads[:, joint] = heads[:, parent] + rotations[:, parent] @ (
                     self.rest_heads[joint] - self.rest_heads[parent]
                 )
             rotations[:, joint] = from_t_pose[:, joint] @ self.t_pose_alignment[joint]
-        return BoneChain(batch, from_t_pose, rotations, heads)
+        return (rotations[0], heads[0]) if poses.ndim == 1 else (rotations, heads)
 
     def joint_positions(self, pose: np.ndarray) -> np.ndarray:
         """``(J, 3)`` posed joint positions (``(n, J, 3)`` for ``n`` poses, `POSES_AT_ONCE` at a time: a sample

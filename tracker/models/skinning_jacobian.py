@@ -19,6 +19,7 @@ import numpy as np
 
 from tracker.geometry.rotations import right_jacobian
 from tracker.models.body_mesh import BodyMesh
+from tracker.models.pose_kernels import add_vertex_levers
 
 
 class SkinningLevers(NamedTuple):
@@ -85,29 +86,6 @@ def _levers(
             subset[i], 1.0, rest, indptr, indices, weights, rotations, offsets, joint_heads, below, levers[i], reached
         )
     return levers
-
-
-@numba.njit(cache=True, nogil=True)
-def add_vertex_levers(
-    vertex, share, rest, indptr, indices, weights, rotations, offsets, joint_heads, below, out, reached
-):
-    """Adds ``share`` times the weight sum and the levers of ``vertex`` to ``out`` ``(1 + 3 K,)`` (``[0]`` the
-    weight sum, then each of the K joints' lever), from the skinning weights (CSR: a vertex's few bones), the bones'
-    ``rotations`` and ``offsets`` o_b, the joints' posed heads and ``below`` ``(J, K)``, the bones each joint turns:
-    each bone b of the vertex carries it to ``p_b = R_b v + o_b`` and adds ``w_b (p_b - h'_k)`` to its lever about
-    every joint k above b, which it marks in ``reached`` ``(K,)``."""
-    carried = np.empty(3)
-    for entry in range(indptr[vertex], indptr[vertex + 1]):
-        bone, weight = indices[entry], share * weights[entry]
-        out[0] += weight
-        for a in range(3):
-            r = rotations[bone, a]
-            carried[a] = r[0] * rest[vertex, 0] + r[1] * rest[vertex, 1] + r[2] * rest[vertex, 2] + offsets[bone, a]
-        for k in range(joint_heads.shape[0]):
-            if below[bone, k]:
-                reached[k] = True
-                for a in range(3):
-                    out[1 + 3 * k + a] += weight * (carried[a] - joint_heads[k, a])
 
 
 def vertex_jacobian(

@@ -126,6 +126,30 @@ def test_a_body_parts_pixel_jacobian_matches_central_differences(body):
         assert np.abs(numeric).max() > 10  # pixels per radian: not a vacuous comparison
 
 
+def test_a_body_parts_compiled_points_and_jacobian_are_the_numpy_pipelines(body):
+    """The problem's pair points and their Jacobian (one compiled pass each) against `BodyMesh.posed_vertices` and
+    `vertex_jacobian` blended by the pairs' barycentric weights, to rounding: the root part (its position's
+    columns too) and a forearm's two joints."""
+    from tracker.models.skinning_jacobian import vertex_jacobian
+
+    rng = np.random.default_rng(3)
+    pose = arms_pose(body, (30.0, 20.0, 40.0), (-10.0, 8.0, 20.0), yaw_deg=-30.0)
+    pose[3:] += rng.normal(0.0, 0.3, POSE_SIZE - 3)
+    for part, root in ((PART_NAMES.index("pelvis"), True), (PART_NAMES.index("right_forearm"), False)):
+        views = _pairs_on(body, pose, part, rng)
+        problem = BodyPartProblem(body, views, part_joints()[part], root)
+        corners = np.concatenate([view.corners for view in views])
+        barycentric = np.concatenate([view.barycentric for view in views])
+        points, jacobian = problem.points(pose)
+        expected = np.einsum("mc,mcd->md", barycentric, body.posed_vertices(pose)[corners])
+        np.testing.assert_allclose(points, expected, rtol=0, atol=1e-12)
+        of_vertices = vertex_jacobian(body, pose, corners.ravel(), part_joints()[part])
+        of_vertices = of_vertices.reshape(*corners.shape, 3, -1)[..., slice(0 if root else 3, None)]
+        expected = np.einsum("mc,mcdk->mdk", barycentric, of_vertices)
+        np.testing.assert_allclose(jacobian(), expected, rtol=0, atol=1e-12)
+        assert np.abs(expected).max() > 0.1  # metres per radian: not a vacuous comparison
+
+
 def test_fitting_a_part_brings_back_its_pose_from_its_pairs(body):
     """Pairs made at a pose, the part's joints then disturbed by 0.15 rad: Levenberg-Marquardt over the part's own
     entries returns to the pose (the other entries untouched)."""

@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 
 from tracker.hybrid.feature_pairs import ViewPairs
-from tracker.hybrid.pose_terms import UNSEEN_PX, FrameViews, bone_chain, normal_equations, pose_terms, residual_rows
+from tracker.hybrid.pose_terms import UNSEEN_PX, FrameViews, normal_equations, pose_terms, residual_rows
 from tracker.hybrid.silhouette_fit import SilhouetteFit
 from tracker.hybrid.view_field import ViewField
 from tracker.models.body_skeleton import JOINT_INDEX
+from tracker.models.pose_kernels import bone_chain
 from tracker.tbf.pose_sets import arm_grid
 
 from .test_silhouette_fit import RIG, perturbed, silhouettes, some_pairs
