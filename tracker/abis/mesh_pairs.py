@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -64,23 +65,40 @@ def ray_hits(
         # built once for a few dozen queries: a tree without balancing or compacting builds faster, finds the same
         tree = cKDTree(centroids, balanced_tree=False, compact_nodes=False)
         tried = tree.query(pixels, k=nearest)[1].reshape(n, nearest)
-    a, b, c = (vertices[faces[tried, k]] for k in range(3))  # (n or 1, tried, 3)
-    edge1, edge2 = b - a, c - a
-    p = np.cross(directions[:, None, :], edge2)
-    determinant = np.einsum("nmd,nmd->nm", p, edge1)
-    usable = np.abs(determinant) > ZERO_LENGTH
-    inverse = np.where(usable, 1.0 / np.where(usable, determinant, 1.0), 0.0)
-    to_origin = camera.position - a
-    u = np.einsum("nmd,nmd->nm", p, to_origin) * inverse
-    q = np.cross(to_origin, edge1)
-    v = np.einsum("nd,nmd->nm", directions, q) * inverse
-    depth = np.einsum("nmd,nmd->nm", edge2, q) * inverse  # along the ray, in units of its direction (z)
-    inside = usable & (u >= 0) & (v >= 0) & (u + v <= 1) & (depth > 0)
-    depth = np.where(inside, depth, np.inf)
-    first = np.argmin(depth, axis=1)
-    rows = np.arange(n)
-    found = np.isfinite(depth[rows, first])
-    hit_face[found] = np.broadcast_to(tried, depth.shape)[rows, first][found]
-    u_hit, v_hit = u[rows, first][found], v[rows, first][found]
-    barycentric[found] = np.column_stack([1 - u_hit - v_hit, u_hit, v_hit])
+    return _first_hits(
+        np.asarray(camera.position, dtype=np.float64),
+        np.ascontiguousarray(directions),
+        np.ascontiguousarray(vertices, dtype=np.float64),
+        np.ascontiguousarray(faces, dtype=np.int64),
+        np.ascontiguousarray(tried, dtype=np.int64),
+    )
+
+
+@numba.njit(cache=True, nogil=True)
+def _first_hits(origin, directions, vertices, faces, tried):
+    """`ray_hits`' search: per ray from ``origin`` along ``directions[i]``, the faces of ``tried[i]`` (or of its one
+    row, for every ray) by Moller-Trumbore, the nearest hit in front kept (the first face tried, of equal depths)."""
+    hit_face, barycentric = np.full(len(directions), -1), np.zeros((len(directions), 3))
+    for i in range(len(directions)):
+        d0, d1, d2 = directions[i, 0], directions[i, 1], directions[i, 2]
+        row = tried[i] if len(tried) > 1 else tried[0]
+        best, best_u, best_v = np.inf, 0.0, 0.0
+        for face in row:
+            a, b, c = vertices[faces[face, 0]], vertices[faces[face, 1]], vertices[faces[face, 2]]
+            e10, e11, e12 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+            e20, e21, e22 = c[0] - a[0], c[1] - a[1], c[2] - a[2]
+            p0, p1, p2 = d1 * e22 - d2 * e21, d2 * e20 - d0 * e22, d0 * e21 - d1 * e20  # d x edge2
+            determinant = p0 * e10 + p1 * e11 + p2 * e12
+            if not abs(determinant) > ZERO_LENGTH:
+                continue
+            inverse = 1.0 / determinant
+            t0, t1, t2 = origin[0] - a[0], origin[1] - a[1], origin[2] - a[2]
+            u = (p0 * t0 + p1 * t1 + p2 * t2) * inverse
+            q0, q1, q2 = t1 * e12 - t2 * e11, t2 * e10 - t0 * e12, t0 * e11 - t1 * e10  # to_origin x edge1
+            v = (d0 * q0 + d1 * q1 + d2 * q2) * inverse
+            depth = (e20 * q0 + e21 * q1 + e22 * q2) * inverse  # along the ray, in units of its direction (z)
+            if u >= 0 and v >= 0 and u + v <= 1 and depth > 0 and depth < best:
+                best, best_u, best_v, hit_face[i] = depth, u, v, face
+        if hit_face[i] >= 0:
+            barycentric[i, 0], barycentric[i, 1], barycentric[i, 2] = 1 - best_u - best_v, best_u, best_v
     return hit_face, barycentric
