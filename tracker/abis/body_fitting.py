@@ -23,6 +23,7 @@ from tracker.geometry.cameras import Camera
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.body_skeleton import JOINT_INDEX, PART_BONES, POSE_SIZE
 from tracker.models.pose_kernels import add_vertex_levers, bone_chain, bone_offsets, joint_axes
+from tracker.tol import MIN_DEPTH_M, ZERO_LENGTH
 
 ROOT_POSITION = np.arange(3)  # the pose vector's root position entries
 
@@ -95,30 +96,69 @@ class BodyPartProblem(PixelProblem):
         self._vertices, inverse = np.unique(corners, return_inverse=True)
         self._corners = inverse.reshape(corners.shape).astype(np.int64)
         self._below = np.ascontiguousarray(body.descendants[self.joints].T)  # (J, K): the bones each joint turns
+        cameras = [view.camera for view in views]  # each pair's view's camera, as the compiled passes read it
+        self._view_of_pair = np.repeat(np.arange(len(views), dtype=np.int64), [len(view.corners) for view in views])
+        self._camera_positions = np.array([c.position for c in cameras], dtype=np.float64).reshape(-1, 3)
+        self._camera_rotations = np.array([c.rotation for c in cameras], dtype=np.float64).reshape(-1, 3, 3)
+        self._intrinsics = np.array([[c.fx, c.fy, c.cx, c.cy] for c in cameras], dtype=np.float64).reshape(-1, 4)
 
     def points(self, q: np.ndarray) -> tuple[np.ndarray, Callable[[], np.ndarray]]:
         q = np.array(q, dtype=np.float64)  # as asked, whatever becomes of the caller's array
-        body, weights = self.body, self.body.sparse_weights
-        rotations, heads = bone_chain(q, body.parents, body.rest_heads, body.t_pose_alignment)
-        skinning = (weights.indptr, weights.indices, weights.data, body.rest_vertices, self._vertices)
-        points = _pair_points(rotations, heads, body.rest_heads, *skinning, self._corners, self._barycentric)
+        rotations, heads = self._chain(q)
+        return self._points_at(rotations, heads), lambda: self.points_jacobian(q, rotations, heads)
 
-        def jacobian() -> np.ndarray:
-            return _pair_jacobian(
-                q,
-                rotations,
-                heads,
-                body.rest_heads,
-                body.t_pose_alignment,
-                *skinning,
-                self._corners,
-                self._barycentric,
-                self.joints,
-                self._below,
-                self.root,
-            )
+    def points_jacobian(self, q: np.ndarray, rotations: np.ndarray, heads: np.ndarray) -> np.ndarray:
+        """``(M, 3, n_free)``: the pair points' Jacobian at ``q``, whose chain is ``rotations`` and ``heads``."""
+        weights, body = self.body.sparse_weights, self.body
+        return _pair_jacobian(
+            q,
+            rotations,
+            heads,
+            body.rest_heads,
+            body.t_pose_alignment,
+            weights.indptr,
+            weights.indices,
+            weights.data,
+            body.rest_vertices,
+            self._vertices,
+            self._corners,
+            self._barycentric,
+            self.joints,
+            self._below,
+            self.root,
+        )
 
-        return points, jacobian
+    def pixel_terms(
+        self, q: np.ndarray, huber_px: float | None
+    ) -> tuple[np.ndarray, float, np.ndarray, Callable[[], np.ndarray]]:
+        """`PixelProblem.pixel_terms` in one compiled pass, and the rows in another: the points, their pixels
+        (`Camera.project`), the residuals and eq 7-8's cost and weights (a pixel behind a camera: NaN)."""
+        q = np.array(q, dtype=np.float64)
+        rotations, heads = self._chain(q)
+        views = (self._view_of_pair, self._camera_positions, self._camera_rotations, self._intrinsics)
+        points = self._points_at(rotations, heads)
+        huber = np.nan if huber_px is None else float(huber_px)
+        residual, cost, weights = _pair_residuals(points, *views, self._observed_rows, huber)
+        return residual, cost, weights, lambda: _pixel_rows(points, self.points_jacobian(q, rotations, heads), *views)
+
+    def _chain(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return bone_chain(q, self.body.parents, self.body.rest_heads, self.body.t_pose_alignment)
+
+    def _points_at(self, rotations: np.ndarray, heads: np.ndarray) -> np.ndarray:
+        """The pair points of the pose whose chain is ``rotations`` and ``heads``."""
+        weights, body = self.body.sparse_weights, self.body
+        return _pair_points(
+            rotations,
+            heads,
+            body.rest_heads,
+            weights.indptr,
+            weights.indices,
+            weights.data,
+            body.rest_vertices,
+            self._vertices,
+            self._corners,
+            self._barycentric,
+        )
 
 
 @numba.njit(cache=True, nogil=True)
@@ -194,6 +234,53 @@ def _pair_jacobian(
                 for column in range(first, 3 + 3 * count):
                     jacobian[m, d, column - first] += share * of_vertices[i, d, column]
     return jacobian
+
+
+@numba.njit(cache=True, nogil=True)
+def _pair_residuals(points, view_of_pair, positions, rotations, intrinsics, observed, huber_px):
+    """Each pair's pixel (`Camera.project` by its view's camera; NaN behind it) less its feature's ``(M, 2)``; eq 8's
+    cost, or eq 7's with Huber at ``huber_px`` (NaN: plain squares); and each pair's IRLS weight (`robust_cost`)."""
+    residual, weights = np.empty((len(points), 2)), np.ones(len(points))
+    cost = 0.0
+    for m in range(len(points)):
+        view = view_of_pair[m]
+        turn, at = rotations[view], positions[view]
+        rx, ry, rz = points[m, 0] - at[0], points[m, 1] - at[1], points[m, 2] - at[2]
+        z = rx * turn[0, 2] + ry * turn[1, 2] + rz * turn[2, 2]
+        u = v = np.nan
+        if z > MIN_DEPTH_M:
+            u = intrinsics[view, 0] * (rx * turn[0, 0] + ry * turn[1, 0] + rz * turn[2, 0]) / z + intrinsics[view, 2]
+            v = intrinsics[view, 1] * (rx * turn[0, 1] + ry * turn[1, 1] + rz * turn[2, 1]) / z + intrinsics[view, 3]
+        residual[m, 0], residual[m, 1] = u - observed[m, 0], v - observed[m, 1]
+        distance = np.sqrt(residual[m, 0] ** 2 + residual[m, 1] ** 2)
+        if np.isnan(huber_px) or distance <= huber_px:
+            cost += distance**2
+        else:
+            cost += 2 * huber_px * distance - huber_px**2
+        if not np.isnan(huber_px):
+            weights[m] = np.nan if np.isnan(distance) else min(1.0, huber_px / max(distance, ZERO_LENGTH))
+    return residual, cost, weights
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")  # a point on a camera's plane: inf, as numpy gives
+def _pixel_rows(points, of_points, view_of_pair, positions, rotations, intrinsics):
+    """``(2M, n)``: the pairs' pixels' Jacobian, u then v of each, from their ``points`` ``(M, 3)``, the points'
+    Jacobian ``(M, 3, n)`` and the projection's (`tracker.geometry.cameras.projection_jacobian`)."""
+    rows = np.zeros((2 * len(points), of_points.shape[2]))
+    for m in range(len(points)):
+        view = view_of_pair[m]
+        turn, at = rotations[view], positions[view]
+        rx, ry, rz = points[m, 0] - at[0], points[m, 1] - at[1], points[m, 2] - at[2]
+        x = rx * turn[0, 0] + ry * turn[1, 0] + rz * turn[2, 0]
+        y = rx * turn[0, 1] + ry * turn[1, 1] + rz * turn[2, 1]
+        z = rx * turn[0, 2] + ry * turn[1, 2] + rz * turn[2, 2]
+        for b in range(3):  # d pixel / d world coordinate b (the camera's axes: the rotation's rows)
+            du = intrinsics[view, 0] * (turn[b, 0] * z - x * turn[b, 2]) / z**2
+            dv = intrinsics[view, 1] * (turn[b, 1] * z - y * turn[b, 2]) / z**2
+            for k in range(of_points.shape[2]):
+                rows[2 * m, k] += du * of_points[m, b, k]
+                rows[2 * m + 1, k] += dv * of_points[m, b, k]
+    return rows
 
 
 def pose_prior_sigmas(translation_m: float, rotation_rad: float) -> np.ndarray:

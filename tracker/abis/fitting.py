@@ -129,13 +129,27 @@ class PixelProblem:
         """q - the prior's reference, over the free parameters."""
         return q[self.free] - self.prior.reference[self.free]
 
-    def evaluate(self, q: np.ndarray, settings: FitSettings) -> Evaluation:
+    def pixel_terms(
+        self, q: np.ndarray, huber_px: float | None
+    ) -> tuple[np.ndarray, float, np.ndarray, Callable[[], np.ndarray]]:
+        """The pairs' residuals at ``q`` (model minus observed pixels ``(M, 2)``, views one after another), their
+        cost (eq 8, or eq 7's with ``huber_px``) and IRLS weights ``(M,)``, and what makes the residuals' Jacobian
+        rows ``(2M, n_free)`` (u then v of each pair) when asked."""
         # All views' points in one batch: the per-call overhead dominates at a few dozen pairs per view.
         points, points_jacobian = self.points(q)
         in_cameras = self._views.to_camera(points)
         residual = self._views.pixels(in_cameras)[0] - self._observed_rows
+        cost, weights = robust_cost(np.linalg.norm(residual, axis=1), huber_px)
+
+        def rows() -> np.ndarray:
+            pixels = np.einsum("nij,njk->nik", self._views.projection_jacobian(in_cameras), points_jacobian())
+            return pixels.reshape(-1, len(self.free))
+
+        return residual, cost, weights, rows
+
+    def evaluate(self, q: np.ndarray, settings: FitSettings) -> Evaluation:
+        residual, pixel_cost, pixel_weights, pixel_rows = self.pixel_terms(q, settings.huber_px)
         residuals = [residual[rows] for rows in self._views.rows]
-        pixel_cost, pixel_weights = robust_cost(np.linalg.norm(residual, axis=1), settings.huber_px)
         vector = [residual.ravel()]
         weights = [np.repeat(pixel_weights, 2)]
         prior_cost = 0.0
@@ -148,8 +162,7 @@ class PixelProblem:
             weights.append(np.ones(len(prior_residual)))
 
         def jacobian() -> np.ndarray:
-            pixels = np.einsum("nij,njk->nik", self._views.projection_jacobian(in_cameras), points_jacobian())
-            rows = pixels.reshape(-1, len(self.free))
+            rows = pixel_rows()
             return np.concatenate([rows, self._prior_jacobian]) if with_prior else rows
 
         return Evaluation(
