@@ -335,14 +335,23 @@ def _moved_run_sums(
     sums = np.zeros(len(rows))
     wrapping = False
     for i in range(len(rows)):
-        for run in range(ptr[rows[i]], ptr[rows[i] + 1]):
+        first, last = ptr[rows[i]], ptr[rows[i] + 1]
+        if first == last:
+            continue
+        # a silhouette's runs come in the window's order: its first run's row divided out, the others' followed on
+        # (a 64-bit division per run took a third of the loop's time)
+        row_start = np.int64(starts[first]) // width * width
+        base = row_start // width * (framed_width - width) + moved[i]  # the frame's index less the window's
+        total = 0.0
+        for run in range(first, last):
             start, end = np.int64(starts[run]), np.int64(ends[run])
-            row = start // width
-            row_end = (row + 1) * width
-            if end > row_end:
-                end, wrapping = row_end, True
-            base = row * framed_width + moved[i] - row * width
-            sums[i] += prefix[base + end] - prefix[base + start]
+            while start >= row_start + width:
+                row_start += width
+                base += framed_width - width
+            if end > row_start + width:
+                end, wrapping = row_start + width, True
+            total += prefix[base + end] - prefix[base + start]
+        sums[i] = total
     piece = 1
     while wrapping:  # the next piece of each run that goes on into another row
         wrapping = False

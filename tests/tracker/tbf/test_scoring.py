@@ -67,7 +67,7 @@ def test_silhouettes_moved_by_whole_pixels_score_as_if_moved_first(tall):
     """Each silhouette moved by its own shift before scoring: from its runs (any rows) and from its run boundaries
     (all, moved by a reference pixel minus its own), against the distance to the moved mask; some shifts take
     pixels out of the window, some further than its size, and two silhouettes touch both sides of it (runs that wrap
-    into the next row; one runs on over three rows)."""
+    into the next row; one runs on over three rows), and one has no pixel."""
     rng = np.random.default_rng(5)
     height, width, count = 23, 17, 40
     masks = np.zeros((count, height, width), bool)
@@ -76,12 +76,13 @@ def test_silhouettes_moved_by_whole_pixels_score_as_if_moved_first(tall):
         mask[row : row + rng.integers(2, 8), column : column + rng.integers(2, 9)] = True
     masks[0, 5:8, :] = True
     masks[1, 3:, 0], masks[1, 3:10, -1] = True, True
+    masks[2] = False  # no runs at all
     for mask, column in zip(masks, rng.integers(0, width, count), strict=True) if tall else ():
         mask[1:22, column] = True  # a pole down each: fewer runs down the columns than along the rows
     observed = box((height, width), (4, 15), (3, 12))
     pixels = rng.integers(-3, 4, (count, 2))
     reference = pixels[7]
-    rows = np.array([3, 0, 1, 39, 3])
+    rows = np.array([3, 0, 1, 39, 3, 2])
     for cost in COSTS.names():
         scorer = ObservationScorer(cost, observed, full_window((height, width)))
         expected = np.array(
