@@ -114,6 +114,17 @@ def test_the_skinned_vertices_analytic_jacobian_matches_central_differences(body
     np.testing.assert_allclose(some, analytic[:, :, [0, 1, 2, 18, 19, 20, 9, 10, 11]], rtol=1e-12, atol=1e-15)
 
 
+def test_the_label_meshes_are_the_surface_meshes_bare(body):
+    """What the z-buffer draws from the posed vertices: each part's vertices, faces and label as the lit meshes
+    have them."""
+    pose = body.rest_pose()
+    pose[3:] += np.random.default_rng(4).normal(0.0, 0.3, POSE_SIZE - 3)
+    bare, lit = body.label_meshes(body.posed_vertices(pose)), body.surface_meshes(pose)
+    assert [m.label for m in bare] == [m.label for m in lit] and all(m.normals is None for m in bare)
+    for a, b in zip(bare, lit, strict=True):
+        assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.faces, b.faces)
+
+
 def test_some_vertices_skinned_alone_are_those_of_the_whole_body_whichever_subset_came_before(body):
     """`posed_vertices` keeps the weights of the subsets it was asked for (a fit asks for the same at every step):
     each subset, asked in turn and again, in any integer type, gets the whole body's vertices' bits."""

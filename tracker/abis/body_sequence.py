@@ -109,7 +109,7 @@ class BodyAbis(AbisSequence):
         samples = [vertices[used] for used in self._part_vertices]
         zbuffers = self.selection.zbuffers(
             self.cameras,
-            lambda: self._renderer.render_depth_labels(self.cameras, self.body.surface_meshes(self._estimate)),
+            lambda: self._renderer.render_depth_labels(self.cameras, self.body.label_meshes(vertices)),
         )
 
         @functools.cache

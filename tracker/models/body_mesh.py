@@ -208,6 +208,17 @@ class BodyMesh:
             if len(faces)
         ]
 
+    def label_meshes(self, vertices: np.ndarray) -> list[SurfaceMesh]:
+        """The posed ``vertices`` ``(V, 3)`` as `surface_meshes` splits them, bare (no normals, texture): what a label
+        pass, the z-buffer, draws."""
+        return [
+            SurfaceMesh(
+                key=f"body_{name}", label=k + 1, vertices=vertices[used], faces=faces, normals=None, color=SKIN_RGB
+            )
+            for k, (name, (used, faces)) in enumerate(zip(PART_NAMES, self.part_topology, strict=True))
+            if len(faces)
+        ]
+
     @cached_property
     def part_textures(self) -> list[tuple[np.ndarray, np.ndarray]]:
         """Per part, texture coordinates of its vertices (``part_topology``'s) and a block-noise texture drawn from
