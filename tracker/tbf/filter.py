@@ -250,10 +250,7 @@ class TreeFilter:
                 raise RuntimeError("the prior gives no sample any weight")
             level_scorers = [None if scorer is None else scorer() for scorer in scorers[k]]  # a failure raises here
             scored = None if len(nodes) == len(level) else nodes
-            distances = [
-                None if scorer is None else self.scores_from(scorer, k, view, scored)
-                for view, scorer in enumerate(level_scorers)
-            ]
+            distances = self._level_distances(k, level_scorers, scored)
             self.last_evaluated.append(nodes)
             log_likelihood = self.log_likelihood(k, distances)
             log_posterior = log_likelihood + np.log(mass)
@@ -264,6 +261,21 @@ class TreeFilter:
             survivors, node_likelihood = nodes[keep], log_likelihood[keep]
             timings[f"level{k + 1}"] = elapsed_ms(start)
         return survivors, node_likelihood, evaluated, kept
+
+    def _level_distances(
+        self, level: int, scorers: list[ObservationScorer | None], nodes: np.ndarray | None
+    ) -> list[np.ndarray | None]:
+        """Each view's distances to ``nodes`` of ``level`` (None for a view that lost the person). Below the top
+        level several views' are shared with the worker threads (their sums are compiled loops that free the GIL);
+        at the top the workers are still making the levels below's scorers."""
+        jobs = [
+            (lambda: None) if scorer is None else functools.partial(self.scores_from, scorer, level, view, nodes)
+            for view, scorer in enumerate(scorers)
+        ]
+        if len(jobs) == 1 or level == 0:
+            return [job() for job in jobs]
+        shared = TwoEndedJobs(jobs)
+        return [shared.result(view) for view in range(len(jobs))]
 
     @property
     def reference(self) -> int | None:
