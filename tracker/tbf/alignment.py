@@ -56,6 +56,15 @@ FEET_BAND = 0.06  # the bottom this fraction of a silhouette's height holds the 
 ANCHOR_SAMPLES = 200  # samples whose feet give the set's anchor, picked evenly through it
 
 
+def silhouette_centroid(mask: np.ndarray) -> tuple[float, float] | None:
+    """The mean ``(u, v)`` of a silhouette's pixels (None: empty), from its image moments: whole-number sums, the
+    same bits as the mean of its pixels' coordinates, without listing them."""
+    moments = cv2.moments(np.asarray(mask, dtype=bool).view(np.uint8), binaryImage=True)
+    if moments["m00"] == 0:
+        return None
+    return moments["m10"] / moments["m00"], moments["m01"] / moments["m00"]
+
+
 def feet_anchor(mask: np.ndarray) -> tuple[float, float] | None:
     """``(u, v)`` pixels of the feet in a ``(h, w)`` bool silhouette (None when it is empty)."""
     rows = np.flatnonzero(mask.any(axis=1))
@@ -156,8 +165,7 @@ class GroundPlacement:
     def centroid(self, sample: int) -> tuple[float, float] | None:
         """A sample's silhouette centroid ``(u, v)`` in its window's pixels at the finest level (None: empty)."""
         if sample not in self._centroids:
-            rows, columns = np.nonzero(self.stack.mask(sample))
-            self._centroids[sample] = (columns.mean(), rows.mean()) if len(columns) else None
+            self._centroids[sample] = silhouette_centroid(self.stack.mask(sample))
         return self._centroids[sample]
 
     def place(self, observed: np.ndarray) -> Placement | None:
@@ -180,13 +188,12 @@ class GroundPlacement:
         self.reference = sample
         pose = np.asarray(self.samples.poses[sample], dtype=np.float64).copy()
         u0, v0 = self.stack.window[:2]
-        centroid = self.centroid(sample)
-        placed_v, placed_u = np.nonzero(placement.silhouette)
-        if centroid is None or not len(placed_u):
+        centroid, placed = self.centroid(sample), silhouette_centroid(placement.silhouette)
+        if centroid is None or placed is None:
             return pose
         # The sample's silhouette moved onto the placed one's centroid: where its root then is, seen back in the
         # observed image, on the ray through that pixel at the depth the placement's scale says.
-        shift = np.array([placed_u.mean() - centroid[0] - u0, placed_v.mean() - centroid[1] - v0])
+        shift = np.array([placed[0] - centroid[0] - u0, placed[1] - centroid[1] - v0])
         root_pixel, root_depth = self.camera.project(pose[None, :3])
         seen = self.pixel * placement.to_observed(root_pixel[0] / self.pixel + shift)
         ray = np.array([(seen[0] - self.camera.cx) / self.camera.fx, (seen[1] - self.camera.cy) / self.camera.fy, 1.0])
@@ -277,8 +284,8 @@ class ViewsPlacement:
         that lost him), and his offset from it across the floor (None: no view sees him)."""
         centroids = []
         for mask in observed:
-            v, u = np.nonzero(mask)
-            centroids.append(np.array([u.mean(), v.mean()]) if len(u) else np.full(2, np.nan))
+            centroid = silhouette_centroid(mask)
+            centroids.append(np.full(2, np.nan) if centroid is None else np.array(centroid))
         seen = ~np.isnan(np.array(centroids)[:, 0])
         spot = self.spot(self.reference)
         whole = np.array([wholly_in_view(mask) for mask in observed])

@@ -16,10 +16,20 @@ from tracker.tbf.alignment import (
     ground_point,
     nearest_to_rays,
     shifted,
+    silhouette_centroid,
     world_offset,
 )
 from tracker.tbf.sample_build import load_or_build
 from tracker.tbf.samples import SampleViews
+
+
+def test_the_centroid_is_the_mean_of_the_silhouettes_pixels_to_the_bit():
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        mask = rng.random((60, 90)) < rng.uniform(0.01, 0.6)
+        rows, columns = np.nonzero(mask)
+        assert silhouette_centroid(mask) == (columns.mean(), rows.mean())
+    assert silhouette_centroid(np.zeros((6, 8), bool)) is None
 
 
 def test_the_feet_are_the_middle_of_the_silhouettes_bottom_rows():
