@@ -33,6 +33,7 @@ candidates: tied to the last estimate, they would keep a wrong one against a pro
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Annotated, Literal, NamedTuple
@@ -143,6 +144,7 @@ class SilhouetteFit:
         self.pairs: list[ViewPairs] = []
         self._views = FrameViews.of([], [], body.faces)  # `observe`'s fields and pairs as `pose_terms` reads them
         self._asked: dict[bytes, tuple] = {}  # this frame's last poses asked (their bytes), and their `_terms`
+        self._asking = threading.Lock()  # `refine` may run on several threads at once: `_asked` changes under it
 
     def observe(self, silhouettes: Sequence[np.ndarray], pairs: Sequence[ViewPairs] | None = None) -> None:
         """This frame's silhouettes and feature pairs (None: none), one per camera in the cameras' order."""
@@ -186,13 +188,15 @@ class SilhouetteFit:
         """`_terms` of ``poses`` ``(n, POSE_SIZE)``: those kept (`residuals`), the others made in one batch and
         kept."""
         keys = [pose.tobytes() for pose in poses]
-        found = {key: self._asked[key] for key in keys if key in self._asked}
+        with self._asking:
+            found = {key: self._asked[key] for key in keys if key in self._asked}
         missing = {key: pose for key, pose in zip(keys, poses, strict=True) if key not in found}  # each pose once
         found.update(zip(missing, self._terms(np.array(list(missing.values()))), strict=True))
-        for key in missing:
-            if len(self._asked) == self.POSES_KEPT:
-                del self._asked[next(iter(self._asked))]  # the oldest
-            self._asked[key] = found[key]
+        with self._asking:
+            for key in missing:
+                if len(self._asked) == self.POSES_KEPT:
+                    del self._asked[next(iter(self._asked))]  # the oldest
+                self._asked[key] = found[key]
         return [found[key] for key in keys]
 
     def _terms(self, poses: np.ndarray) -> list[tuple[list[Term], PoseTerms]]:

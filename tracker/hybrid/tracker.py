@@ -32,6 +32,7 @@ with it).
 
 from __future__ import annotations
 
+import functools
 import time
 from collections import deque
 from collections.abc import Sequence
@@ -260,8 +261,16 @@ class HybridTracker(TbfTracker):
         self, candidates: Sequence[np.ndarray], indices: np.ndarray, placed: np.ndarray
     ) -> list[tuple[np.ndarray, float]]:
         """The ``indices`` of ``candidates`` each fitted for ``screen_iterations``, the root held near ``placed``:
-        each one's refined pose and `SilhouetteFit.fit_cost`."""
-        return [self.fit.refine(candidates[k], self.settings.screen_iterations, placed) for k in indices]
+        each one's refined pose and `SilhouetteFit.fit_cost` (shared with the worker threads: the fits' compiled
+        passes free the GIL)."""
+        return self._refined([candidates[k] for k in indices], self.settings.screen_iterations, placed)
+
+    def _refined(
+        self, starts: Sequence[np.ndarray], iterations: int | None, placed: np.ndarray
+    ) -> list[tuple[np.ndarray, float]]:
+        """`SilhouetteFit.refine` of each of ``starts``, independent fits shared with the worker threads."""
+        jobs = TwoEndedJobs([functools.partial(self.fit.refine, start, iterations, placed) for start in starts])
+        return [jobs.result(k) for k in range(len(starts))]
 
     def _hard(self, cost: float) -> bool:
         """Whether a frame's refined estimate, of silhouettes' ``cost``, is searched again (``rescue_ratio``)."""
@@ -287,10 +296,12 @@ class HybridTracker(TbfTracker):
         turned_away = self.turned_away([pose for pose, _ in screened])
         costs = np.where(turned_away, np.inf, [cost for _, cost in screened])
         best = chosen
-        for j in np.argsort(costs, kind="stable")[: self.settings.screen_best or len(candidates)]:
-            if indices[j] == chosen[2] or not np.isfinite(costs[j]):
-                continue
-            pose, cost = self.fit.refine(screened[j][0], root=placed)
+        picked = [
+            j
+            for j in np.argsort(costs, kind="stable")[: self.settings.screen_best or len(candidates)]
+            if indices[j] != chosen[2] and np.isfinite(costs[j])
+        ]
+        for j, (pose, cost) in zip(picked, self._refined([screened[j][0] for j in picked], None, placed), strict=True):
             if cost < best[1]:
                 best = (pose, cost, int(indices[j]))
         return best, np.sort(indices), turned_away
