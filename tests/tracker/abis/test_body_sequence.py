@@ -11,7 +11,7 @@ from tracker.abis.body_fitting import (
     part_parents,
     topdown_parts,
 )
-from tracker.abis.fitting import FitSettings, Prior, fit_part
+from tracker.abis.fitting import FitSettings, PixelProblem, Prior, fit_part
 from tracker.abis.mesh_pairs import MeshPairs, ray_hits
 from tracker.geometry.rigs import View, cameras
 from tracker.models.body_skeleton import PART_NAMES, POSE_SIZE
@@ -148,6 +148,17 @@ def test_a_body_parts_compiled_points_and_jacobian_are_the_numpy_pipelines(body)
         expected = np.einsum("mc,mcdk->mdk", barycentric, of_vertices)
         np.testing.assert_allclose(jacobian(), expected, rtol=0, atol=1e-12)
         assert np.abs(expected).max() > 0.1  # metres per radian: not a vacuous comparison
+        # The residuals, their cost and weights, and the pixel rows: the compiled passes against the generic
+        # pipeline (`PixelProblem.pixel_terms`: the points projected by each camera), plain and robust.
+        q = pose + rng.normal(0.0, 0.05, POSE_SIZE)
+        middle = float(np.median(np.linalg.norm(PixelProblem.pixel_terms(problem, q, None)[0], axis=1)))
+        for huber_px in (None, middle):  # robust: half the pairs beyond the threshold
+            compiled, generic = problem.pixel_terms(q, huber_px), PixelProblem.pixel_terms(problem, q, huber_px)
+            np.testing.assert_allclose(compiled[0], generic[0], rtol=0, atol=1e-9)  # pixels
+            assert compiled[1] == pytest.approx(generic[1], rel=1e-12) and generic[1] > 1.0
+            np.testing.assert_allclose(compiled[2], generic[2], rtol=1e-12)
+            assert huber_px is None or 0 < (generic[2] < 1).sum() < len(generic[2])  # both sides of the threshold
+            np.testing.assert_allclose(compiled[3](), generic[3](), rtol=0, atol=1e-9 * np.abs(generic[3]()).max())
 
 
 def test_fitting_a_part_brings_back_its_pose_from_its_pairs(body):
