@@ -101,6 +101,9 @@ class BodyPartProblem(PixelProblem):
         self._camera_positions = np.array([c.position for c in cameras], dtype=np.float64).reshape(-1, 3)
         self._camera_rotations = np.array([c.rotation for c in cameras], dtype=np.float64).reshape(-1, 3, 3)
         self._intrinsics = np.array([[c.fx, c.fy, c.cx, c.cy] for c in cameras], dtype=np.float64).reshape(-1, 4)
+        weights = body.sparse_weights  # what both compiled passes read after the pose's chain: skinning, pairs' faces
+        self._skinned = (body.rest_heads, weights.indptr, weights.indices, weights.data, body.rest_vertices)
+        self._skinned += (self._vertices, self._corners, self._barycentric)
 
     def points(self, q: np.ndarray) -> tuple[np.ndarray, Callable[[], np.ndarray]]:
         q = np.array(q, dtype=np.float64)  # as asked, whatever becomes of the caller's array
@@ -109,24 +112,8 @@ class BodyPartProblem(PixelProblem):
 
     def points_jacobian(self, q: np.ndarray, rotations: np.ndarray, heads: np.ndarray) -> np.ndarray:
         """``(M, 3, n_free)``: the pair points' Jacobian at ``q``, whose chain is ``rotations`` and ``heads``."""
-        weights, body = self.body.sparse_weights, self.body
-        return _pair_jacobian(
-            q,
-            rotations,
-            heads,
-            body.rest_heads,
-            body.t_pose_alignment,
-            weights.indptr,
-            weights.indices,
-            weights.data,
-            body.rest_vertices,
-            self._vertices,
-            self._corners,
-            self._barycentric,
-            self.joints,
-            self._below,
-            self.root,
-        )
+        alignment = self.body.t_pose_alignment
+        return _pair_jacobian(q, rotations, heads, alignment, self.joints, self._below, self.root, *self._skinned)
 
     def pixel_terms(
         self, q: np.ndarray, huber_px: float | None
@@ -146,19 +133,7 @@ class BodyPartProblem(PixelProblem):
 
     def _points_at(self, rotations: np.ndarray, heads: np.ndarray) -> np.ndarray:
         """The pair points of the pose whose chain is ``rotations`` and ``heads``."""
-        weights, body = self.body.sparse_weights, self.body
-        return _pair_points(
-            rotations,
-            heads,
-            body.rest_heads,
-            weights.indptr,
-            weights.indices,
-            weights.data,
-            body.rest_vertices,
-            self._vertices,
-            self._corners,
-            self._barycentric,
-        )
+        return _pair_points(rotations, heads, *self._skinned)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -187,8 +162,11 @@ def _pair_jacobian(
     pose,
     rotations,
     heads,
-    rest_heads,
     alignment,
+    joints,
+    below,
+    root,
+    rest_heads,
     indptr,
     indices,
     weights,
@@ -196,9 +174,6 @@ def _pair_jacobian(
     vertices,
     corners,
     barycentric,
-    joints,
-    below,
-    root,
 ):
     """``(M, 3, n_free)``: d (pair point) / d (the root's position if ``root``, then ``joints``' rotation vectors),
     `tracker.models.skinning_jacobian.vertex_jacobian`'s per vertex (``a x L``: a joint's axis by the vertex's
