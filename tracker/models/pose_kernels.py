@@ -38,6 +38,7 @@ def identity_plus(vector: np.ndarray, first: float, second: float, out: np.ndarr
 
 @numba.njit(cache=True, nogil=True)
 def product_3x3(left: np.ndarray, right: np.ndarray, out: np.ndarray) -> None:
+    """``out = left @ right`` of 3x3 matrices."""
     for a in range(3):
         for b in range(3):
             out[a, b] = left[a, 0] * right[0, b] + left[a, 1] * right[1, b] + left[a, 2] * right[2, b]
