@@ -123,10 +123,16 @@ class BodyPartProblem(PixelProblem):
         q = np.array(q, dtype=np.float64)
         rotations, heads = self._chain(q)
         views = (self._view_of_pair, self._camera_positions, self._camera_rotations, self._intrinsics)
-        points = self._points_at(rotations, heads)
         huber = np.nan if huber_px is None else float(huber_px)
-        residual, cost, weights = _pair_residuals(points, *views, self._observed_rows, huber)
-        return residual, cost, weights, lambda: _pixel_rows(points, self.points_jacobian(q, rotations, heads), *views)
+        residual, cost, weights, in_cameras = _pair_residuals(
+            self._points_at(rotations, heads), *views, self._observed_rows, huber
+        )
+
+        def rows() -> np.ndarray:
+            of_points = self.points_jacobian(q, rotations, heads)
+            return _pixel_rows(in_cameras, of_points, self._view_of_pair, self._camera_rotations, self._intrinsics)
+
+        return residual, cost, weights, rows
 
     def _chain(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return bone_chain(q, self.body.parents, self.body.rest_heads, self.body.t_pose_alignment)
@@ -214,18 +220,20 @@ def _pair_jacobian(
 @numba.njit(cache=True, nogil=True)
 def _pair_residuals(points, view_of_pair, positions, rotations, intrinsics, observed, huber_px):
     """Each pair's pixel (`Camera.project` by its view's camera; NaN behind it) less its feature's ``(M, 2)``; eq 8's
-    cost, or eq 7's with Huber at ``huber_px`` (NaN: plain squares); and each pair's IRLS weight (`robust_cost`)."""
-    residual, weights = np.empty((len(points), 2)), np.ones(len(points))
+    cost, or eq 7's with Huber at ``huber_px`` (NaN: plain squares); each pair's IRLS weight (`robust_cost`); and
+    each point in its view's camera frame ``(M, 3)`` (`Camera.world_to_camera`: what `_pixel_rows` reads)."""
+    residual, weights, in_cameras = np.empty((len(points), 2)), np.ones(len(points)), np.empty((len(points), 3))
     cost = 0.0
     for m in range(len(points)):
         view = view_of_pair[m]
         turn, at = rotations[view], positions[view]
         rx, ry, rz = points[m, 0] - at[0], points[m, 1] - at[1], points[m, 2] - at[2]
-        z = rx * turn[0, 2] + ry * turn[1, 2] + rz * turn[2, 2]
+        for a in range(3):
+            in_cameras[m, a] = rx * turn[0, a] + ry * turn[1, a] + rz * turn[2, a]
+        x, y, z = in_cameras[m, 0], in_cameras[m, 1], in_cameras[m, 2]
         u = v = np.nan
         if z > MIN_DEPTH_M:
-            u = intrinsics[view, 0] * (rx * turn[0, 0] + ry * turn[1, 0] + rz * turn[2, 0]) / z + intrinsics[view, 2]
-            v = intrinsics[view, 1] * (rx * turn[0, 1] + ry * turn[1, 1] + rz * turn[2, 1]) / z + intrinsics[view, 3]
+            u, v = intrinsics[view, 0] * x / z + intrinsics[view, 2], intrinsics[view, 1] * y / z + intrinsics[view, 3]
         residual[m, 0], residual[m, 1] = u - observed[m, 0], v - observed[m, 1]
         distance = np.sqrt(residual[m, 0] ** 2 + residual[m, 1] ** 2)
         if np.isnan(huber_px) or distance <= huber_px:
@@ -234,21 +242,19 @@ def _pair_residuals(points, view_of_pair, positions, rotations, intrinsics, obse
             cost += 2 * huber_px * distance - huber_px**2
         if not np.isnan(huber_px):
             weights[m] = np.nan if np.isnan(distance) else min(1.0, huber_px / max(distance, ZERO_LENGTH))
-    return residual, cost, weights
+    return residual, cost, weights, in_cameras
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")  # a point on a camera's plane: inf, as numpy gives
-def _pixel_rows(points, of_points, view_of_pair, positions, rotations, intrinsics):
-    """``(2M, n)``: the pairs' pixels' Jacobian, u then v of each, from their ``points`` ``(M, 3)``, the points'
-    Jacobian ``(M, 3, n)`` and the projection's (`tracker.geometry.cameras.projection_jacobian`)."""
-    rows = np.zeros((2 * len(points), of_points.shape[2]))
-    for m in range(len(points)):
+def _pixel_rows(in_cameras, of_points, view_of_pair, rotations, intrinsics):
+    """``(2M, n)``: the pairs' pixels' Jacobian, u then v of each, from their points in their cameras' frames
+    ``(M, 3)`` (`_pair_residuals`), the points' Jacobian ``(M, 3, n)`` and the projection's
+    (`tracker.geometry.cameras.projection_jacobian`)."""
+    rows = np.zeros((2 * len(in_cameras), of_points.shape[2]))
+    for m in range(len(in_cameras)):
         view = view_of_pair[m]
-        turn, at = rotations[view], positions[view]
-        rx, ry, rz = points[m, 0] - at[0], points[m, 1] - at[1], points[m, 2] - at[2]
-        x = rx * turn[0, 0] + ry * turn[1, 0] + rz * turn[2, 0]
-        y = rx * turn[0, 1] + ry * turn[1, 1] + rz * turn[2, 1]
-        z = rx * turn[0, 2] + ry * turn[1, 2] + rz * turn[2, 2]
+        turn = rotations[view]
+        x, y, z = in_cameras[m, 0], in_cameras[m, 1], in_cameras[m, 2]
         for b in range(3):  # d pixel / d world coordinate b (the camera's axes: the rotation's rows)
             du = intrinsics[view, 0] * (turn[b, 0] * z - x * turn[b, 2]) / z**2
             dv = intrinsics[view, 1] * (turn[b, 1] * z - y * turn[b, 2]) / z**2
