@@ -1,5 +1,7 @@
 """Scoring many model silhouettes at once equals the pair-by-pair definition (`tracker.tbf.costs`), moved or not."""
 
+import copy
+
 import numpy as np
 import pytest
 
@@ -51,6 +53,29 @@ def test_runs_hold_exactly_the_inside_pixels():
         np.testing.assert_allclose(boundaries.sums(values), shapes.reshape(7, -1) @ values, atol=1e-12)
         np.testing.assert_allclose(boundaries.sums(values, rows), shapes.reshape(7, -1)[rows] @ values, atol=1e-12)
         assert boundaries.sums(values, rows).tobytes() == boundaries.sums(values)[rows].tobytes()  # the product's bits
+
+
+def test_run_indices_take_two_bytes_up_to_65535_pixels_and_read_as_wider_ones():
+    """A window of 257 x 255 = 65,535 pixels keeps its runs' pixel indices in 2 bytes, one of 256 x 256 in 4 (its last
+    run ends at 65,536); either way the sums, moved or not, and the masks are those of the same runs held in 8-byte
+    integers, to the bit."""
+    rng = np.random.default_rng(11)
+    for shape, index in (((257, 255), np.uint16), ((256, 256), np.uint32)):
+        masks = rng.random((5, *shape)) < 0.3
+        masks[:, -1, -2:] = True  # a run to the window's last pixel: the largest index
+        runs = SilhouetteRuns.from_masks(masks)
+        assert runs.starts.dtype == runs.ends.dtype == index and int(runs.ends.max()) == masks[0].size
+        wide = copy.copy(runs)  # the same runs in 8-byte integers (a copy is not made anew: nothing narrows them)
+        object.__setattr__(wide, "starts", runs.starts.astype(np.int64))
+        object.__setattr__(wide, "ends", runs.ends.astype(np.int64))
+        values, rows = rng.normal(size=masks[0].size), np.array([4, 0, 2, 4])
+        shifts = np.array([[3, -2], [-shape[1] + 5, 1], [0, shape[0] - 2], [0, 0]])
+        assert runs.sums(values).tobytes() == wide.sums(values).tobytes()
+        assert runs.sums(values, rows).tobytes() == wide.sums(values, rows).tobytes()
+        moved = runs.shifted_sums(values, shape[1], rows, shifts)
+        assert moved.tobytes() == wide.shifted_sums(values, shape[1], rows, shifts).tobytes()
+        np.testing.assert_array_equal(runs.masks(shape, rows), masks[rows])
+        np.testing.assert_allclose(moved[3], masks[4].ravel() @ values, atol=1e-9)  # not moved: its plain sum
 
 
 def _moved(mask, du, dv):
