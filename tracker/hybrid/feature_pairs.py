@@ -13,7 +13,8 @@ few corners inside its silhouette and makes few pairs; ``model.texture_seed`` te
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import functools
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -24,6 +25,7 @@ from tracker.models.body_mesh import BodyMesh
 from tracker.observe.features import FeatureSettings, FeatureTracker
 from tracker.ranges import NonNegative, Positive
 from tracker.settings import validate
+from tracker.threads import TwoEndedJobs
 
 NEAREST_FACES = 64  # the faces each feature's ray is tried against (the nearest its pixel: `ray_hits`)
 
@@ -82,29 +84,39 @@ class FeaturePairs:
 
     def pairs(self, images: Sequence[np.ndarray]) -> list[ViewPairs]:
         """This frame's pairs per view (``images``: RGB, in the cameras' order): each tracked feature with an
-        anchor, at its new pixel."""
-        found = []
-        for view, (tracker, image) in enumerate(zip(self.trackers, images, strict=True)):
-            frame = self.frames[view] = tracker.step(image)
-            anchors = self.anchors[view]
-            if anchors is None:
-                found.append(ViewPairs.empty())
-                continue
-            _, here, there = np.intersect1d(frame.ids[frame.tracked], anchors.ids, return_indices=True)
-            found.append(ViewPairs(anchors.faces[there], anchors.barycentric[there], frame.points[frame.tracked][here]))
-        return found
+        anchor, at its new pixel. The views are shared with the worker threads (OpenCV's tracking frees the GIL)."""
+        if len(images) != len(self.trackers):
+            raise ValueError(f"{len(images)} images for {len(self.trackers)} views")
+        views = TwoEndedJobs([functools.partial(self._view_pairs, view, image) for view, image in enumerate(images)])
+        return [views.result(view) for view in range(len(images))]
+
+    def _view_pairs(self, view: int, image: np.ndarray) -> ViewPairs:
+        frame = self.frames[view] = self.trackers[view].step(image)
+        anchors = self.anchors[view]
+        if anchors is None:
+            return ViewPairs.empty()
+        _, here, there = np.intersect1d(frame.ids[frame.tracked], anchors.ids, return_indices=True)
+        return ViewPairs(anchors.faces[there], anchors.barycentric[there], frame.points[frame.tracked][here])
 
     def anchor(self, pose: np.ndarray, inside_px: Sequence) -> None:
         """Anchor this frame's live features to the body posed as ``pose``: those at least ``margin_px`` inside
-        the silhouette (``inside_px``: per view, a function of pixels ``(n, 2)`` giving their distance inside it)."""
+        the silhouette (``inside_px``: per view, a function of pixels ``(n, 2)`` giving their distance inside it).
+        The views are shared with the worker threads (the rays' compiled loop frees the GIL)."""
         vertices = self.body.posed_vertices(pose)
-        for view, (camera, frame) in enumerate(zip(self.cameras, self.frames, strict=True)):
-            if frame is None:
-                continue
-            kept = inside_px[view](frame.points) >= max(self.settings.margin_px, 1e-9)
-            faces, barycentric = ray_hits(camera, frame.points[kept], vertices, self.body.faces, NEAREST_FACES)
-            hit = faces >= 0
-            self.anchors[view] = _Anchors(frame.ids[kept][hit], faces[hit], barycentric[hit])
+        views = TwoEndedJobs(
+            [functools.partial(self._view_anchors, view, vertices, inside_px[view]) for view in range(len(self.frames))]
+        )
+        for view in range(len(self.frames)):
+            views.result(view)
+
+    def _view_anchors(self, view: int, vertices: np.ndarray, inside_px: Callable[[np.ndarray], np.ndarray]) -> None:
+        frame = self.frames[view]
+        if frame is None:
+            return
+        kept = inside_px(frame.points) >= max(self.settings.margin_px, 1e-9)
+        faces, barycentric = ray_hits(self.cameras[view], frame.points[kept], vertices, self.body.faces, NEAREST_FACES)
+        hit = faces >= 0
+        self.anchors[view] = _Anchors(frame.ids[kept][hit], faces[hit], barycentric[hit])
 
     def forget(self) -> None:
         """No anchors: a frame without a fitted pose makes no pairs the next frame."""

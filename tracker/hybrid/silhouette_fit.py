@@ -33,6 +33,7 @@ candidates: tied to the last estimate, they would keep a wrong one against a pro
 
 from __future__ import annotations
 
+import functools
 import threading
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -50,6 +51,7 @@ from tracker.models.body_skeleton import JOINT_INDEX, JOINT_NAMES, POSE_SIZE
 from tracker.ranges import NonNegative, Positive, Range
 from tracker.render.mesh import vertex_normals
 from tracker.settings import validate
+from tracker.threads import TwoEndedJobs
 
 # The joints fitted: every joint that moves the silhouette but the fingers', thumbs' and toes' (too small to see).
 FIT_JOINTS = tuple(
@@ -147,10 +149,17 @@ class SilhouetteFit:
         self._asking = threading.Lock()  # `refine` may run on several threads at once: `_asked` changes under it
 
     def observe(self, silhouettes: Sequence[np.ndarray], pairs: Sequence[ViewPairs] | None = None) -> None:
-        """This frame's silhouettes and feature pairs (None: none), one per camera in the cameras' order."""
-        self.fields = [
-            ViewField(s, camera, self.settings.edge_points) for s, camera in zip(silhouettes, self.cameras, strict=True)
-        ]
+        """This frame's silhouettes and feature pairs (None: none), one per camera in the cameras' order. The views'
+        fields are made here and on the worker threads (their distance transforms free the GIL)."""
+        if len(silhouettes) != len(self.cameras):
+            raise ValueError(f"{len(silhouettes)} silhouettes for {len(self.cameras)} views")
+        fields = TwoEndedJobs(
+            [
+                functools.partial(ViewField, silhouette, camera, self.settings.edge_points)
+                for silhouette, camera in zip(silhouettes, self.cameras, strict=True)
+            ]
+        )
+        self.fields = [fields.result(view) for view in range(len(self.cameras))]
         self.pairs = list(pairs) if pairs is not None else [ViewPairs.empty() for _ in self.cameras]
         paired = self.pairs if self.settings.features.weight > 0 else [ViewPairs.empty() for _ in self.cameras]
         self._views = FrameViews.of(self.fields, paired, self.body.faces)

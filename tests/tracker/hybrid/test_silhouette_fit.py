@@ -245,6 +245,33 @@ def test_feature_pairs_on_the_textured_skin_follow_a_turn_of_the_body(renderer):
     )
 
 
+def test_three_views_fields_and_pairs_made_on_the_worker_threads_are_each_views_made_alone(renderer):
+    """The fit's fields and the feature pairs of three views, shared with the worker threads, are those each view's
+    own one-camera fit and pairing make, to the bit: the views' work is independent."""
+    from tracker.models.makehuman import build_body
+
+    body = build_body(texture_seed=0)
+    first = arm_grid(body, [20.0], [30.0], [20.0], [10.0], yaw_deg=-90.0)[0]
+    second = first.copy()
+    second[3:6] = (Rotation.from_rotvec([0.0, 0.0, 0.2]) * Rotation.from_rotvec(first[3:6])).as_rotvec()
+    images = [renderer.render(RIG, body.surface_meshes(pose)) for pose in (first, second)]
+    settings = FitSettings(features=FeaturePairSettings(weight=1.0))
+    alone = [(SilhouetteFit(body, [c], settings), FeaturePairs(body, [c], settings.features)) for c in RIG]
+    together = SilhouetteFit(body, RIG, settings), FeaturePairs(body, RIG, settings.features)
+    for frame in images:
+        for (fit, pairing), views in [(together, RIG), *zip(alone, [[c] for c in RIG], strict=True)]:
+            fit.observe([frame[c.name].labels > 0 for c in views], pairing.pairs([frame[c.name].rgb for c in views]))
+            pairing.anchor(first, [view.inside_px for view in fit.fields])
+    for view, (fit, pairing) in enumerate(alone):
+        mine, theirs = together[0].fields[view], fit.fields[0]
+        assert mine.sampled.tobytes() == theirs.sampled.tobytes() and mine.edge.tobytes() == theirs.edge.tobytes()
+        assert mine.edge_normals.tobytes() == theirs.edge_normals.tobytes()
+        for part in ("faces", "barycentric", "pixels"):
+            assert getattr(together[0].pairs[view], part).tobytes() == getattr(fit.pairs[0], part).tobytes()
+        assert together[1].anchors[view].ids.tobytes() == pairing.anchors[0].ids.tobytes()
+    assert all(len(fit.pairs[0]) > 10 for fit, _ in alone)  # the views pair features: not a vacuous test
+
+
 def test_the_mean_huber_is_the_mean_of_the_robust_squares():
     values = np.random.default_rng(2).normal(0, 10, 500)
     size = np.abs(values)
