@@ -44,7 +44,7 @@ from tracker.tbf.samples import (
     resolution_factor,
     resolution_name,
 )
-from tracker.tbf.scoring import SilhouetteRuns
+from tracker.tbf.scoring import SilhouetteRuns, run_index_type
 from tracker.tol import MIN_DEPTH_M
 
 log = logging.getLogger(__name__)
@@ -240,14 +240,10 @@ def _finish(building: Path, folder: Path, poses: np.ndarray, shards: list[slice]
         name = resolution_name(res)
         parts = [np.load(building / f"shard{k}.runs.npz") for k in range(len(shards))]
         counts = np.concatenate([part[f"{name}_counts"] for part in parts])
-        np.save(
-            building / f"{sample_store.runs_name(res, 'starts')}.npy",
-            np.concatenate([part[f"{name}_starts"] for part in parts]).astype(np.int32),
-        )
-        np.save(
-            building / f"{sample_store.runs_name(res, 'ends')}.npy",
-            np.concatenate([part[f"{name}_ends"] for part in parts]).astype(np.int32),
-        )
+        starts, ends = (np.concatenate([part[f"{name}_{side}"] for part in parts]) for side in ("starts", "ends"))
+        index = run_index_type(int(ends.max(initial=0)))  # as the shards made them (one resumed from before: int32)
+        np.save(building / f"{sample_store.runs_name(res, 'starts')}.npy", starts.astype(index))
+        np.save(building / f"{sample_store.runs_name(res, 'ends')}.npy", ends.astype(index))
         np.save(building / f"{sample_store.runs_name(res, 'ptr')}.npy", np.r_[0, np.cumsum(counts)].astype(np.int64))
     np.save(building / "poses.npy", poses)
     sample_store.write_meta(building, folder.name, resolutions, windows)

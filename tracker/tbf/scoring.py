@@ -31,12 +31,12 @@ from scipy import sparse
 from tracker.tbf.costs import Cost, Window, window_pixels, window_weights
 
 
-def run_index_type(ends: np.ndarray) -> type:
-    """The narrowest unsigned integers that hold runs' pixel indices, ``ends`` the largest (exclusive): 2 bytes for a
-    window of up to 65,535 pixels (every level's at the presets' resolutions), else 4. A level's scoring reads each
-    run's two indices from memory rather than cache (a frame asks for a few thousand silhouettes of tens of
-    thousands), and half the bytes made the hybrid's levels 2 and 3 a fifth quicker."""
-    return np.uint16 if int(np.max(ends, initial=0)) <= np.iinfo(np.uint16).max else np.uint32
+def run_index_type(largest: int) -> type:
+    """The narrowest unsigned integers that hold runs' pixel indices up to ``largest`` (a window's pixel count: an
+    end, exclusive, can be it): 2 bytes up to 65,535 (every level's window at the presets' resolutions), else 4. A
+    level's scoring reads each asked silhouette's runs from memory rather than cache (a frame asks for a few thousand
+    of tens of thousands): half the bytes, and half the sample set's memory for them."""
+    return np.uint16 if largest <= np.iinfo(np.uint16).max else np.uint32
 
 
 @dataclass(frozen=True, eq=False)
@@ -44,14 +44,9 @@ class SilhouetteRuns:
     """Many silhouettes of one window as runs of inside pixels: silhouette i's runs are ``ptr[i]:ptr[i + 1]``,
     run r covering the window's pixels ``starts[r]:ends[r]`` in row-major order."""
 
-    starts: np.ndarray  # (runs,) `run_index_type`
-    ends: np.ndarray  # (runs,) `run_index_type`, exclusive
+    starts: np.ndarray  # (runs,) unsigned: `run_index_type` where made here (a set stored before: int32)
+    ends: np.ndarray  # (runs,) the same type, exclusive
     ptr: np.ndarray  # (n + 1,) int64
-
-    def __post_init__(self) -> None:
-        index = run_index_type(self.ends)
-        object.__setattr__(self, "starts", np.asarray(self.starts, dtype=index))
-        object.__setattr__(self, "ends", np.asarray(self.ends, dtype=index))
 
     @functools.cached_property
     def owner(self) -> np.ndarray:
@@ -64,6 +59,7 @@ class SilhouetteRuns:
         """From ``(n, h, w)`` silhouettes (bool, or labels: inside where nonzero), ``block`` at a time."""
         starts, ends, counts = [], [], []
         pixels = int(np.prod(masks.shape[1:]))
+        index = run_index_type(pixels)
         for first in range(0, len(masks), block):
             chunk = np.asarray(masks[first : first + block]).reshape(-1, pixels)
             padded = np.zeros((len(chunk), pixels + 2), np.int8)
@@ -71,12 +67,12 @@ class SilhouetteRuns:
             edges = np.diff(padded, axis=1)  # +1 where a run starts, -1 one past where it ends
             rows, columns = np.nonzero(edges)  # row-major: each row's starts and ends alternate
             rising = edges[rows, columns] == 1
-            starts.append(columns[rising].astype(np.int32))
-            ends.append(columns[~rising].astype(np.int32))
+            starts.append(columns[rising].astype(index))
+            ends.append(columns[~rising].astype(index))
             counts.append(np.bincount(rows[rising], minlength=len(chunk)))
         counts = np.concatenate(counts) if counts else np.zeros(0, np.int64)
         ptr = np.r_[0, np.cumsum(counts)].astype(np.int64)
-        empty = np.zeros(0, np.int32)
+        empty = np.zeros(0, index)
         return cls(np.concatenate(starts) if starts else empty, np.concatenate(ends) if ends else empty, ptr)
 
     def __len__(self) -> int:

@@ -59,6 +59,8 @@ def test_a_sample_set_is_rendered_cached_and_reloaded(body, swing_poses, tmp_pat
     again = load_or_build(body, CAMERA, poses, tmp_path, progress=False)
     assert again.key == built.key
     np.testing.assert_array_equal(again.silhouettes((160, 120)).masks(), built.silhouettes((160, 120)).masks())
+    # each level's runs stored in 2 bytes a pixel index (its window holds fewer than 65,536 pixels)
+    assert all(runs.starts.dtype == runs.ends.dtype == np.uint16 for runs in again.runs.values())
 
 
 def test_a_corrupt_cache_is_rebuilt_not_used(body, swing_poses, tmp_path, caplog):

@@ -1,7 +1,5 @@
 """Scoring many model silhouettes at once equals the pair-by-pair definition (`tracker.tbf.costs`), moved or not."""
 
-import copy
-
 import numpy as np
 import pytest
 
@@ -58,16 +56,14 @@ def test_runs_hold_exactly_the_inside_pixels():
 def test_run_indices_take_two_bytes_up_to_65535_pixels_and_read_as_wider_ones():
     """A window of 257 x 255 = 65,535 pixels keeps its runs' pixel indices in 2 bytes, one of 256 x 256 in 4 (its last
     run ends at 65,536); either way the sums, moved or not, and the masks are those of the same runs held in 8-byte
-    integers, to the bit."""
+    integers (as a set stored before held them in 4), to the bit."""
     rng = np.random.default_rng(11)
     for shape, index in (((257, 255), np.uint16), ((256, 256), np.uint32)):
         masks = rng.random((5, *shape)) < 0.3
         masks[:, -1, -2:] = True  # a run to the window's last pixel: the largest index
         runs = SilhouetteRuns.from_masks(masks)
         assert runs.starts.dtype == runs.ends.dtype == index and int(runs.ends.max()) == masks[0].size
-        wide = copy.copy(runs)  # the same runs in 8-byte integers (a copy is not made anew: nothing narrows them)
-        object.__setattr__(wide, "starts", runs.starts.astype(np.int64))
-        object.__setattr__(wide, "ends", runs.ends.astype(np.int64))
+        wide = SilhouetteRuns(runs.starts.astype(np.int64), runs.ends.astype(np.int64), runs.ptr)  # the same runs
         values, rows = rng.normal(size=masks[0].size), np.array([4, 0, 2, 4])
         shifts = np.array([[3, -2], [-shape[1] + 5, 1], [0, shape[0] - 2], [0, 0]])
         assert runs.sums(values).tobytes() == wide.sums(values).tobytes()
