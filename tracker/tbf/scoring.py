@@ -44,8 +44,8 @@ class SilhouetteRuns:
     """Many silhouettes of one window as runs of inside pixels: silhouette i's runs are ``ptr[i]:ptr[i + 1]``,
     run r covering the window's pixels ``starts[r]:ends[r]`` in row-major order."""
 
-    starts: np.ndarray  # (runs,) unsigned: `run_index_type` where made here (a set stored before: int32)
-    ends: np.ndarray  # (runs,) the same type, exclusive
+    starts: np.ndarray  # (runs,) `run_index_type` where made here (a set stored before holds int32)
+    ends: np.ndarray  # (runs,) of the same type, exclusive
     ptr: np.ndarray  # (n + 1,) int64
 
     @functools.cached_property
