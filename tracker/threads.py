@@ -59,6 +59,10 @@ class TwoEndedJobs(Generic[Result]):
             self._do(index)
         return self._results[index].result()
 
+    def results(self) -> list[Result]:
+        """Every job's result, in the jobs' order (the first failure raises)."""
+        return [self.result(index) for index in range(len(self._jobs))]
+
     def settle(self) -> None:
         """No job not yet taken will start; those under way are waited for, their results and errors dropped: the
         jobs' state is the caller's again."""

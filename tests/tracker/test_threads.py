@@ -29,7 +29,7 @@ def test_every_job_is_done_once_and_its_result_handed_back():
         return index * index
 
     jobs = TwoEndedJobs([lambda index=index: job(index) for index in range(40)])
-    assert [jobs.result(index) for index in range(40)] == [index * index for index in range(40)]
+    assert jobs.results() == [index * index for index in range(40)]
     assert sorted(index for index, _ in done) == list(range(40))  # none twice
     by_worker = [index for index, name in done if name.startswith("worker")]
     assert by_worker and max(by_worker) == 39  # the workers start from the back

@@ -178,7 +178,7 @@ class AbisSequence:
         tracking = TwoEndedJobs(
             [functools.partial(self._trackers[name].step, observation.images[name]) for name in names]
         )
-        features = {name: tracking.result(index) for index, name in enumerate(names)}
+        features = dict(zip(names, tracking.results(), strict=True))
         timings["features"] = elapsed_ms(start)
         if self._frame > 0:
             self._pairs = carry_over(self._pairs, features, counts, n_parts)  # 1. pairs whose feature was tracked

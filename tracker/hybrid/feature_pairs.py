@@ -87,8 +87,9 @@ class FeaturePairs:
         anchor, at its new pixel. The views are shared with the worker threads (OpenCV's tracking frees the GIL)."""
         if len(images) != len(self.trackers):
             raise ValueError(f"{len(images)} images for {len(self.trackers)} views")
-        views = TwoEndedJobs([functools.partial(self._view_pairs, view, image) for view, image in enumerate(images)])
-        return [views.result(view) for view in range(len(images))]
+        return TwoEndedJobs(
+            [functools.partial(self._view_pairs, view, image) for view, image in enumerate(images)]
+        ).results()
 
     def _view_pairs(self, view: int, image: np.ndarray) -> ViewPairs:
         frame = self.frames[view] = self.trackers[view].step(image)
@@ -103,11 +104,9 @@ class FeaturePairs:
         the silhouette (``inside_px``: per view, a function of pixels ``(n, 2)`` giving their distance inside it).
         The views are shared with the worker threads (the rays' compiled loop frees the GIL)."""
         vertices = self.body.posed_vertices(pose)
-        views = TwoEndedJobs(
+        TwoEndedJobs(
             [functools.partial(self._view_anchors, view, vertices, inside_px[view]) for view in range(len(self.frames))]
-        )
-        for view in range(len(self.frames)):
-            views.result(view)
+        ).results()
 
     def _view_anchors(self, view: int, vertices: np.ndarray, inside_px: Callable[[np.ndarray], np.ndarray]) -> None:
         frame = self.frames[view]

@@ -153,13 +153,12 @@ class SilhouetteFit:
         fields are made here and on the worker threads (their distance transforms free the GIL)."""
         if len(silhouettes) != len(self.cameras):
             raise ValueError(f"{len(silhouettes)} silhouettes for {len(self.cameras)} views")
-        fields = TwoEndedJobs(
+        self.fields = TwoEndedJobs(
             [
                 functools.partial(ViewField, silhouette, camera, self.settings.edge_points)
                 for silhouette, camera in zip(silhouettes, self.cameras, strict=True)
             ]
-        )
-        self.fields = [fields.result(view) for view in range(len(self.cameras))]
+        ).results()
         self.pairs = list(pairs) if pairs is not None else [ViewPairs.empty() for _ in self.cameras]
         paired = self.pairs if self.settings.features.weight > 0 else [ViewPairs.empty() for _ in self.cameras]
         self._views = FrameViews.of(self.fields, paired, self.body.faces)

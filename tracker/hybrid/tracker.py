@@ -269,8 +269,9 @@ class HybridTracker(TbfTracker):
         self, starts: Sequence[np.ndarray], iterations: int | None, placed: np.ndarray
     ) -> list[tuple[np.ndarray, float]]:
         """`SilhouetteFit.refine` of each of ``starts``, independent fits shared with the worker threads."""
-        jobs = TwoEndedJobs([functools.partial(self.fit.refine, start, iterations, placed) for start in starts])
-        return [jobs.result(k) for k in range(len(starts))]
+        return TwoEndedJobs(
+            [functools.partial(self.fit.refine, start, iterations, placed) for start in starts]
+        ).results()
 
     def _hard(self, cost: float) -> bool:
         """Whether a frame's refined estimate, of silhouettes' ``cost``, is searched again (``rescue_ratio``)."""

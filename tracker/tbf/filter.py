@@ -274,8 +274,7 @@ class TreeFilter:
         ]
         if len(jobs) == 1 or level == 0:
             return [job() for job in jobs]
-        shared = TwoEndedJobs(jobs)
-        return [shared.result(view) for view in range(len(jobs))]
+        return TwoEndedJobs(jobs).results()
 
     @property
     def reference(self) -> int | None:
