@@ -9,7 +9,7 @@ import pytest
 from tracker.geometry.cameras import look_at
 from tracker.models.dsq import DSQShape, dsq_points, mesh_topology
 from tracker.render.mesh import SurfaceMesh, vertex_normals
-from tracker.render.offscreen import DEFAULT_BACKGROUND, SceneRenderer
+from tracker.render.offscreen import DEFAULT_BACKGROUND, SceneRenderer, drawn_box
 
 
 def rasterize(camera, vertices, faces):
@@ -111,6 +111,33 @@ def test_depth_is_the_camera_z_of_the_nearest_surface(renderer, size):
     assert error.min() > -5e-5 and error.max() < 5e-4
     assert np.isinf(view.depth[~hit & (view.labels == 0)]).all()
     assert view.depth.dtype == np.float32
+
+
+def test_the_z_buffer_pass_draws_only_where_its_meshes_can_be_seen_and_equals_the_whole_image_drawn(renderer):
+    """`render_depth_labels` draws and reads back only each camera's `drawn_box`: its labels and depth equal those of
+    `render`, which draws the whole image, bit for bit: two spheres, one cut by the image's left edge; a sphere
+    reaching behind the near plane (the whole image drawn); spheres in front, right of the image (nothing drawn)."""
+    camera = look_at(
+        "c", np.array([0.0, -2.0, 0.0]), np.zeros(3), np.array([0, 0, 1.0]), width=320, height=240, focal_px=400.0
+    )
+    edge = np.array([-0.8, 0.0, 0.1])  # its centre projects 160 px left of the centre: half of it off the image
+    scenes = {
+        "two spheres": [sphere_mesh(np.array([0.1, 0.0, -0.1]), 0.2, 1), sphere_mesh(edge, 0.1, 2)],
+        "through the near plane": [sphere_mesh(np.array([0.0, -1.9, 0.0]), 0.2, 1)],
+        "out of sight": [sphere_mesh(np.array([3.0, 1.0, z]), 0.1, label) for label, z in ((1, 0.0), (2, 1.0))],
+    }
+    boxes = {}
+    for name, meshes in scenes.items():
+        boxes[name] = drawn_box(camera, np.concatenate([m.vertices for m in meshes]), renderer.znear)
+        whole = renderer.render([camera], meshes)["c"]
+        zbuffer = renderer.render_depth_labels([camera], meshes)["c"]
+        np.testing.assert_array_equal(zbuffer.labels, whole.labels, err_msg=name)
+        np.testing.assert_array_equal(zbuffer.depth, whole.depth, err_msg=name)
+    u0, v0, u1, v1 = boxes["two spheres"]
+    assert u0 == 0 and (u1 - u0) * (v1 - v0) < 0.6 * 320 * 240  # cut at the edge, a part of the image
+    assert boxes["through the near plane"] is None
+    u0, v0, u1, v1 = boxes["out of sight"]
+    assert (u1 - u0) * (v1 - v0) == 0 and not whole.labels.any()
 
 
 def test_convention_pin_a_rendered_blob_sits_where_the_camera_projects_it(rig, renderer):

@@ -128,14 +128,17 @@ class SceneRenderer:
         return views
 
     def render_depth_labels(self, cameras: Sequence[Camera], meshes: Sequence[SurfaceMesh]) -> dict[str, DepthLabels]:
-        """Depth and labels only (one unlit pass per camera): the z-buffer an estimator uses for visibility."""
+        """Depth and labels only (one unlit pass per camera): the z-buffer an estimator uses for visibility. Each
+        pass draws and reads back only the rectangle the meshes can cover in its camera (`drawn_box`), the rest
+        background: the same arrays as the whole image drawn (the readback of a 640x480 pass is ~1.5 ms)."""
         if self._renderer is None:
             raise RuntimeError("the renderer is closed")
         self._set_meshes(meshes, lit=False)
+        vertices = np.concatenate([mesh.vertices for mesh in meshes]) if meshes else np.zeros((0, 3))
         views = {}
         for camera in cameras:
             self._set_camera(camera)
-            views[camera.name] = DepthLabels(*self._label_pass())
+            views[camera.name] = DepthLabels(*self._label_pass(drawn_box(camera, vertices, self.znear)))
         return views
 
     def _set_camera(self, camera: Camera) -> None:
@@ -159,52 +162,68 @@ class SceneRenderer:
             if self._label_node is not None:
                 self._label_node.mesh.is_visible = True
 
-    def _label_pass(self) -> tuple[np.ndarray, np.ndarray, Callable[[np.ndarray], np.ndarray]]:
-        """Labels (0 on the background) and depth (`_draw`): the label node drawn unlit on black, the lit nodes
-        hidden."""
+    def _label_pass(self, box: Box | None = None) -> tuple[np.ndarray, np.ndarray, Callable[[np.ndarray], np.ndarray]]:
+        """Labels (0 on the background) and depth (`_draw`, within ``box``): the label node drawn unlit on black,
+        the lit nodes hidden."""
         background, self._scene.bg_color = self._scene.bg_color, np.array([0.0, 0.0, 0.0, 1.0])
         for node in self._lit_nodes:
             node.mesh.is_visible = False
         try:
-            return self._draw(self._pyrender.RenderFlags.FLAT, self._gl.GL_RED)
+            return self._draw(self._pyrender.RenderFlags.FLAT, self._gl.GL_RED, box)
         finally:
             self._scene.bg_color = background
             for node in self._lit_nodes:
                 node.mesh.is_visible = True
 
-    def _draw(self, flags, colour_format: int) -> tuple[np.ndarray, np.ndarray, Callable[[np.ndarray], np.ndarray]]:
+    def _draw(
+        self, flags, colour_format: int, box: Box | None = None
+    ) -> tuple[np.ndarray, np.ndarray, Callable[[np.ndarray], np.ndarray]]:
         """The scene drawn from the camera: its colour buffer (``GL_RGB``: ``(h, w, 3)``, ``GL_RED``: ``(h, w)``,
         uint8) and its depth as read back, both top row first, with what makes that depth metric (any pixels of it:
         a pass whose depth is read at a few pixels converts those alone).
 
         Without framebuffers (OSMesa) pyrender draws to the window's buffer and reads back RGB and a depth it makes
         metric with boolean masks; this reads only the channels asked for, into arrays of its own, and makes the
-        depth metric with pyrender's formula, element by element (the same values). With framebuffers pyrender's
-        own (multisampled) path is kept."""
+        depth metric with pyrender's formula, element by element (the same values). There, with a ``box`` that
+        holds everything the pass can draw (a label pass: colour 0 where nothing is drawn), only the box is cleared,
+        drawn (a scissor) and read, the rest filled as the clear leaves it. With framebuffers pyrender's own
+        (multisampled) path is kept."""
         offscreen, gl = self._renderer, self._gl
         red = colour_format == gl.GL_RED
         if offscreen._platform.supports_framebuffers():
             colour, depth = offscreen.render(self._scene, flags=flags)
             return np.ascontiguousarray(colour[:, :, 0] if red else colour), depth, _metric_depth
-        colour = np.empty((self.height, self.width) if red else (self.height, self.width, 3), np.uint8)
-        window_depth = np.empty((self.height, self.width), np.float32)
-        offscreen._platform.make_current()
-        try:
-            renderer = offscreen._renderer
-            renderer.viewport_width, renderer.viewport_height = self.width, self.height
-            renderer.render(self._scene, flags)
-            gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, 0)
-            gl.glReadBuffer(gl.GL_FRONT)
-            gl.glPixelStorei(gl.GL_PACK_ALIGNMENT, 1)
-            gl.glReadPixels(0, 0, self.width, self.height, colour_format, gl.GL_UNSIGNED_BYTE, colour)
-            gl.glReadPixels(0, 0, self.width, self.height, gl.GL_DEPTH_COMPONENT, gl.GL_FLOAT, window_depth)
-        finally:
-            offscreen._platform.make_uncurrent()
-        return (
-            np.ascontiguousarray(colour[::-1]),
-            window_depth[::-1],
-            functools.partial(_metric_window_depth, near=self.znear, far=self.zfar),
-        )
+        u0, v0, u1, v1 = (0, 0, self.width, self.height) if box is None else box
+        whole = (u0, v0, u1, v1) == (0, 0, self.width, self.height)
+        shape = (v1 - v0, u1 - u0) if red else (v1 - v0, u1 - u0, 3)
+        colour, window_depth = np.zeros(shape, np.uint8), np.ones(shape[:2], np.float32)  # what the clear leaves
+        if u1 > u0 and v1 > v0:
+            offscreen._platform.make_current()
+            try:
+                bottom = self.height - v1  # OpenGL's rows count from the bottom
+                if not whole:
+                    gl.glEnable(gl.GL_SCISSOR_TEST)
+                    gl.glScissor(u0, bottom, u1 - u0, v1 - v0)
+                renderer = offscreen._renderer
+                renderer.viewport_width, renderer.viewport_height = self.width, self.height
+                try:
+                    renderer.render(self._scene, flags)
+                finally:
+                    gl.glDisable(gl.GL_SCISSOR_TEST)
+                gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, 0)
+                gl.glReadBuffer(gl.GL_FRONT)
+                gl.glPixelStorei(gl.GL_PACK_ALIGNMENT, 1)
+                gl.glReadPixels(u0, bottom, u1 - u0, v1 - v0, colour_format, gl.GL_UNSIGNED_BYTE, colour)
+                gl.glReadPixels(u0, bottom, u1 - u0, v1 - v0, gl.GL_DEPTH_COMPONENT, gl.GL_FLOAT, window_depth)
+            finally:
+                offscreen._platform.make_uncurrent()
+        metric = functools.partial(_metric_window_depth, near=self.znear, far=self.zfar)
+        if whole:
+            return np.ascontiguousarray(colour[::-1]), window_depth[::-1], metric
+        full_colour = np.zeros((self.height, self.width, *shape[2:]), np.uint8)
+        full_depth = np.ones((self.height, self.width), np.float32)
+        full_colour[v0:v1, u0:u1], full_depth[v0:v1, u0:u1] = colour[::-1], window_depth[::-1]
+        return full_colour, full_depth, metric
 
     def _set_meshes(self, meshes: Sequence[SurfaceMesh], lit: bool) -> None:
         """Replace last frame's nodes (vertices change every frame; materials and textures are reused): the label
@@ -284,6 +303,27 @@ def _node_in_order(node_class: type) -> type:
             return self.order
 
     return NodeInOrder
+
+
+Box = tuple[int, int, int, int]  # (u0, v0, u1, v1): half-open pixel bounds, top row first
+
+BOX_MARGIN_PX = 2  # beyond the projected vertices' bounds: coverage is by pixel centres, OpenGL's transform float32
+
+
+def drawn_box(camera: Camera, vertices: np.ndarray, near: float) -> Box | None:
+    """The rectangle of ``camera``'s image that holds every pixel a pass can draw of meshes with these world
+    ``vertices`` ``(n, 3)``: a triangle in front of the camera projects inside its vertices' projections, so their
+    bounds widened by `BOX_MARGIN_PX`, cut at the image (empty when none can be seen). None (the whole image) when
+    a vertex is not in front of the near plane: clipped there, a triangle's image is not bounded by its vertices'."""
+    if not len(vertices):
+        return (0, 0, 0, 0)
+    pixels, depth = camera.project(vertices)
+    if not (np.all(depth > near) and np.isfinite(pixels).all()):
+        return None
+    low = np.maximum(np.floor(pixels.min(axis=0)).astype(int) - BOX_MARGIN_PX, 0)
+    high = np.minimum(np.ceil(pixels.max(axis=0)).astype(int) + 1 + BOX_MARGIN_PX, [camera.width, camera.height])
+    high = np.maximum(high, low)
+    return int(low[0]), int(low[1]), int(high[0]), int(high[1])
 
 
 def _metric_window_depth(window_depth: np.ndarray, near: float, far: float) -> np.ndarray:
