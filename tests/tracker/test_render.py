@@ -8,6 +8,7 @@ import pytest
 
 from tracker.geometry.cameras import look_at
 from tracker.models.dsq import DSQShape, dsq_points, mesh_topology
+from tracker.render.gl import load_pyrender
 from tracker.render.mesh import SurfaceMesh, vertex_normals
 from tracker.render.offscreen import DEFAULT_BACKGROUND, SceneRenderer, drawn_box
 
@@ -138,6 +139,40 @@ def test_the_z_buffer_pass_draws_only_where_its_meshes_can_be_seen_and_equals_th
     assert boxes["through the near plane"] is None
     u0, v0, u1, v1 = boxes["out of sight"]
     assert (u1 - u0) * (v1 - v0) == 0 and not whole.labels.any()
+
+
+def test_uniforms_are_set_only_when_they_change_and_the_images_are_pyrenders_own(arm, motion, rig, monkeypatch):
+    """The textured arm's frames drawn with uniforms set only when their values change (`tracker.render.gl`) equal,
+    bit for bit, those drawn with pyrender's own setter, which sets each one again for every part, with under half the
+    uniform lookups; a renderer's programs, deleted when it closes, forget what they held."""
+    load_pyrender()  # the platform chosen, and the setter in place, before pyrender's module is imported here
+    import pyrender.shader_program as shader_program
+
+    frames = [arm.surface_meshes(motion.params(arm, frame)) for frame in (0, 5, 10)]
+    lookups = {"changed": 0, "every": 0}
+    look_up = shader_program.glGetUniformLocation
+
+    def drawn(setter):
+        def counted(*args):
+            lookups[setter] += 1
+            return look_up(*args)
+
+        with monkeypatch.context() as patch:
+            patch.setattr(shader_program, "glGetUniformLocation", counted)
+            if setter == "every":
+                patch.setattr(shader_program.ShaderProgram, "set_uniform", changed.pyrender_set_uniform)
+            with SceneRenderer(320, 240) as renderer:  # programs of its own
+                views = [renderer.render(rig, meshes) for meshes in frames]
+                programs = list(renderer._renderer._renderer._program_cache._program_cache.values())
+        assert programs and not any("_held_uniforms" in vars(program) for program in programs)
+        return views
+
+    changed = shader_program.ShaderProgram.set_uniform
+    for ours, theirs in zip(drawn("changed"), drawn("every"), strict=True):
+        for camera in rig:
+            for image in ("rgb", "depth", "labels"):
+                np.testing.assert_array_equal(getattr(ours[camera.name], image), getattr(theirs[camera.name], image))
+    assert lookups["changed"] < lookups["every"] / 2
 
 
 def test_convention_pin_a_rendered_blob_sits_where_the_camera_projects_it(rig, renderer):

@@ -12,6 +12,8 @@ import os
 import sys
 from types import ModuleType
 
+import numpy as np
+
 PLATFORM_VARIABLE = "PYOPENGL_PLATFORM"
 DEFAULT_PLATFORM = "osmesa"
 OSMESA_FIX = "install Debian's libosmesa6 (`sudo apt-get install libosmesa6`, or run `make setup`)"
@@ -37,6 +39,7 @@ def load_pyrender() -> ModuleType:
         raise RenderBackendError(f"cannot load pyrender with {PLATFORM_VARIABLE}={platform}: {error}; {fix}") from error
     if platform == "osmesa":
         _use_stable_osmesa_context_ids()
+    _set_only_changed_uniforms()
     return pyrender
 
 
@@ -62,3 +65,43 @@ def _use_stable_osmesa_context_ids() -> None:
 
     current_context_address.stable_ids = True
     gl_platform.GetCurrentContext = current_context_address
+
+
+_UNIFORM_SETTER_INSTALLED = False
+
+
+def _set_only_changed_uniforms() -> None:
+    """Make pyrender set a shader program's uniform only when its value changes.
+
+    pyrender sets every uniform of every mesh node it draws, by name (a location lookup each time): the same camera,
+    lights and material factors again for each of a textured body's 15 parts, about 20 uniforms a part. A program
+    keeps its uniforms' values (OpenGL program state), so setting the value it holds changes nothing: the same
+    images, to the bit, in less time. The values are remembered per program object and dropped when pyrender
+    deletes its program, so a program made anew is set in full; pyrender's own setter stays reachable as
+    ``ShaderProgram.set_uniform.pyrender_set_uniform``.
+    """
+    from pyrender.shader_program import ShaderProgram
+
+    global _UNIFORM_SETTER_INSTALLED
+    if _UNIFORM_SETTER_INSTALLED:  # once per process: a test may put pyrender's own setter back
+        return
+    _UNIFORM_SETTER_INSTALLED = True
+    set_uniform, remove_from_context = ShaderProgram.set_uniform, ShaderProgram._remove_from_context
+
+    def set_changed_uniform(program: ShaderProgram, name: str, value, unsigned: bool = False) -> None:
+        held = program.__dict__.setdefault("_held_uniforms", {})
+        if isinstance(value, np.ndarray):
+            key = (value.dtype.str, value.shape, value.tobytes(), unsigned)
+        else:
+            key = (type(value), value, unsigned)
+        if held.get(name) != key:
+            set_uniform(program, name, value, unsigned)
+            held[name] = key
+
+    def remove_and_forget(program: ShaderProgram) -> None:
+        program.__dict__.pop("_held_uniforms", None)
+        remove_from_context(program)
+
+    set_changed_uniform.pyrender_set_uniform = set_uniform
+    ShaderProgram.set_uniform = set_changed_uniform
+    ShaderProgram._remove_from_context = remove_and_forget
