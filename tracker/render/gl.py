@@ -90,11 +90,11 @@ def _set_only_changed_uniforms() -> None:
 
     def set_changed_uniform(program: ShaderProgram, name: str, value, unsigned: bool = False) -> None:
         held = program.__dict__.setdefault("_held_uniforms", {})
-        if isinstance(value, np.ndarray):
-            key = (value.dtype.str, value.shape, value.tobytes(), unsigned)
-        else:
-            key = (type(value), value, unsigned)
-        if held.get(name) != key:
+        key = None  # a value of another kind (a list, which its owner may change in place): set every time
+        if isinstance(value, (np.ndarray, np.generic, bool, int, float)):  # by its bytes: -0.0 is not 0.0
+            array = np.asarray(value)
+            key = (type(value), array.dtype.str, array.shape, array.tobytes(), unsigned)
+        if key is None or held.get(name) != key:
             set_uniform(program, name, value, unsigned)
             held[name] = key
 
