@@ -14,13 +14,12 @@ moved by whole pixels first (each sample scored on its own spot: `tracker.tbf.fi
 same runs, moved (`SilhouetteRuns.shifted_sums`, `ShiftedRunBoundaries`: the product read row by row in a compiled
 loop, for the rows asked only).
 
-The compiled loops (numba) are used only where a run already uses compiled code: its first call in a process takes
-about half a second, more than a short run of one camera spends on the sums.
+The loops over runs and pixels are compiled (numba) and kept in numba's cache on disk, from which a process's first
+call of each loads it.
 """
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 from typing import Any
 
@@ -48,32 +47,26 @@ class SilhouetteRuns:
     ends: np.ndarray  # (runs,) of the same type, exclusive
     ptr: np.ndarray  # (n + 1,) int64
 
-    @functools.cached_property
-    def owner(self) -> np.ndarray:
-        """``(runs,)`` int32: the silhouette of each run (made when first asked: scoring every silhouette at once
-        needs it, a few silhouettes' scoring gathers its own)."""
-        return np.repeat(np.arange(len(self), dtype=np.int32), np.diff(self.ptr))
-
     @classmethod
-    def from_masks(cls, masks: np.ndarray, block: int = 1024) -> SilhouetteRuns:
-        """From ``(n, h, w)`` silhouettes (bool, or labels: inside where nonzero), ``block`` at a time."""
-        starts, ends, counts = [], [], []
-        pixels = int(np.prod(masks.shape[1:]))
-        index = run_index_type(pixels)
+    def from_masks(
+        cls, masks: np.ndarray, block: int = 1024, *, frame: tuple[int, int] = (0, 0), down_columns: bool = False
+    ) -> SilhouetteRuns:
+        """From ``(n, h, w)`` silhouettes (bool, or labels: inside where nonzero), ``block`` at a time; each framed by
+        ``frame`` ``(v, u)`` pixels of outside on either side (as ``np.pad`` would frame it), and read down the framed
+        image's columns instead of along its rows with ``down_columns`` (as its transpose's rows)."""
+        masks = np.asarray(masks)
+        index = run_index_type((masks.shape[1] + 2 * frame[0]) * (masks.shape[2] + 2 * frame[1]))
+        starts, ends, counts = [np.zeros(0, index)], [np.zeros(0, index)], [np.zeros(0, np.int64)]
         for first in range(0, len(masks), block):
-            chunk = np.asarray(masks[first : first + block]).reshape(-1, pixels)
-            padded = np.zeros((len(chunk), pixels + 2), np.int8)
-            np.not_equal(chunk, 0, out=padded[:, 1:-1].view(bool))
-            edges = np.diff(padded, axis=1)  # +1 where a run starts, -1 one past where it ends
-            rows, columns = np.nonzero(edges)  # row-major: each row's starts and ends alternate
-            rising = edges[rows, columns] == 1
-            starts.append(columns[rising].astype(index))
-            ends.append(columns[~rising].astype(index))
-            counts.append(np.bincount(rows[rising], minlength=len(chunk)))
-        counts = np.concatenate(counts) if counts else np.zeros(0, np.int64)
-        ptr = np.r_[0, np.cumsum(counts)].astype(np.int64)
-        empty = np.zeros(0, index)
-        return cls(np.concatenate(starts) if starts else empty, np.concatenate(ends) if ends else empty, ptr)
+            inside = np.not_equal(masks[first : first + block], 0)
+            if down_columns:  # the transposed images' rows
+                inside = np.ascontiguousarray(inside.transpose(0, 2, 1))
+            found_starts, found_ends, found_counts = _inside_runs(inside, *(frame[::-1] if down_columns else frame))
+            starts.append(found_starts.astype(index))
+            ends.append(found_ends.astype(index))
+            counts.append(found_counts)
+        ptr = np.r_[0, np.cumsum(np.concatenate(counts))].astype(np.int64)
+        return cls(np.concatenate(starts), np.concatenate(ends), ptr)
 
     def __len__(self) -> int:
         return len(self.ptr) - 1
@@ -84,8 +77,8 @@ class SilhouetteRuns:
         prefix = np.empty(len(values) + 1)
         prefix[0] = 0.0
         np.cumsum(values, out=prefix[1:])
-        if rows is None:
-            return np.bincount(self.owner, weights=prefix[self.ends] - prefix[self.starts], minlength=len(self))
+        if rows is None:  # each silhouette's runs added in order from 0, as np.bincount would add them: its bits
+            return _run_sums(prefix, self.starts, self.ends, self.ptr)
         index, owner = self.runs_of(rows)
         return np.bincount(owner, weights=prefix[self.ends[index]] - prefix[self.starts[index]], minlength=len(rows))
 
@@ -116,14 +109,7 @@ class SilhouetteRuns:
         """Silhouettes ``rows`` (all by default) as ``(len(rows), h, w)`` bool images of ``shape`` ``(h, w)``: the
         inverse of `from_masks`."""
         rows = np.arange(len(self)) if rows is None else np.asarray(rows, dtype=np.int64).reshape(-1)
-        pixels = shape[0] * shape[1]
-        index, owner = self.runs_of(rows)
-        # +1 where a run starts, -1 one past where it ends, a spare column a row: a silhouette's runs never touch, so
-        # no two marks share a place and each is a plain store
-        edges = np.zeros((len(rows), pixels + 1), np.int8)
-        edges.reshape(-1)[owner * (pixels + 1) + self.starts[index]] = 1
-        edges.reshape(-1)[owner * (pixels + 1) + self.ends[index]] = -1
-        return np.cumsum(edges[:, :pixels], axis=1, dtype=np.int8).view(bool).reshape(len(rows), *shape)
+        return _painted(self.starts, self.ends, self.ptr, rows, shape[0] * shape[1]).reshape(len(rows), *shape)
 
     def subset(self, rows: np.ndarray) -> SilhouetteRuns:
         """The runs of silhouettes ``rows``, in that order (e.g. a tree level's representatives by node)."""
@@ -145,13 +131,14 @@ class RunBoundaries:
     silhouette's sum of the values over its pixels. Runs go along the image's rows or down its columns, whichever
     gives fewer (a standing person's silhouettes: a third fewer down the columns)."""
 
-    def __init__(self, images: np.ndarray) -> None:
-        """From ``(n, h, w)`` silhouettes (bool, or labels: inside where nonzero)."""
+    def __init__(self, images: np.ndarray, frame: tuple[int, int] = (0, 0)) -> None:
+        """From ``(n, h, w)`` silhouettes (bool, or labels: inside where nonzero), each framed by ``frame`` ``(v, u)``
+        pixels of outside on either side (the images it sums over are ``(h + 2 v, w + 2 u)``)."""
         images = np.asarray(images)
-        self.shape = images.shape[1:]
+        self.shape = (images.shape[1] + 2 * frame[0], images.shape[2] + 2 * frame[1])
         along_rows, down_columns = (
-            SilhouetteRuns.from_masks(images),
-            SilhouetteRuns.from_masks(images.transpose(0, 2, 1)),
+            SilhouetteRuns.from_masks(images, frame=frame),
+            SilhouetteRuns.from_masks(images, frame=frame, down_columns=True),
         )
         self.by_columns = len(down_columns.starts) < len(along_rows.starts)
         runs = down_columns if self.by_columns else along_rows
@@ -159,8 +146,9 @@ class RunBoundaries:
         columns[0::2], columns[1::2] = runs.starts, runs.ends  # a silhouette's runs are ordered and never touch
         signs = np.empty(len(columns))
         signs[0::2], signs[1::2] = -1.0, 1.0
-        self.matrix = sparse.csr_matrix((signs, columns, 2 * runs.ptr), shape=(len(runs), images[0].size + 1))
-        self.sums(np.zeros(images[0].size), np.zeros(0, np.int64))  # `sums`' compiled loop loaded here, not at frame 0
+        pixels = self.shape[0] * self.shape[1]
+        self.matrix = sparse.csr_matrix((signs, columns, 2 * runs.ptr), shape=(len(runs), pixels + 1))
+        self.sums(np.zeros(pixels), np.zeros(0, np.int64))  # `sums`' compiled loop loaded here, not at frame 0
 
     def __len__(self) -> int:
         return self.matrix.shape[0]
@@ -195,7 +183,7 @@ class ShiftedRunBoundaries:
         spread = pixels.max(axis=0) - self.low if len(pixels) else np.zeros(2, np.int64)
         self.margin = (int(spread[0]), int(spread[1]))  # (u, v)
         mu, mv = self.margin
-        framed = RunBoundaries(np.pad(images, ((0, 0), (mv, mv), (mu, mu))))
+        framed = RunBoundaries(images, frame=(mv, mu))
         self.by_columns = framed.by_columns
         self.framed_shape = (self.shape[0] + 2 * mv, self.shape[1] + 2 * mu)
         moved = self.flat(pixels - self.low)  # >= 0
@@ -376,3 +364,66 @@ def _moved_run_sums(
                 sums[i] += prefix[base + end] - prefix[base + start]
         piece += 1
     return sums
+
+
+@numba.njit(cache=True, nogil=True)
+def _inside_runs(inside: np.ndarray, frame_v: int, frame_u: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """`SilhouetteRuns.from_masks`' scan of ``(n, h, w)`` bool silhouettes, each framed by ``frame_v`` rows and
+    ``frame_u`` columns of outside on either side and flattened along its rows: every run's start and end
+    (exclusive), and each silhouette's count of runs. Without a frame at the sides, a run goes on from a row's end
+    into the next row's start where both are inside (as along the flattened image)."""
+    n, height, width = inside.shape
+    framed_width = width + 2 * frame_u
+    most = height * ((width + 1) // 2 + 1)  # the runs a silhouette can hold at most
+    counts = np.zeros(n, np.int64)
+    starts, ends = np.empty(64 * n + most, np.int64), np.empty(64 * n + most, np.int64)
+    run = 0
+    for i in range(n):
+        if run + most > len(starts):  # grown between the silhouettes only: the scan below then runs unhindered
+            starts = np.concatenate((starts[:run], np.empty(run + most, np.int64)))
+            ends = np.concatenate((ends[:run], np.empty(run + most, np.int64)))
+        was_inside, before = False, run
+        for v in range(height):
+            first = (v + frame_v) * framed_width + frame_u  # the row's first pixel in the framed image
+            row = inside[i, v]
+            for u in range(width):
+                here = row[u]
+                if here != was_inside:
+                    was_inside = here
+                    if here:
+                        starts[run] = first + u
+                    else:
+                        ends[run] = first + u
+                        run += 1
+            if was_inside and frame_u > 0:  # the frame after the row ends its run
+                ends[run] = first + width
+                run += 1
+                was_inside = False
+        if was_inside:  # a run to the last row's end: the frame's rows below, or the image's end, end it
+            ends[run] = (height + frame_v) * framed_width
+            run += 1
+        counts[i] = run - before
+    return starts[:run].copy(), ends[:run].copy(), counts
+
+
+@numba.njit(cache=True, nogil=True)
+def _run_sums(prefix: np.ndarray, starts: np.ndarray, ends: np.ndarray, ptr: np.ndarray) -> np.ndarray:
+    """`SilhouetteRuns.sums` of every silhouette: per silhouette, ``prefix[end] - prefix[start]`` of each of its runs
+    added in the runs' order from 0."""
+    sums = np.zeros(len(ptr) - 1)
+    for i in range(len(ptr) - 1):
+        total = 0.0
+        for r in range(ptr[i], ptr[i + 1]):
+            total += prefix[ends[r]] - prefix[starts[r]]
+        sums[i] = total
+    return sums
+
+
+@numba.njit(cache=True, nogil=True)
+def _painted(starts: np.ndarray, ends: np.ndarray, ptr: np.ndarray, rows: np.ndarray, pixels: int) -> np.ndarray:
+    """`SilhouetteRuns.masks`: ``(len(rows), pixels)`` bool, each row's silhouette's runs set."""
+    images = np.zeros((len(rows), pixels), np.bool_)
+    for j in range(len(rows)):
+        for r in range(ptr[rows[j]], ptr[rows[j] + 1]):
+            images[j, starts[r] : ends[r]] = True
+    return images

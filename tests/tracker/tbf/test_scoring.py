@@ -152,3 +152,54 @@ def test_the_top_levels_sums_of_some_rows_are_the_sparse_products_of_those_rows(
         np.testing.assert_array_equal(boundaries.sums(values, rows), by_product)
         by_product = placed.matrix[picked] @ slid[start : start + placed.matrix.shape[1]]
         np.testing.assert_array_equal(placed.sums(values, pixels[9], rows), by_product)
+
+
+def _plain_runs(image: np.ndarray) -> list[tuple[int, int]]:
+    """The runs of inside pixels along ``image`` flattened, pixel by pixel (the naive reference)."""
+    flat, runs, start = image.ravel(), [], None
+    for pixel, inside in enumerate(flat):
+        if inside and start is None:
+            start = pixel
+        elif not inside and start is not None:
+            runs.append((start, pixel))
+            start = None
+    return runs + ([(start, len(flat))] if start is not None else [])
+
+
+def test_runs_of_framed_silhouettes_are_those_of_the_padded_images_and_all_sums_add_as_bincount():
+    """`SilhouetteRuns.from_masks` framed by rows and columns of outside, along the rows or down the columns, gives
+    the runs of the images padded (np.pad) and flattened (transposed first for the columns), pixel by pixel; a frame
+    with no columns lets a run go on into the next row, one with some ends it at the row's end. Every silhouette's
+    sum adds its runs in order from 0, as ``np.bincount`` adds them (the bits), and the masks painted back from the
+    runs are the images."""
+    rng = np.random.default_rng(17)
+    masks = rng.random((9, 7, 6)) < 0.5
+    masks[2] = False  # no runs
+    masks[3] = True  # one run over the whole image
+    masks[4, 1, 3:], masks[4, 2, :4] = True, True  # a run from one row into the next
+    labels = masks * rng.integers(1, 9, masks.shape)  # part labels: inside where nonzero
+    for frame in ((0, 0), (2, 0), (0, 3), (1, 2)):
+        padded = np.pad(masks, ((0, 0), (frame[0],) * 2, (frame[1],) * 2))
+        for down_columns in (False, True):
+            runs = SilhouetteRuns.from_masks(labels, block=4, frame=frame, down_columns=down_columns)
+            for index, image in enumerate(padded):
+                found = list(
+                    zip(
+                        runs.starts[runs.ptr[index] : runs.ptr[index + 1]].tolist(),
+                        runs.ends[runs.ptr[index] : runs.ptr[index + 1]].tolist(),
+                        strict=True,
+                    )
+                )
+                assert found == _plain_runs(image.T if down_columns else image), (frame, down_columns, index)
+        framed = RunBoundaries(masks, frame=frame)
+        plain = RunBoundaries(padded)
+        assert framed.shape == plain.shape and framed.by_columns == plain.by_columns
+        assert (framed.matrix != plain.matrix).nnz == 0
+    runs = SilhouetteRuns.from_masks(masks)
+    values = rng.normal(size=42) * 10.0 ** rng.integers(-6, 7, 42)  # widely spread: rounding shows
+    prefix = np.r_[0.0, np.cumsum(values)]
+    owner = np.repeat(np.arange(len(runs)), np.diff(runs.ptr))
+    by_bincount = np.bincount(owner, weights=prefix[runs.ends] - prefix[runs.starts], minlength=len(runs))
+    assert runs.sums(values).tobytes() == by_bincount.tobytes()
+    np.testing.assert_array_equal(runs.masks((7, 6)), masks)
+    np.testing.assert_array_equal(runs.masks((7, 6), np.array([4, 2, 4])), masks[[4, 2, 4]])
