@@ -32,6 +32,27 @@ def test_a_joints_rotation_at_a_frame_matches_an_independent_reader(clip):
         )
 
 
+def test_every_motion_value_is_pythons_float_of_its_text(clip, tmp_path):
+    """The MOTION numbers are read by NumPy's table reader: each is Python's ``float`` of its text, to the bit, on a
+    real clip and on numbers of every form (17 digits, exponents, signs, tabs and blank lines between them)."""
+    rows = [line.split() for line in CLIP.read_text().partition("MOTION")[2].splitlines()[3:] if line.strip()]
+    assert clip.motion.tobytes() == np.array([[float(token) for token in row] for row in rows]).tobytes()
+    rng = np.random.default_rng(4)
+    values = (rng.normal(size=(40, 3)) * 10.0 ** rng.integers(-12, 12, (40, 3))).tolist()
+    texts = [
+        [("%.17g", "%+.6e", "%r", "%.3f")[(k + j) % 4] % value for j, value in enumerate(row)]
+        for k, row in enumerate(values)
+    ]
+    motion = "\n\n".join("\t".join(row) if k % 5 == 0 else " ".join(row) for k, row in enumerate(texts))
+    path = tmp_path / "numbers.bvh"
+    path.write_text(
+        "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 Xposition Yposition Zposition\n}\nMOTION\n"
+        f"Frames: 40\nFrame Time: 0.1\n{motion}\n"
+    )
+    expected = np.array([[float(text) for text in row] for row in texts])
+    assert read_bvh(path).motion.tobytes() == expected.tobytes()
+
+
 def test_a_rotation_by_hand(clip):
     # Frame 300, RightForeArm: Z -139.2219, Y 48.5242, X -100.9798 degrees, composed Rz @ Ry @ Rx.
     z, y, x = np.radians(clip.motion[300, clip.columns[clip.index("RightForeArm")]])

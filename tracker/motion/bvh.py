@@ -215,7 +215,29 @@ def _parse_motion(path: Path, body: str, width: int) -> tuple[int, float, np.nda
     frame_time = _floats(path, [lines[1].split(":", 1)[1].strip()], "Frame Time")[0]
     if not (frame_time > 0 and math.isfinite(frame_time)):
         raise BvhError(f"{path}: Frame Time must be a positive number, got {frame_time}")
-    rows = [line.split() for line in lines[2:] if line.strip()]
+    motion = _number_table(lines[2:], width)
+    if motion is None:  # not a table of numbers `width` wide: say what is wrong
+        motion = _checked_table(path, lines[2:], width, frames)
+    if not np.isfinite(motion).all():
+        raise BvhError(f"{path}: the MOTION section holds NaN or infinite values")
+    return frames, frame_time, motion
+
+
+def _number_table(lines: list[str], width: int) -> np.ndarray | None:
+    """The lines' whitespace-separated numbers as ``(rows, width)`` (blank lines skipped), parsed by NumPy's reader
+    (correctly rounded, as Python's ``float``); None when they are not such a table."""
+    if not lines:  # (NumPy's reader would warn)
+        return None
+    try:
+        table = np.loadtxt(lines, dtype=np.float64, comments=None, ndmin=2)
+    except ValueError:
+        return None
+    return table if table.shape[1:] == (width,) and len(table) else None
+
+
+def _checked_table(path: Path, lines: list[str], width: int, frames: int) -> np.ndarray:
+    """The MOTION lines' numbers, or `BvhError` saying what is wrong with them."""
+    rows = [line.split() for line in lines if line.strip()]
     if len(rows) > 1 and len(rows[-1]) < width and all(len(row) == width for row in rows[:-1]):
         raise BvhError(
             f"{path}: the file ends inside frame {len(rows) - 1} ({len(rows[-1])} of {width} values; "
@@ -225,12 +247,9 @@ def _parse_motion(path: Path, body: str, width: int) -> tuple[int, float, np.nda
     if any(length != width for length in lengths):
         raise BvhError(f"{path}: every MOTION line must hold {width} values, found lines of {lengths}")
     try:
-        motion = np.array(rows, dtype=np.float64).reshape(len(rows), width)
+        return np.array(rows, dtype=np.float64).reshape(len(rows), width)
     except ValueError:
         raise BvhError(f"{path}: a MOTION line holds something that is not a number") from None
-    if not np.isfinite(motion).all():
-        raise BvhError(f"{path}: the MOTION section holds NaN or infinite values")
-    return frames, frame_time, motion
 
 
 def _floats(path: Path, values: list[str], what: str) -> list[float]:
