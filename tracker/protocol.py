@@ -127,7 +127,8 @@ class SampleDictionary:
     pose_of: model parameters -> the nearest pose vector of the samples' space (its coordinates, not a sample);
     steps: ``(k,)`` the motion model's step on each pose component (distances in the samples' space, in steps);
     prefers: ``(frame, a, b)`` -> whether that frame's observation is at least as likely under sample ``a`` as
-    under sample ``b`` by the tracker's own cost (False for a frame it did not use).
+    under sample ``b`` by the tracker's own cost (False for a frame it did not use); joint_positions: ``() ->
+    model.joint_positions(poses)`` where the tracker keeps them between runs (None: the evaluation computes them).
     """
 
     poses: np.ndarray
@@ -136,6 +137,7 @@ class SampleDictionary:
     pose_of: Callable[[np.ndarray], np.ndarray]
     steps: np.ndarray
     prefers: Callable[[int, int, int], bool]
+    joint_positions: Callable[[], np.ndarray] | None = None
 
 
 class Tracker(Protocol):

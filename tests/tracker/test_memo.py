@@ -46,3 +46,24 @@ def test_cached_sample_poses_are_the_poses_themselves(body, tmp_path):
         cached = cached_sample_poses(spec, body, tmp_path)
         for a, b in zip(fresh, cached, strict=True):
             np.testing.assert_array_equal(a, b)
+
+
+def test_cached_joint_positions_are_the_bodys_own_and_the_floor_is_the_same_from_them(body, tmp_path):
+    """A dictionary's joint positions kept between runs (`cached_joint_positions`) are the body's to the bit, made
+    and then read back, under a key of the poses (other poses, another file); the 3-D floor found from them is the
+    one found computing them."""
+    from tracker.evaluation.body import nearest_in_3d
+    from tracker.tbf.sample_spec import SampleSpec, cached_joint_positions, sample_poses
+
+    poses, _ = sample_poses(SampleSpec(), body)
+    fresh = body.joint_positions(poses)
+    for _ in range(2):  # made, then read back
+        assert cached_joint_positions(body, poses, tmp_path).tobytes() == fresh.tobytes()
+    assert len(list(tmp_path.glob("*.npz"))) == 1
+    assert cached_joint_positions(body, poses[::2], tmp_path).tobytes() == fresh[::2].tobytes()
+    assert len(list(tmp_path.glob("*.npz"))) == 2
+    truths = poses[[3, 0, len(poses) - 1]] + np.r_[0.3, -0.2, 0.0, 0.05 * np.ones(poses.shape[1] - 3)]
+    computed = nearest_in_3d(body, truths, body, poses)
+    given = nearest_in_3d(body, truths, body, poses, cached_joint_positions(body, poses, tmp_path))
+    for a, b in zip(computed, given, strict=True):
+        assert a.tobytes() == b.tobytes()

@@ -179,16 +179,22 @@ def joint_angle_error_deg(truth: np.ndarray, estimate: np.ndarray) -> np.ndarray
 
 
 def nearest_in_3d(
-    body: BodyMesh, truths: np.ndarray, candidate_body: BodyMesh, candidates: np.ndarray
+    body: BodyMesh,
+    truths: np.ndarray,
+    candidate_body: BodyMesh,
+    candidates: np.ndarray,
+    candidate_joints: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """For each truth pose ``(n, POSE_SIZE)`` of ``body``: the candidate pose (of ``candidate_body``) nearest in 3-D
     — the smallest root-aligned mean distance over `MPJPE_JOINTS` — and that distance (mm). The dictionary's own
-    floor when the candidates are a tracker's samples."""
+    floor when the candidates are a tracker's samples (``candidate_joints``: their ``joint_positions``, if known)."""
     joints = [JOINT_INDEX[name] for name in MPJPE_JOINTS]
     pelvis = MPJPE_JOINTS.index("Hips")
     true = body.joint_positions(np.asarray(truths, dtype=np.float64))[:, joints]
     true = true - true[:, pelvis : pelvis + 1]
-    known = candidate_body.joint_positions(np.asarray(candidates, dtype=np.float64))[:, joints]
+    if candidate_joints is None:
+        candidate_joints = candidate_body.joint_positions(np.asarray(candidates, dtype=np.float64))
+    known = candidate_joints[:, joints]
     known = known - known[:, pelvis : pelvis + 1]
     nearest, distance = np.empty(len(true), dtype=np.int64), np.empty(len(true))
     for k, frame in enumerate(true):
@@ -251,7 +257,8 @@ class BodyEvaluation:
         joint-angle error (``joint_angle_floor_deg``) and as Fig 4(c)'s swings had it been the estimate
         (``swings_floor``); and those samples."""
         truths = np.stack(table["truth_pose"][table["part"] == body.part_names[0]])
-        nearest, distance_mm = nearest_in_3d(body, truths, dictionary.model, dictionary.poses)
+        known = None if dictionary.joint_positions is None else dictionary.joint_positions()
+        nearest, distance_mm = nearest_in_3d(body, truths, dictionary.model, dictionary.poses, known)
         truth_deg = np.array([body.right_arm_swing_deg(pose) for pose in truths])
         floor_deg = np.array([dictionary.model.right_arm_swing_deg(dictionary.poses[k]) for k in nearest])
         figures = {

@@ -42,7 +42,7 @@ from tracker.tbf.motion import BODY_SPACE, PoseSpace, RandomWalk
 from tracker.tbf.own_body import own_body
 from tracker.tbf.placing import AsSeen, FeetAligned, GroundPlaced, Placing, ViewsPlaced
 from tracker.tbf.sample_build import load_or_build
-from tracker.tbf.sample_spec import cached_sample_poses
+from tracker.tbf.sample_spec import cached_joint_positions, cached_sample_poses
 from tracker.tbf.samples import LEVEL_RESOLUTIONS, SampleViews
 from tracker.tbf.settings import TbfSettings, check_settings
 from tracker.tbf.tree import PoseTree, load_or_build_tree, thresholds_for_shares
@@ -158,6 +158,7 @@ class TbfTracker(Tracker):
             pose_of=self.arm_grid.pose_of if self.arm_grid is not None else np.asarray,
             steps=self.motion.base_sigmas(space),
             prefers=self.prefers,
+            joint_positions=None if self.body is None else self._joint_positions,
         )
         setup_s = time.perf_counter() - start
         sigmas = ["/".join(f"{sigma:.3g}" for sigma in views) for views in self.filter.level_sigmas]
@@ -168,6 +169,11 @@ class TbfTracker(Tracker):
             sigmas,
             setup_s,
         )
+
+    def _joint_positions(self) -> np.ndarray:
+        """The body samples' joint positions, on the tracker's own body (`SampleDictionary.joint_positions`)."""
+        poses = np.asarray(self.samples.poses, dtype=np.float64)
+        return cached_joint_positions(self.body, poses, Path(self.settings.cache_dir) / "joints")
 
     def _dictionary(
         self, model: BodyMesh | DSQArm, initial: np.ndarray
