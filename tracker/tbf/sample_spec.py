@@ -157,7 +157,7 @@ def cached_sample_poses(spec: SampleSpec, body: BodyMesh, cache_dir: str | Path)
 def cached_joint_positions(body: BodyMesh, poses: np.ndarray, cache_dir: str | Path) -> np.ndarray:
     """``body.joint_positions(poses)``, kept in ``cache_dir`` between processes under a key of the body's shape, the
     poses' bytes and the core's code (`tracker.memo`): the evaluation's floor reads a dictionary's after every run,
-    a second for tens of thousands of samples, a tenth of that to read."""
+    and tens of thousands of poses take longer to pose than to read back."""
     poses = np.ascontiguousarray(poses, dtype=np.float64)
     inputs = {"joint positions": body.source_key, "poses": hashlib.sha256(poses.tobytes()).hexdigest()}
     return memoized(cache_dir, inputs, lambda: {"joints": body.joint_positions(poses)})["joints"]
