@@ -9,6 +9,7 @@ from __future__ import annotations
 import time
 from collections.abc import Iterator, Sequence
 
+import numba
 import numpy as np
 
 from tracker.geometry.cameras import Camera, wholly_in_view
@@ -74,7 +75,18 @@ def label_areas(labels: np.ndarray, n_parts: int) -> np.ndarray:
     """``(n_parts,)`` pixel counts of labels 1..n_parts in a label image (paper 2's A_j, eq 3); ``(n, n_parts)`` for
     ``(n, h, w)`` images."""
     labels = np.asarray(labels)
-    images = labels.reshape(-1, labels.shape[-2] * labels.shape[-1])
-    index = np.arange(len(images))[:, None] * (n_parts + 1) + images
-    counts = np.bincount(index.ravel(), minlength=len(images) * (n_parts + 1)).reshape(-1, n_parts + 1)[:, 1:]
+    images = np.ascontiguousarray(labels.reshape(-1, labels.shape[-2] * labels.shape[-1]))
+    counts = _label_counts(images, n_parts)
     return counts[0] if labels.ndim == 2 else counts
+
+
+@numba.njit(cache=True, nogil=True)
+def _label_counts(images: np.ndarray, n_parts: int) -> np.ndarray:
+    """`label_areas` of ``(n, pixels)`` label images: ``(n, n_parts)``, the pixels of labels 1..n_parts (a label
+    beyond them is none of theirs)."""
+    counts = np.zeros((len(images), n_parts + 1), np.int64)
+    for i in range(len(images)):
+        for label in images[i]:
+            if label <= n_parts:
+                counts[i, label] += 1
+    return counts[:, 1:]

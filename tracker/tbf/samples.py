@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
 
+import numba
 import numpy as np
 
 from tracker.atomic import exclusive
@@ -164,38 +165,53 @@ def cache_key(body: Posable, camera: Camera, poses: np.ndarray, resolutions=RESO
 
 def reduce_labels(labels: np.ndarray, factor: int, n_parts: int) -> np.ndarray:
     """Label images ``(..., h, w)`` ``factor`` times smaller: each block is background unless at least half of it is
-    covered, else the part covering most of it (ties: the lower label). Sides must be multiples of ``factor``.
-
-    Each block's labels are sorted; a block of one label keeps it, and only the mixed ones (along edges) have their
-    runs of equal labels measured for the longest. ``n_parts`` bounds the labels (they must fit a byte)."""
+    covered, else the part covering most of it (ties: the lower label). Sides must be multiples of ``factor``;
+    ``n_parts`` bounds the labels (they must fit a byte)."""
     labels = np.asarray(labels)
     if factor == 1:
         return labels.copy()
     if n_parts > 255:
         raise ValueError(f"{n_parts} parts do not fit a byte")
     *lead, height, width = labels.shape
-    rows, cols, size = height // factor, width // factor, factor * factor
-    blocks = labels.reshape(-1, rows, factor, cols, factor).transpose(0, 1, 3, 2, 4).reshape(-1, rows, cols, size)
-    ordered = np.sort(blocks, axis=-1)
-    reduced = ordered[..., 0].astype(np.uint8)  # a block of one label: that label (0 stays background)
-    mixed = ordered[..., 0] != ordered[..., -1]
-    reduced[mixed] = _block_majority(ordered[mixed])
-    return reduced.reshape(*lead, rows, cols)
+    if height % factor or width % factor:
+        raise ValueError(f"label images of {width}x{height} are not whole blocks of {factor}x{factor}")
+    images = np.ascontiguousarray(labels.reshape(-1, height, width), dtype=np.uint8)
+    return _block_majorities(images, factor).reshape(*lead, height // factor, width // factor)
 
 
-def _block_majority(ordered: np.ndarray) -> np.ndarray:
-    """``(k, size)`` blocks, each sorted: the part with the longest run (the first of equals: the lower label)
-    where at least half the block is covered, else 0."""
-    size = ordered.shape[-1]
-    starts = np.ones(ordered.shape, bool)
-    starts[:, 1:] = ordered[:, 1:] != ordered[:, :-1]
-    position = np.arange(size)
-    next_start = np.full(ordered.shape, size)
-    next_start[:, :-1] = np.minimum.accumulate(np.where(starts, position, size)[:, :0:-1], axis=1)[:, ::-1]
-    run = np.where(starts & (ordered != 0), next_start - position, 0)  # each run's length, at its start
-    majority = np.take_along_axis(ordered, np.argmax(run, axis=1)[:, None], axis=1)[:, 0]
-    covered = (size - (ordered == 0).sum(axis=1)) * 2 >= size
-    return np.where(covered, majority, 0).astype(np.uint8)
+@numba.njit(cache=True, nogil=True)
+def _block_majorities(labels: np.ndarray, factor: int) -> np.ndarray:
+    """`reduce_labels` of ``(n, h, w)`` uint8 images, block by block: each label's pixels counted, then the lowest
+    label of the most pixels where at least half the block is covered, else 0."""
+    n, height, width = labels.shape
+    size = factor * factor
+    reduced = np.empty((n, height // factor, width // factor), np.uint8)
+    counts = np.zeros(256, np.int64)
+    for i in range(n):
+        for row in range(height // factor):
+            top = row * factor
+            for column in range(width // factor):
+                left = column * factor
+                first, same = labels[i, top, left], True
+                for v in range(top, top + factor):
+                    for u in range(left, left + factor):
+                        counts[labels[i, v, u]] += 1
+                        same &= labels[i, v, u] == first
+                if same:  # one label over the block (background most often): that label
+                    reduced[i, row, column] = first
+                    counts[first] = 0
+                    continue
+                best, most = 0, 0
+                for v in range(top, top + factor):
+                    for u in range(left, left + factor):
+                        label = labels[i, v, u]
+                        if label != 0 and (counts[label] > most or (counts[label] == most and label < best)):
+                            best, most = label, counts[label]
+                reduced[i, row, column] = best if (size - counts[0]) * 2 >= size else 0
+                for v in range(top, top + factor):
+                    for u in range(left, left + factor):
+                        counts[labels[i, v, u]] = 0
+    return reduced
 
 
 def resolution_factor(finest: tuple[int, int], resolution: tuple[int, int]) -> int:

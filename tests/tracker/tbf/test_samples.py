@@ -274,3 +274,20 @@ def test_label_reduction_equals_counting_block_by_block(factor):
     reduced = reduce_labels(labels, factor, 15)
     for image, ours in zip(labels, reduced, strict=True):
         np.testing.assert_array_equal(ours, _naive_reduction(image, factor, 15))
+
+
+def test_part_areas_count_each_label_and_reduction_wants_whole_blocks():
+    """`label_areas` counts each part's pixels (the naive count, label by label) of one image or of many; a label
+    image whose sides are not whole blocks is not reduced."""
+    from tracker.sequence import label_areas
+
+    rng = np.random.default_rng(9)
+    labels = rng.integers(0, 16, (4, 12, 20)).astype(np.uint8)
+    naive = np.array([[(image == part).sum() for part in range(1, 16)] for image in labels])
+    np.testing.assert_array_equal(label_areas(labels, 15), naive)
+    np.testing.assert_array_equal(label_areas(labels[2], 15), naive[2])
+    np.testing.assert_array_equal(
+        reduce_labels(labels.reshape(2, 2, 12, 20), 4, 15)[1, 0], reduce_labels(labels[2], 4, 15)
+    )
+    with pytest.raises(ValueError, match="not whole blocks of 3x3"):
+        reduce_labels(labels, 3, 15)
