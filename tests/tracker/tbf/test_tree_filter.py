@@ -331,3 +331,21 @@ def test_the_most_probable_samples_are_a_full_stable_sorts_nonzero_head():
         full = np.argsort(-posterior, kind="stable")[:count]
         np.testing.assert_array_equal(most_probable(posterior, count), full[posterior[full] > 0])
     assert len(most_probable(np.zeros(10), 3)) == 0
+
+
+def test_the_trees_xor_distances_count_differing_bits_as_numpy_does():
+    """The tree's XOR distance counts each row's bits that differ from one row (a population count by halves in a
+    compiled loop), as NumPy's ``bitwise_count`` counts them: random rows, one with no bit set, one with all, the
+    last word part-filled."""
+    from tracker.tbf.tree import _differing_bits
+
+    rng = np.random.default_rng(2)
+    rows = rng.integers(0, 2**63, (50, 7), dtype=np.uint64) << np.uint64(1) | rng.integers(0, 2, (50, 7)).astype(
+        np.uint64
+    )
+    rows[3], rows[4] = 0, np.uint64(2**64 - 1)  # none set, all set
+    rows[:, -1] &= np.uint64(2**20 - 1)  # the last word part-filled
+    for index in (0, 3, 4):
+        expected = np.bitwise_count(rows ^ rows[index]).sum(axis=1, dtype=np.int64)
+        np.testing.assert_array_equal(_differing_bits(rows, index), expected)
+    assert _differing_bits(rows, 3)[4] == 7 * 64 - 44  # all ones against none (the last word masked to 20 bits)
