@@ -199,31 +199,11 @@ def thresholds_for_shares(
 def _split(poses, masks, pixels, threshold) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Steps 1-4 for one node's members (``masks``, ``pixels``: per view): representative member indices (after
     step 4, and as step 2 chose them), and each member's node 0..k-1."""
-    count = len(poses)
     first = int(np.argmin(np.linalg.norm(poses - poses.mean(axis=0), axis=1)))
-    nearest_distance = np.full(count, np.inf)
-    nearest_rep = np.zeros(count, dtype=np.int64)
-    total_distance = np.zeros(count)
-    reps = []
-    candidate = first
-    while candidate is not None:
-        rep_index = len(reps)
-        reps.append(candidate)
-        distance = _xor_to_one(masks, candidate, pixels)
-        closer = distance < nearest_distance
-        nearest_distance[closer], nearest_rep[closer] = distance[closer], rep_index
-        total_distance += distance
-        eligible = nearest_distance > threshold
-        eligible[reps] = False
-        if not eligible.any():
-            candidate = None
-        else:
-            mean = np.where(eligible, total_distance / len(reps), -np.inf)
-            candidate = int(np.argmax(mean))
-    seeds = np.array(reps)
-    nearest_rep[seeds] = np.arange(len(reps))  # a representative is in its own node
+    seeds, nearest_rep = _seeds(tuple(masks), np.array(pixels, dtype=np.int64), first, float(threshold))
+    nearest_rep[seeds] = np.arange(len(seeds))  # a representative is in its own node
     reps_array = seeds.copy()
-    for node in range(len(reps)):  # step 4: the member nearest the node's mean
+    for node in range(len(seeds)):  # step 4: the member nearest the node's mean
         members = np.flatnonzero(nearest_rep == node)
         centre = poses[members].mean(axis=0)
         reps_array[node] = members[np.argmin(np.linalg.norm(poses[members] - centre, axis=1))]
@@ -241,14 +221,35 @@ def _packed_bits(stack: SilhouetteStack, block: int = 4096) -> np.ndarray:
     return padded.view(np.uint64)
 
 
-def _xor_to_one(masks: list[np.ndarray], index: int, pixels: list[int]) -> np.ndarray:
-    """XOR distance (eq 6) of sample ``index`` to every sample, differing pixels (popcount) over N_W, as the mean
-    over the views (``masks``, ``pixels``: per view)."""
-    total = None
-    for view_masks, view_pixels in zip(masks, pixels, strict=True):
-        distance = _differing_bits(view_masks, index) / view_pixels
-        total = distance if total is None else total + distance
-    return total / len(masks)
+@numba.njit(cache=True, nogil=True)
+def _seeds(masks: tuple, pixels: np.ndarray, first: int, threshold: float) -> tuple[np.ndarray, np.ndarray]:
+    """Steps 2-3 for one node's members, from member ``first``: each new seed is the member farthest on average from
+    the seeds so far among those farther than ``threshold`` from every one, until none is. The seeds in order, and
+    each member's nearest seed (its index among them). A distance is the XOR distance (eq 6): the differing pixels
+    over the window's (``pixels``), the mean over the views (``masks``: per view, the members' bit rows)."""
+    count = len(masks[0])
+    nearest_distance = np.full(count, np.inf)
+    nearest_seed = np.zeros(count, np.int64)
+    total_distance = np.zeros(count)
+    taken = np.zeros(count, np.bool_)
+    seeds = np.empty(count, np.int64)
+    found, candidate = 0, first
+    while candidate >= 0:
+        seeds[found], taken[candidate] = candidate, True
+        found += 1
+        distance = _differing_bits(masks[0], candidate) / pixels[0]
+        for view in range(1, len(masks)):
+            distance = distance + _differing_bits(masks[view], candidate) / pixels[view]
+        distance = distance / len(masks)
+        candidate, farthest = -1, -np.inf
+        for i in range(count):
+            if distance[i] < nearest_distance[i]:
+                nearest_distance[i], nearest_seed[i] = distance[i], found - 1
+            total_distance[i] += distance[i]
+            # the first member of the largest mean distance, among those still farther than T_l from every seed
+            if nearest_distance[i] > threshold and not taken[i] and total_distance[i] / found > farthest:
+                candidate, farthest = i, total_distance[i] / found
+    return seeds[:found].copy(), nearest_seed
 
 
 # Masks of a 64-bit word's bits in pairs, fours and eights, and a byte of ones in each byte: a population count by

@@ -349,3 +349,49 @@ def test_the_trees_xor_distances_count_differing_bits_as_numpy_does():
         expected = np.bitwise_count(rows ^ rows[index]).sum(axis=1, dtype=np.int64)
         np.testing.assert_array_equal(_differing_bits(rows, index), expected)
     assert _differing_bits(rows, 3)[4] == 7 * 64 - 44  # all ones against none (the last word masked to 20 bits)
+
+
+def test_the_seeds_are_those_of_the_loop_written_with_numpy():
+    """Steps 2-3 (`_seeds`, one compiled loop): the same seeds in the same order and the same nearest seed for every
+    member as the loop written with NumPy arrays (each new seed the first member of the largest mean XOR distance
+    among those still farther than T_l from every seed), over two views of different sizes, with members alike."""
+    from tracker.tbf.tree import _seeds
+
+    def numpy_seeds(views, pixels, first, threshold):
+        count = len(views[0])
+        nearest, nearest_seed, total = np.full(count, np.inf), np.zeros(count, np.int64), np.zeros(count)
+        seeds, candidate = [], first
+        while candidate is not None:
+            seeds.append(candidate)
+            distance = sum(
+                np.bitwise_count(rows ^ rows[candidate]).sum(axis=1, dtype=np.int64) / size
+                for rows, size in zip(views, pixels, strict=True)
+            ) / len(views)
+            closer = distance < nearest
+            nearest[closer], nearest_seed[closer] = distance[closer], len(seeds) - 1
+            total += distance
+            eligible = nearest > threshold
+            eligible[seeds] = False
+            mean = np.where(eligible, total / len(seeds), -np.inf)
+            candidate = int(np.argmax(mean)) if eligible.any() else None
+        return np.array(seeds), nearest_seed
+
+    rng = np.random.default_rng(6)
+    centre = rng.integers(0, 2**63, 5, dtype=np.uint64)
+
+    def view(words):  # 300 members about one silhouette, each with its bits flipped at a rate of its own
+        flipped = rng.random((300, words * 64)) < rng.uniform(0.0, 0.2, (300, 1))
+        return centre[:words] ^ np.packbits(flipped, axis=1, bitorder="little").view(np.uint64)
+
+    views = (view(5), view(3))
+    for rows in views:  # members alike in both views: ties, which the first of them wins
+        rows[200:260] = rows[100:160]
+    pixels = np.array([5 * 64, 3 * 64])
+    counts = []
+    for threshold in (0.02, 0.08, 0.15, 0.3):
+        seeds, nearest_seed = _seeds(views, pixels, 7, threshold)
+        expected_seeds, expected_nearest = numpy_seeds(views, pixels, 7, threshold)
+        np.testing.assert_array_equal(seeds, expected_seeds)
+        np.testing.assert_array_equal(nearest_seed, expected_nearest)
+        counts.append(len(seeds))
+    assert counts == sorted(counts, reverse=True) and counts[0] > 100 and counts[-1] < 10  # a few seeds to most
