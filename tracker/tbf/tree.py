@@ -210,15 +210,31 @@ def _split(poses, masks, pixels, threshold) -> tuple[np.ndarray, np.ndarray, np.
     return reps_array, seeds, nearest_rep
 
 
-def _packed_bits(stack: SilhouetteStack, block: int = 4096) -> np.ndarray:
-    """The stack's silhouettes as ``(n, words)`` uint64 bit rows (zero-padded), for XOR by popcount; decoded and
-    packed ``block`` at a time."""
-    pixels = int(np.prod(stack.shape))
-    padded = np.zeros((len(stack), -(-pixels // 64) * 8), np.uint8)
-    for first in range(0, len(stack), block):
-        flat = stack.masks(np.arange(first, min(first + block, len(stack)))).reshape(-1, pixels)
-        padded[first : first + len(flat), : -(-pixels // 8)] = np.packbits(flat, axis=1)
-    return padded.view(np.uint64)
+def _packed_bits(stack: SilhouetteStack) -> np.ndarray:
+    """The stack's silhouettes as ``(n, words)`` uint64 bit rows (zero-padded), for XOR by popcount: their runs set
+    straight into the bytes ``np.packbits`` would give their images (its bit order), no image made."""
+    runs, pixels = stack.runs, int(np.prod(stack.shape))
+    return _packed_runs(runs.starts, runs.ends, runs.ptr, -(-pixels // 64) * 8).view(np.uint64)
+
+
+@numba.njit(cache=True, nogil=True)
+def _packed_runs(starts: np.ndarray, ends: np.ndarray, ptr: np.ndarray, row_bytes: int) -> np.ndarray:
+    """``(n, row_bytes)`` uint8: each silhouette's runs as bits, pixel p at byte ``p // 8``, bit ``7 - p % 8``."""
+    packed = np.zeros((len(ptr) - 1, row_bytes), np.uint8)
+    for i in range(len(ptr) - 1):
+        row = packed[i]
+        for r in range(ptr[i], ptr[i + 1]):
+            pixel, end = np.int64(starts[r]), np.int64(ends[r])
+            while pixel < end and (pixel & 7 or pixel + 8 > end):  # a byte's bits one by one
+                row[pixel >> 3] |= np.uint8(0x80 >> (pixel & 7))
+                pixel += 1
+            while pixel + 8 <= end:  # whole bytes
+                row[pixel >> 3] = 0xFF
+                pixel += 8
+            while pixel < end:
+                row[pixel >> 3] |= np.uint8(0x80 >> (pixel & 7))
+                pixel += 1
+    return packed
 
 
 @numba.njit(cache=True, nogil=True)

@@ -395,3 +395,21 @@ def test_the_seeds_are_those_of_the_loop_written_with_numpy():
         np.testing.assert_array_equal(nearest_seed, expected_nearest)
         counts.append(len(seeds))
     assert counts == sorted(counts, reverse=True) and counts[0] > 100 and counts[-1] < 10  # a few seeds to most
+
+
+def test_bit_rows_are_the_images_packed():
+    """A stack's bit rows for the tree (`_packed_bits`, set straight from its runs) are its images as ``np.packbits``
+    packs them, zero-padded to whole 64-bit words: runs of every length, aligned to a byte or not, images empty and
+    full, a run wrapping into the next row."""
+    from tracker.tbf.scoring import SilhouetteStack
+    from tracker.tbf.tree import _packed_bits
+
+    rng = np.random.default_rng(8)
+    images = rng.random((40, 9, 13)) < rng.uniform(0.0, 1.0, (40, 1, 1))
+    images[0], images[1] = False, True
+    images[2] = False
+    images[2, 3, 5:], images[2, 4, :7] = True, True  # 8 + 7 pixels from pixel 44: a byte's boundary crossed
+    stack = SilhouetteStack.of(images, (0, 0, 13, 9))
+    expected = np.zeros((40, 16), np.uint8)  # 117 pixels: two 64-bit words
+    expected[:, :15] = np.packbits(images.reshape(40, -1), axis=1)
+    np.testing.assert_array_equal(_packed_bits(stack), expected.view(np.uint64))
