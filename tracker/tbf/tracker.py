@@ -172,8 +172,7 @@ class TbfTracker(Tracker):
 
     def _joint_positions(self) -> np.ndarray:
         """The body samples' joint positions, on the tracker's own body (`SampleDictionary.joint_positions`)."""
-        poses = np.asarray(self.samples.poses, dtype=np.float64)
-        return cached_joint_positions(self.body, poses, Path(self.settings.cache_dir) / "joints")
+        return cached_joint_positions(self.body, self.samples.poses, Path(self.settings.cache_dir) / "joints")
 
     def _dictionary(
         self, model: BodyMesh | DSQArm, initial: np.ndarray

@@ -225,7 +225,7 @@ def _packed_runs(starts: np.ndarray, ends: np.ndarray, ptr: np.ndarray, row_byte
         row = packed[i]
         for r in range(ptr[i], ptr[i + 1]):
             pixel, end = np.int64(starts[r]), np.int64(ends[r])
-            while pixel < end and (pixel & 7 or pixel + 8 > end):  # bit by bit to a byte's start (or a short run's end)
+            while pixel < end and pixel & 7:  # bit by bit to a byte's start
                 row[pixel >> 3] |= np.uint8(0x80 >> (pixel & 7))
                 pixel += 1
             while pixel + 8 <= end:  # then whole bytes
