@@ -141,6 +141,35 @@ def test_the_z_buffer_pass_draws_only_where_its_meshes_can_be_seen_and_equals_th
     assert (u1 - u0) * (v1 - v0) == 0 and not whole.labels.any()
 
 
+def test_the_z_buffer_pass_is_drawn_without_pyrenders_scene_and_equals_its_label_pass_frame_after_frame(
+    arm, motion, rig, renderer, monkeypatch
+):
+    """On OSMesa `render_depth_labels` draws its meshes itself (pyrender's renderer is not called), refilling its
+    buffers every frame: the arm's z-buffer meshes over three frames and three cameras, then no mesh at all, give
+    the labels and depth of pyrender's own label pass (`render`), bit for bit."""
+    load_pyrender()
+    import pyrender.renderer
+
+    calls = []
+    render = pyrender.renderer.Renderer.render
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return render(*args, **kwargs)
+
+    frames = [arm.zbuffer_meshes(motion.params(arm, frame)) for frame in (0, 6, 12)] + [[]]
+    for meshes in frames:
+        whole = renderer.render(rig, meshes)
+        with monkeypatch.context() as patch:
+            patch.setattr(pyrender.renderer.Renderer, "render", counted)
+            zbuffers = renderer.render_depth_labels(rig, meshes)
+        for camera in rig:
+            np.testing.assert_array_equal(zbuffers[camera.name].labels, whole[camera.name].labels)
+            np.testing.assert_array_equal(zbuffers[camera.name].depth, whole[camera.name].depth)
+        assert any(whole[camera.name].labels.any() for camera in rig) == bool(meshes)
+    assert not calls
+
+
 def test_uniforms_are_set_only_when_they_change_and_the_images_are_pyrenders_own(arm, motion, rig, monkeypatch):
     """The textured arm's frames drawn with uniforms set only when their values change (`tracker.render.gl`) equal,
     bit for bit, those drawn with pyrender's own setter, which sets each one again for every part, with under half the

@@ -8,14 +8,18 @@ One GL context serves every frame and camera of a run; textures are uploaded onc
 cost is mostly per mesh drawn, so each pass draws as few as it can, the same triangles in the same order (the same
 pixels as one mesh per part): the lit pass draws consecutive meshes that look alike (untextured, one colour: the
 body's parts) as one mesh, and the label pass draws every mesh as one, unlit, each vertex coloured by its part's
-label.
+label. The z-buffer pass that trackers call every frame (`SceneRenderer.render_depth_labels`) skips pyrender's
+scene altogether on OSMesa: `_DirectLabels` draws its one mesh with pyrender's program, into buffers refilled in
+place.
 """
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import functools
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -90,6 +94,7 @@ class SceneRenderer:
         self._lit_nodes: list = []  # the lit pass's: one per run of alike meshes, or per mesh
         self._label_node = None  # the label pass's: every mesh as one, each vertex coloured by its label
         self._label_material = pr.MetallicRoughnessMaterial(baseColorFactor=[1.0, 1.0, 1.0, 1.0])
+        self._direct: _DirectLabels | None = None  # the z-buffer pass without pyrender's scene (made at first use)
         self.last_pass_ms: dict[str, float] = {}  # time spent in each pass, summed over the last call's cameras
         try:
             self._renderer = pr.OffscreenRenderer(self.width, self.height)
@@ -133,12 +138,18 @@ class SceneRenderer:
         background: the same arrays as the whole image drawn, with less to clear and read back."""
         if self._renderer is None:
             raise RuntimeError("the renderer is closed")
-        self._set_meshes(meshes, lit=False)
         vertices = np.concatenate([mesh.vertices for mesh in meshes]) if meshes else np.zeros((0, 3))
+        direct = not self._renderer._platform.supports_framebuffers()
+        if direct:
+            with self._current():
+                self._direct_labels().load(meshes)
+        else:
+            self._set_meshes(meshes, lit=False)
         views = {}
         for camera in cameras:
             self._set_camera(camera)
-            views[camera.name] = DepthLabels(*self._label_pass(drawn_box(camera, vertices, self.znear)))
+            box = drawn_box(camera, vertices, self.znear)
+            views[camera.name] = DepthLabels(*(self._direct_label_pass(box) if direct else self._label_pass(box)))
         return views
 
     def _set_camera(self, camera: Camera) -> None:
@@ -175,8 +186,34 @@ class SceneRenderer:
             for node in self._lit_nodes:
                 node.mesh.is_visible = True
 
+    def _direct_label_pass(self, box: Box | None) -> tuple[np.ndarray, np.ndarray, Callable[[np.ndarray], np.ndarray]]:
+        """`_label_pass` of the meshes loaded into `_DirectLabels`, drawn by it (without framebuffers only)."""
+        labels, scene, renderer = self._direct_labels(), self._scene, self._renderer._renderer
+        return self._draw(
+            self._pyrender.RenderFlags.FLAT,
+            self._gl.GL_RED,
+            box,
+            draw=lambda: labels.draw(*renderer._get_camera_matrices(scene), self.width, self.height),
+        )
+
+    def _direct_labels(self) -> _DirectLabels:
+        """The `_DirectLabels` of this context (made at first use, the context current)."""
+        if self._direct is None:
+            self._direct = _DirectLabels(self._pyrender, self._gl, self._renderer._renderer, self._label_material)
+        return self._direct
+
+    @contextlib.contextmanager
+    def _current(self) -> Iterator[None]:
+        """The renderer's context current within."""
+        platform = self._renderer._platform
+        platform.make_current()
+        try:
+            yield
+        finally:
+            platform.make_uncurrent()
+
     def _draw(
-        self, flags, colour_format: int, box: Box | None = None
+        self, flags, colour_format: int, box: Box | None = None, draw: Callable[[], None] | None = None
     ) -> tuple[np.ndarray, np.ndarray, Callable[[np.ndarray], np.ndarray]]:
         """The scene drawn from the camera: its colour buffer (``GL_RGB``: ``(h, w, 3)``, ``GL_RED``: ``(h, w)``,
         uint8) and its depth as read back, both top row first, with what makes that depth metric (any pixels of it:
@@ -187,7 +224,7 @@ class SceneRenderer:
         depth metric with pyrender's formula, element by element (the same values). There, with a ``box`` that
         holds everything the pass can draw (a label pass: colour 0 where nothing is drawn), only the box is cleared,
         drawn (a scissor) and read, the rest filled as the clear leaves it. With framebuffers pyrender's own
-        (multisampled) path is kept."""
+        (multisampled) path is kept. ``draw``: what draws instead of pyrender's render of the scene (there only)."""
         offscreen, gl = self._renderer, self._gl
         red = colour_format == gl.GL_RED
         if offscreen._platform.supports_framebuffers():
@@ -198,8 +235,7 @@ class SceneRenderer:
         shape = (v1 - v0, u1 - u0) if red else (v1 - v0, u1 - u0, 3)
         colour, window_depth = np.empty(shape, np.uint8), np.empty(shape[:2], np.float32)  # the box's, read back
         if u1 > u0 and v1 > v0:
-            offscreen._platform.make_current()
-            try:
+            with self._current():
                 bottom = self.height - v1  # OpenGL's rows count from the bottom
                 if not whole:
                     gl.glEnable(gl.GL_SCISSOR_TEST)
@@ -207,7 +243,7 @@ class SceneRenderer:
                 renderer = offscreen._renderer
                 renderer.viewport_width, renderer.viewport_height = self.width, self.height
                 try:
-                    renderer.render(self._scene, flags)
+                    renderer.render(self._scene, flags) if draw is None else draw()
                 finally:
                     gl.glDisable(gl.GL_SCISSOR_TEST)
                 gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, 0)
@@ -215,8 +251,6 @@ class SceneRenderer:
                 gl.glPixelStorei(gl.GL_PACK_ALIGNMENT, 1)
                 gl.glReadPixels(u0, bottom, u1 - u0, v1 - v0, colour_format, gl.GL_UNSIGNED_BYTE, colour)
                 gl.glReadPixels(u0, bottom, u1 - u0, v1 - v0, gl.GL_DEPTH_COMPONENT, gl.GL_FLOAT, window_depth)
-            finally:
-                offscreen._platform.make_uncurrent()
         metric = functools.partial(_metric_window_depth, near=self.znear, far=self.zfar)
         if whole:
             return np.ascontiguousarray(colour[::-1]), window_depth[::-1], metric
@@ -283,6 +317,99 @@ class SceneRenderer:
             )
             self._materials[mesh.key] = material
         return material
+
+
+class _DirectLabels:
+    """The label pass of `SceneRenderer.render_depth_labels` drawn straight through OpenGL: what pyrender does to
+    draw the label node (`_label_primitive`), without walking its scene, and with buffers made once and refilled
+    each frame instead of a new mesh uploaded. The same program (pyrender's flat shaders, from its cache, for the
+    same vertex attributes and material), vertex layout (position and colour interleaved in float32, one identity
+    instance matrix), uniforms (set through the program as pyrender sets them) and state, so the same pixels, to
+    the bit. Every call needs the renderer's context current."""
+
+    def __init__(self, pyrender, gl, renderer, material) -> None:
+        self._gl, self._material = gl, material
+        corner = pyrender.Primitive(  # a primitive like every label primitive, to pick the program by
+            positions=np.zeros((3, 3), np.float32),
+            indices=np.array([[0, 1, 2]], np.uint32),
+            color_0=np.zeros((3, 4), np.uint8),
+            material=material,
+        )
+        flags = pyrender.constants.ProgramFlags.USE_MATERIAL
+        self._program = renderer._get_primitive_program(corner, pyrender.RenderFlags.FLAT, flags)
+        self._elements = 0
+        self._vertex_array = gl.glGenVertexArrays(1)
+        gl.glBindVertexArray(self._vertex_array)
+        self._vertex_buffer, instances, self._element_buffer = gl.glGenBuffers(3)
+        gl.glBindBuffer(gl.GL_ARRAY_BUFFER, self._vertex_buffer)  # location 0: position, 1: colour (COLOR_0_LOC)
+        for location, (size, offset) in enumerate(((3, 0), (4, 3))):
+            gl.glVertexAttribPointer(location, size, gl.GL_FLOAT, gl.GL_FALSE, 7 * 4, ctypes.c_void_p(4 * offset))
+            gl.glEnableVertexAttribArray(location)
+        gl.glBindBuffer(gl.GL_ARRAY_BUFFER, instances)  # locations 2-5 (INST_M_LOC): the instance's model matrix
+        identity = np.eye(4, dtype=np.float32)
+        gl.glBufferData(gl.GL_ARRAY_BUFFER, identity.nbytes, identity, gl.GL_STATIC_DRAW)
+        for column in range(4):
+            gl.glEnableVertexAttribArray(2 + column)
+            gl.glVertexAttribPointer(2 + column, 4, gl.GL_FLOAT, gl.GL_FALSE, 4 * 4 * 4, ctypes.c_void_p(16 * column))
+            gl.glVertexAttribDivisor(2 + column, 1)
+        gl.glBindBuffer(gl.GL_ELEMENT_ARRAY_BUFFER, self._element_buffer)
+        gl.glBindVertexArray(0)
+
+    def load(self, meshes: Sequence[SurfaceMesh]) -> None:
+        """Every mesh as one, in order, each vertex coloured by its mesh's label, as `_label_primitive` makes it
+        and pyrender uploads it."""
+        gl = self._gl
+        vertices = sum(len(mesh.vertices) for mesh in meshes)
+        data = np.empty((vertices, 7), np.float32)
+        faces, first = [], 0
+        for mesh in meshes:
+            last = first + len(mesh.vertices)
+            data[first:last, :3] = mesh.vertices
+            data[first:last, 3:6] = np.float32(mesh.label / 255.0)
+            data[first:last, 6] = 1.0
+            faces.append(mesh.faces + first)
+            first = last
+        indices = np.ascontiguousarray(np.concatenate(faces) if faces else np.zeros((0, 3)), np.uint32)
+        gl.glBindVertexArray(self._vertex_array)
+        gl.glBindBuffer(gl.GL_ARRAY_BUFFER, self._vertex_buffer)
+        gl.glBufferData(gl.GL_ARRAY_BUFFER, data.nbytes, data, gl.GL_DYNAMIC_DRAW)
+        gl.glBufferData(gl.GL_ELEMENT_ARRAY_BUFFER, indices.nbytes, indices, gl.GL_DYNAMIC_DRAW)
+        gl.glBindVertexArray(0)
+        self._elements = indices.size
+
+    def draw(self, view: np.ndarray, projection: np.ndarray, width: int, height: int) -> None:
+        """Clear to black and draw the loaded meshes with pyrender's camera matrices ``view`` and ``projection``
+        (`Renderer._get_camera_matrices`), into the window's buffer of ``width`` x ``height``."""
+        gl, program, material = self._gl, self._program, self._material
+        gl.glBindFramebuffer(gl.GL_DRAW_FRAMEBUFFER, 0)  # pyrender's forward pass without an offscreen buffer
+        gl.glViewport(0, 0, width, height)
+        gl.glEnable(gl.GL_DEPTH_TEST)
+        gl.glDepthMask(gl.GL_TRUE)
+        gl.glDepthFunc(gl.GL_LESS)
+        gl.glDepthRange(0.0, 1.0)
+        gl.glClearColor(0.0, 0.0, 0.0, 1.0)
+        gl.glClear(gl.GL_COLOR_BUFFER_BIT | gl.GL_DEPTH_BUFFER_BIT)
+        gl.glEnable(gl.GL_MULTISAMPLE)
+        if self._elements:
+            program._bind()
+            program.set_uniform("V", view)
+            program.set_uniform("P", projection)
+            program.set_uniform("M", np.eye(4))  # the label node's pose
+            program.set_uniform("material.emissive_factor", material.emissiveFactor)
+            program.set_uniform("material.base_color_factor", material.baseColorFactor)
+            program.set_uniform("material.metallic_factor", material.metallicFactor)
+            program.set_uniform("material.roughness_factor", material.roughnessFactor)
+            gl.glEnable(gl.GL_BLEND)  # an opaque material, one-sided
+            gl.glBlendFunc(gl.GL_ONE, gl.GL_ZERO)
+            gl.glPolygonMode(gl.GL_FRONT_AND_BACK, gl.GL_FILL)
+            gl.glEnable(gl.GL_CULL_FACE)
+            gl.glCullFace(gl.GL_BACK)
+            gl.glDisable(gl.GL_PROGRAM_POINT_SIZE)
+            gl.glBindVertexArray(self._vertex_array)
+            gl.glDrawElementsInstanced(gl.GL_TRIANGLES, self._elements, gl.GL_UNSIGNED_INT, ctypes.c_void_p(0), 1)
+            gl.glBindVertexArray(0)
+            program._unbind()
+        gl.glFlush()
 
 
 @functools.cache
