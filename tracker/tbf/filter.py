@@ -12,7 +12,9 @@ lost the person, None, has no say):
               from the finest level's as the step starts, has made it; each representative scored from its runs
               of inside pixels, `tracker.tbf.scoring.ObservationScorer`); a node's posterior
               is ``exp(-d^2 / 2 sigma_l^2)`` (eq 10-11, vol(S) constant) times its members' prior mass; nodes
-              below ``prune_fraction`` of the level's best are pruned;
+              below ``prune_fraction`` of the level's best are pruned (with several views, the top level's
+              nodes are scored view by view, each next view only where the pruning could still keep them:
+              `TreeFilter._top_level`, the same survivors);
     leaves    each member sample of a surviving leaf gets ``p(z | leaf) * prior(sample)`` (eq 12-13); the best
               sample is the estimate, and the normalised values are the next frame's posterior.
 Frame 0's prior is a Gaussian around the initial pose (`TreeFilter.start`).
@@ -44,6 +46,8 @@ from tracker.tbf.tree import PoseTree
 from tracker.threads import TwoEndedJobs
 from tracker.timing import elapsed_ms
 from tracker.tol import NEGLIGIBLE_PRIOR, TINY
+
+BOUNDING_NODES = 16  # the top level's nodes scored in every view first, for a lower bound of its best (`_top_level`)
 
 
 @dataclass(frozen=True)
@@ -249,18 +253,50 @@ class TreeFilter:
             if len(nodes) == 0:
                 raise RuntimeError("the prior gives no sample any weight")
             level_scorers = [None if scorer is None else scorer() for scorer in scorers[k]]  # a failure raises here
-            scored = None if len(nodes) == len(level) else nodes
-            distances = self._level_distances(k, level_scorers, scored)
             self.last_evaluated.append(nodes)
-            log_likelihood = self.log_likelihood(k, distances)
-            log_posterior = log_likelihood + np.log(mass)
-            seeing = sum(d is not None for d in distances)
-            keep = log_posterior >= log_posterior.max() + seeing * self.prune_log
             evaluated.append(len(nodes))
+            seeing = sum(scorer is not None for scorer in level_scorers)
+            if k == 0 and seeing > 1:
+                nodes, mass, log_likelihood = self._top_level(nodes, mass, level_scorers)
+            else:
+                distances = self._level_distances(k, level_scorers, None if len(nodes) == len(level) else nodes)
+                log_likelihood = self.log_likelihood(k, distances)
+            log_posterior = log_likelihood + np.log(mass)
+            keep = log_posterior >= log_posterior.max() + seeing * self.prune_log
             kept.append(int(keep.sum()))
             survivors, node_likelihood = nodes[keep], log_likelihood[keep]
             timings[f"level{k + 1}"] = elapsed_ms(start)
         return survivors, node_likelihood, evaluated, kept
+
+    def _top_level(
+        self, nodes: np.ndarray, mass: np.ndarray, scorers: list[ObservationScorer | None]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The top level's ``nodes`` (with their prior ``mass``) that its pruning could keep, that mass and their
+        log-likelihoods (`log_likelihood`'s, to the bit), scored view by view: every node in the first view that sees
+        the person, then in each next view only the nodes whose log-posterior so far reaches the pruning's threshold
+        for a lower bound of the level's best (the best log-posterior, all views scored, of the `BOUNDING_NODES`
+        highest after the first view). Each view adds a term of at most 0, and rounding keeps the order of sums, so
+        a log-posterior so far bounds the node's from above: a node dropped could not have been kept, and the best
+        node is never dropped. With several views most of the level is dropped after the first."""
+        seeing = [view for view, scorer in enumerate(scorers) if scorer is not None]
+        sigmas, log_mass = self.level_sigmas[0], np.log(mass)
+        scoring = {view: self.top_scoring(scorers[view], view) for view in seeing}
+
+        def term(view: int, rows: np.ndarray | None) -> np.ndarray:  # as `log_likelihood` makes each view's
+            return -0.5 * (scoring[view](rows) / sigmas[view]) ** 2
+
+        first = term(seeing[0], None if len(nodes) == len(self.tree.levels[0]) else nodes)
+        so_far = first + log_mass
+        highest = np.argpartition(so_far, -min(BOUNDING_NODES, len(nodes)))[-BOUNDING_NODES:]
+        bound = functools.reduce(operator.add, [first[highest]] + [term(v, nodes[highest]) for v in seeing[1:]])
+        threshold = (bound + log_mass[highest]).max() + len(seeing) * self.prune_log
+        alive = np.flatnonzero(so_far >= threshold)
+        log_likelihood = first[alive]
+        for view in seeing[1:]:
+            log_likelihood = log_likelihood + term(view, nodes[alive])  # in the views' order
+            reach = log_likelihood + log_mass[alive] >= threshold
+            alive, log_likelihood = alive[reach], log_likelihood[reach]
+        return nodes[alive], mass[alive], log_likelihood
 
     def _level_distances(
         self, level: int, scorers: list[ObservationScorer | None], nodes: np.ndarray | None
@@ -305,17 +341,22 @@ class TreeFilter:
     ) -> np.ndarray:
         """View ``view``'s distances of ``scorer``'s observation to the representatives of ``nodes`` of ``level``
         (all of them for None); with spot pixels, each moved from its spot to the reference's (`shifts`)."""
-        if level == 0 and self.spot_pixels is None:
-            return scorer.scores_of_runs(self.top_boundaries[view], nodes)
-        if level == 0:  # the nodes' sums from their run boundaries, moved (ShiftedRunBoundaries)
-            reference = np.rint(self.spot_pixels[0][self._reference, view])
-            return scorer.scores_of_placed(self.top_boundaries[view], reference, nodes)
+        if level == 0:
+            return self.top_scoring(scorer, view)(nodes)
         representatives = self.tree.levels[level].representatives
         samples = representatives if nodes is None else representatives[nodes]
         runs = self._stacks[level][view].runs
         if self.spot_pixels is None:
             return scorer.scores_of_runs(runs, samples)
         return scorer.scores_of_shifted(runs, samples, self.shifts(level, view, samples, self._reference))
+
+    def top_scoring(self, scorer: ObservationScorer, view: int) -> Callable[[np.ndarray | None], np.ndarray]:
+        """`scores_from` at the top level, for any nodes asked (all for None) in turns: the sums of the nodes'
+        run boundaries (`RunBoundaries`), moved with spot pixels (`ShiftedRunBoundaries`), the observation's prefix
+        sums made once."""
+        if self.spot_pixels is None:
+            return scorer.scoring(self.top_boundaries[view])
+        return scorer.scoring(self.top_boundaries[view], np.rint(self.spot_pixels[0][self._reference, view]))
 
     def shifts(self, level: int, view: int, samples: np.ndarray, reference: int) -> np.ndarray:
         """``(len(samples), 2)`` the whole pixels ``(du, dv)`` by which ``samples`` are moved at ``level`` in view

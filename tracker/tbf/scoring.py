@@ -20,6 +20,7 @@ call of each loads it.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -155,16 +156,24 @@ class RunBoundaries:
 
     def sums(self, values: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
         """As `SilhouetteRuns.sums` (``values``: one per pixel, row-major)."""
+        return self.summed(values)(rows)
+
+    def summed(self, values: np.ndarray) -> Callable[[np.ndarray | None], np.ndarray]:
+        """`sums` of ``values`` for any rows asked (all for None), their prefix sums made once."""
         if self.by_columns:
             values = np.asarray(values).reshape(self.shape).T.ravel()
         prefix = np.empty(len(values) + 1)
         prefix[0] = 0.0
         np.cumsum(values, out=prefix[1:])
-        if rows is None:
-            return self.matrix @ prefix
-        indices = self.matrix.indices.view(np.uint32 if self.matrix.indices.dtype == np.int32 else np.uint64)
-        rows = np.ascontiguousarray(rows, dtype=np.int64)  # the rows asked alone, with scipy's product's bits
-        return _signed_sums(self.matrix.indptr.astype(np.int64, copy=False), indices, prefix, rows)
+        indptr, indices = _csr_arrays(self.matrix)
+
+        def sums(rows: np.ndarray | None = None) -> np.ndarray:
+            if rows is None:
+                return self.matrix @ prefix
+            rows = np.ascontiguousarray(rows, dtype=np.int64)  # the rows asked alone, with scipy's product's bits
+            return _signed_sums(indptr, indices, prefix, rows)
+
+        return sums
 
 
 class ShiftedRunBoundaries:
@@ -207,8 +216,14 @@ class ShiftedRunBoundaries:
         """Per silhouette (or per silhouette of ``rows``), the sum of ``values`` (one per pixel of the window,
         row-major) over its pixels once moved by ``reference`` minus its own pixel; ``reference`` within the pixels'
         range (a sample's)."""
+        return self.summed(values, reference)(rows)
+
+    def summed(self, values: np.ndarray, reference: np.ndarray) -> Callable[[np.ndarray | None], np.ndarray]:
+        """`sums` of ``values`` at ``reference`` for any rows asked (all for None), their prefix sums made once."""
         mu, mv = self.margin
-        framed = np.pad(np.asarray(values).reshape(self.shape), ((mv, mv), (mu, mu)))
+        values = np.asarray(values)
+        framed = np.zeros(self.framed_shape, values.dtype)  # the values framed by zeros (as np.pad, without its cost)
+        framed[mv : mv + self.shape[0], mu : mu + self.shape[1]] = values.reshape(self.shape)
         flat = (framed.T if self.by_columns else framed).ravel()
         # prefix[reach + j] is the sum of the first j values; held flat beyond both ends
         prefix = np.zeros(len(flat) + 1 + 2 * self.reach)
@@ -218,10 +233,14 @@ class ShiftedRunBoundaries:
         if np.any(reference < self.low) or np.any(reference > self.low + self.margin):
             raise ValueError(f"reference pixel {reference.tolist()} is outside the silhouettes' pixels")
         start = int(self.flat(reference - self.low))
-        indices = self.matrix.indices.view(np.uint32 if self.matrix.indices.dtype == np.int32 else np.uint64)
-        rows = np.arange(len(self), dtype=np.int64) if rows is None else np.ascontiguousarray(rows, dtype=np.int64)
         slid = prefix[start : start + self.matrix.shape[1]]
-        return _signed_sums(self.matrix.indptr.astype(np.int64, copy=False), indices, slid, rows)
+        indptr, indices = _csr_arrays(self.matrix)
+
+        def sums(rows: np.ndarray | None = None) -> np.ndarray:
+            rows = np.arange(len(self), dtype=np.int64) if rows is None else np.ascontiguousarray(rows, dtype=np.int64)
+            return _signed_sums(indptr, indices, slid, rows)
+
+        return sums
 
 
 @dataclass(frozen=True, eq=False)
@@ -294,7 +313,21 @@ class ObservationScorer:
     ) -> np.ndarray:
         """The distance to every silhouette of ``boundaries`` (or to those of ``rows``), each moved by ``reference``
         minus its own pixel."""
-        return (self._constant + boundaries.sums(self._slope, reference, rows)) / self._pixels
+        return self.scoring(boundaries, reference)(rows)
+
+    def scoring(
+        self, boundaries: RunBoundaries | ShiftedRunBoundaries, reference: np.ndarray | None = None
+    ) -> Callable[[np.ndarray | None], np.ndarray]:
+        """`scores_of_runs` of ``boundaries`` (`scores_of_placed` with a ``reference``) for any rows asked (all for
+        None): the observation's prefix sums made once, for rows asked in turns."""
+        sums = boundaries.summed(self._slope) if reference is None else boundaries.summed(self._slope, reference)
+        return lambda rows=None: (self._constant + sums(rows)) / self._pixels
+
+
+def _csr_arrays(matrix: sparse.csr_matrix) -> tuple[np.ndarray, np.ndarray]:
+    """A CSR matrix's row pointers as int64 and its column indices as unsigned, as `_signed_sums` reads them."""
+    indices = matrix.indices.view(np.uint32 if matrix.indices.dtype == np.int32 else np.uint64)
+    return matrix.indptr.astype(np.int64, copy=False), indices
 
 
 @numba.njit(cache=True, nogil=True)

@@ -7,6 +7,7 @@ import pytest
 from tracker.geometry.rigs import View, cameras
 from tracker.models.body_skeleton import PART_NAMES
 from tracker.registry import COSTS
+from tracker.tbf import filter as filter_module
 from tracker.tbf.calibration import neighbour_scale
 from tracker.tbf.costs import silhouette_distance
 from tracker.tbf.filter import FilterSettings, TreeFilter
@@ -84,6 +85,39 @@ def test_the_likelihood_of_several_views_is_the_product_of_each_views(views):
             assert filter_.level_sigmas[k][view] == pytest.approx(sigma, rel=1e-12)
             expected_log_likelihood += -0.5 * (by_pixel / sigma) ** 2
         np.testing.assert_allclose(filter_.log_likelihood(k, distances), expected_log_likelihood, rtol=1e-9)
+
+
+def test_the_top_level_scored_view_by_view_keeps_the_nodes_and_log_likelihoods_of_every_view_scored(views, monkeypatch):
+    """`TreeFilter._top_level` scores the second view only where the first leaves a node in reach of the pruning:
+    after the level's pruning the same nodes as when every node is scored in every view, with the same
+    log-likelihoods to the bit, whichever nodes bound the level's best (one, or `BOUNDING_NODES`); and it drops
+    nodes on the way."""
+    tree = build_tree(views, THRESHOLDS)
+    level = tree.levels[0]
+    nodes, rng = np.arange(len(level)), np.random.default_rng(5)
+    dropped = 0
+    for prune_fraction in (0.5, 1e-3, 0.0):
+        settings = FilterSettings(likelihood_sigma=0.25, prune_fraction=prune_fraction)
+        filter_ = TreeFilter(views, tree, COSTS.defaults("nwxor"), OccludedWiderWalk(), settings)
+        for held in (3, 23, 40):
+            observations = [  # another pose's silhouettes, one view's moved by a pixel
+                np.roll(full_image(stack, held, level.resolution), view, axis=1)
+                for view, stack in enumerate(views.silhouettes(level.resolution))
+            ]
+            scorers = [filter_._scorer(0, view, observed) for view, observed in enumerate(observations)]
+            mass = rng.uniform(0.1, 1.0, len(nodes))
+            every = filter_.log_likelihood(0, [filter_.scores_from(s, 0, view) for view, s in enumerate(scorers)])
+            posterior = every + np.log(mass)
+            kept = np.flatnonzero(posterior >= posterior.max() + 2 * filter_.prune_log)
+            for bounding in (1, filter_module.BOUNDING_NODES):
+                monkeypatch.setattr(filter_module, "BOUNDING_NODES", bounding)
+                reached, reached_mass, log_likelihood = filter_._top_level(nodes, mass, scorers)
+                np.testing.assert_array_equal(reached_mass, mass[reached])
+                assert log_likelihood.tobytes() == every[reached].tobytes()
+                posterior = log_likelihood + np.log(reached_mass)
+                np.testing.assert_array_equal(reached[posterior >= posterior.max() + 2 * filter_.prune_log], kept)
+                dropped += len(nodes) - len(reached)
+    assert dropped > 0
 
 
 def test_a_part_is_occluded_only_when_no_view_sees_enough_of_it(views):
