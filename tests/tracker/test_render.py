@@ -10,7 +10,7 @@ from tracker.geometry.cameras import look_at
 from tracker.models.dsq import DSQShape, dsq_points, mesh_topology
 from tracker.render.gl import load_pyrender
 from tracker.render.mesh import SurfaceMesh, vertex_normals
-from tracker.render.offscreen import DEFAULT_BACKGROUND, SceneRenderer, drawn_box
+from tracker.render.offscreen import BOX_MARGIN_PX, DEFAULT_BACKGROUND, SceneRenderer, drawn_box
 
 
 def rasterize(camera, vertices, faces):
@@ -139,6 +139,28 @@ def test_the_z_buffer_pass_draws_only_where_its_meshes_can_be_seen_and_equals_th
     assert boxes["through the near plane"] is None
     u0, v0, u1, v1 = boxes["out of sight"]
     assert (u1 - u0) * (v1 - v0) == 0 and not whole.labels.any()
+
+
+def test_the_drawn_box_bounds_the_projected_vertices_widened_by_its_margin():
+    """`drawn_box` (one compiled pass) against the bounds of `Camera.project`'s pixels, widened by `BOX_MARGIN_PX`
+    and cut at the image, for clouds in and across the image; None (the whole image) when a vertex is behind the
+    near plane or not a number."""
+    camera = look_at(
+        "c", np.array([0.0, -2.0, 0.0]), np.zeros(3), np.array([0, 0, 1.0]), width=320, height=240, focal_px=400.0
+    )
+    rng = np.random.default_rng(11)
+    for spread in (0.05, 0.3, 2.0):
+        vertices = rng.normal([0.2, 0.0, -0.1], spread, size=(500, 3))
+        vertices[:, 1] = np.maximum(vertices[:, 1], -1.5)  # in front of the camera (at y = -2)
+        pixels, _ = camera.project(vertices)
+        low = np.maximum(np.floor(pixels.min(axis=0)).astype(int) - BOX_MARGIN_PX, 0)
+        high = np.minimum(np.ceil(pixels.max(axis=0)).astype(int) + 1 + BOX_MARGIN_PX, [320, 240])
+        assert drawn_box(camera, vertices, 0.05) == (low[0], low[1], *np.maximum(high, low))
+    behind, lost = vertices.copy(), vertices.copy()
+    behind[7] = [0.0, -2.5, 0.0]
+    lost[3, 2] = np.nan
+    assert drawn_box(camera, behind, 0.05) is None and drawn_box(camera, lost, 0.05) is None
+    assert drawn_box(camera, np.zeros((0, 3)), 0.05) == (0, 0, 0, 0)
 
 
 def test_the_z_buffer_pass_is_drawn_without_pyrenders_scene_and_equals_its_label_pass_frame_after_frame(

@@ -22,6 +22,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
 from tracker.geometry.cameras import Camera, opengl_camera
@@ -444,13 +445,42 @@ def drawn_box(camera: Camera, vertices: np.ndarray, near: float) -> Box | None:
     a vertex is not in front of the near plane: clipped there, a triangle's image is not bounded by its vertices'."""
     if not len(vertices):
         return (0, 0, 0, 0)
-    pixels, depth = camera.project(vertices)
-    if not (np.all(depth > near) and np.isfinite(pixels).all()):
+    in_front, u_min, v_min, u_max, v_max = _projected_bounds(
+        np.ascontiguousarray(vertices, dtype=np.float64),
+        np.asarray(camera.position, dtype=np.float64),
+        np.asarray(camera.rotation, dtype=np.float64),
+        (camera.fx, camera.fy, camera.cx, camera.cy),
+        near,
+    )
+    if not in_front:
         return None
-    low = np.maximum(np.floor(pixels.min(axis=0)).astype(int) - BOX_MARGIN_PX, 0)
-    high = np.minimum(np.ceil(pixels.max(axis=0)).astype(int) + 1 + BOX_MARGIN_PX, [camera.width, camera.height])
+    low = np.maximum(np.floor([u_min, v_min]).astype(int) - BOX_MARGIN_PX, 0)
+    high = np.minimum(np.ceil([u_max, v_max]).astype(int) + 1 + BOX_MARGIN_PX, [camera.width, camera.height])
     high = np.maximum(high, low)
     return int(low[0]), int(low[1]), int(high[0]), int(high[1])
+
+
+@numba.njit(cache=True, nogil=True)
+def _projected_bounds(
+    points: np.ndarray, position: np.ndarray, rotation: np.ndarray, intrinsics: tuple, near: float
+) -> tuple[bool, float, float, float, float]:
+    """Whether every world point ``(n, 3)`` lies beyond ``near`` in the camera (and is finite), and the bounds of
+    their pixels ``(u_min, v_min, u_max, v_max)`` (`Camera.project`'s, to rounding), in one pass."""
+    fx, fy, cx, cy = intrinsics
+    u_min = v_min = np.inf
+    u_max = v_max = -np.inf
+    for point in points:
+        x, y, z = point[0] - position[0], point[1] - position[1], point[2] - position[2]
+        depth = x * rotation[0, 2] + y * rotation[1, 2] + z * rotation[2, 2]
+        if not depth > near:  # behind the near plane, or not a number
+            return False, u_min, v_min, u_max, v_max
+        u = fx * (x * rotation[0, 0] + y * rotation[1, 0] + z * rotation[2, 0]) / depth + cx
+        v = fy * (x * rotation[0, 1] + y * rotation[1, 1] + z * rotation[2, 1]) / depth + cy
+        if not (np.isfinite(u) and np.isfinite(v)):
+            return False, u_min, v_min, u_max, v_max
+        u_min, u_max = min(u_min, u), max(u_max, u)
+        v_min, v_max = min(v_min, v), max(v_max, v)
+    return True, u_min, v_min, u_max, v_max
 
 
 def _metric_window_depth(window_depth: np.ndarray, near: float, far: float) -> np.ndarray:
