@@ -46,6 +46,7 @@ from tracker.abis.mesh_pairs import MeshPairs, ray_hits
 from tracker.abis.settings import AbisSettings, InitialNoise
 from tracker.abis.visibility import VisibleSamples
 from tracker.geometry.cameras import Camera
+from tracker.membership import members
 from tracker.models.body_mesh import BodyMesh
 from tracker.observe.features import FeatureFrame
 from tracker.render.mesh import vertex_normals
@@ -138,7 +139,7 @@ class BodyAbis(AbisSequence):
             views = []
             for camera in self.cameras:
                 pairs = self._pairs[camera.name]
-                mine = np.isin(pairs.parts, self._carried[part])
+                mine = members(pairs.parts, self._carried[part])
                 views.append(
                     MeshViewPairs(
                         camera,
@@ -185,7 +186,7 @@ class BodyAbis(AbisSequence):
         _, first = np.unique(keys, return_index=True)
         fresh = np.zeros(len(new), bool)
         fresh[first] = True
-        return new.subset(fresh & ~np.isin(keys, sample_keys(pairs.parts, pairs.samples)))
+        return new.subset(fresh & ~members(keys, sample_keys(pairs.parts, pairs.samples)))
 
     def _under_features(
         self, camera: Camera, vertices: np.ndarray, feature_ids: np.ndarray, points: np.ndarray, parts: np.ndarray

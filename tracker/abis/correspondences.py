@@ -18,6 +18,7 @@ from scipy.spatial import cKDTree
 
 from tracker.abis.visibility import VisibleSamples
 from tracker.geometry.cameras import Camera
+from tracker.membership import members
 
 COUNT_NAMES = ("tracked", "new", "discarded_occlusion", "discarded_error", "lost")
 # Refining a pair's surface coordinates: the central-difference step, Gauss-Newton's damping, and how far eta
@@ -92,7 +93,7 @@ def pair_features(
         return Pairs.empty()
     available = np.ones(len(visible), bool)
     if taken is not None and len(taken):
-        available = ~np.isin(sample_keys(visible.part, visible.sample), sample_keys(taken.parts, taken.samples))
+        available = ~members(sample_keys(visible.part, visible.sample), sample_keys(taken.parts, taken.samples))
     candidates = np.flatnonzero(available)
     if len(candidates) == 0:
         return Pairs.empty()

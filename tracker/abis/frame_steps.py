@@ -16,6 +16,7 @@ from tracker.abis.selection import selection_of
 from tracker.abis.settings import AbisSettings
 from tracker.abis.visibility import VisibleSamples
 from tracker.geometry.cameras import Camera
+from tracker.membership import members
 from tracker.observe.features import FeatureFrame, FeatureTracker
 from tracker.protocol import Observation, Points, StepResult
 from tracker.render.offscreen import DepthLabels
@@ -87,7 +88,7 @@ def carry_over(
     the tracked and lost ones counted per part into ``counts`` (view -> ``(n_parts, 5)``)."""
     kept = {}
     for name, held in pairs.items():
-        live = np.isin(held.feature_ids, features[name].ids)
+        live = members(held.feature_ids, features[name].ids)
         counts[name][:, LOST] = held.subset(~live).count_by_part(n_parts)
         kept[name] = held.subset(live)
         counts[name][:, TRACKED] = kept[name].count_by_part(n_parts)
@@ -116,10 +117,10 @@ def discard(
 def feature_states(paired_ids: np.ndarray, features: FeatureFrame, discarded: np.ndarray) -> np.ndarray:
     """Each feature's index into FEATURE_STATES after a view's upkeep (``paired_ids``: its pairs' features)."""
     states = np.full(len(features.ids), FEATURE_STATES.index("unpaired"))
-    paired = np.isin(features.ids, paired_ids)
+    paired = members(features.ids, paired_ids)
     states[paired & features.tracked] = FEATURE_STATES.index("tracked")
     states[paired & features.new] = FEATURE_STATES.index("new")
-    states[np.isin(features.ids, discarded)] = FEATURE_STATES.index("discarded")
+    states[members(features.ids, discarded)] = FEATURE_STATES.index("discarded")
     return states
 
 
@@ -256,7 +257,7 @@ class AbisSequence:
             self._sample_motion(visible.part, visible.sample, motion) if moving else None,
         )
         pairs, discarded = discard(pairs, seen, uv, features, self.settings.max_residual_px, counts)
-        unpaired = ~np.isin(features.ids, pairs.feature_ids) & ~np.isin(features.ids, discarded)
+        unpaired = ~members(features.ids, pairs.feature_ids) & ~members(features.ids, discarded)
         regions = self.selection.regions(zbuffer, features.points)
         return pairs, discarded, self._new_pairs(camera, features, unpaired, regions, visible, pairs, posed)
 
