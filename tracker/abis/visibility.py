@@ -75,15 +75,37 @@ def region_labels_at(
     """The labels at pixels ``(rows, columns)`` ``(n,)``, 0 where the pixel is on an occlusion edge or near the
     silhouette: a part's pixel with another part (not the background) within ``occlusion_margin_px`` (a square
     neighbourhood), where a feature's window straddles two parts' surfaces; or with another label, the background
-    among them, within ``boundary_margin_px``. The neighbourhoods' extremes come from whole-image morphology, the
-    comparisons are made at the pixels alone (a view's few hundred features, not its whole image)."""
+    among them, within ``boundary_margin_px``. The neighbourhoods' extremes come from morphology over the labelled
+    pixels' bounding box widened by the larger margin (beyond it every pixel is background, and so are the
+    extremes around it: the same as over the whole image), the comparisons are made at the pixels alone (a view's
+    few hundred features, not its whole image)."""
+    at = labels[rows, columns]
+    left, top, width, height = cv2.boundingRect(labels)  # of the labelled (non-zero) pixels
+    if width == 0:
+        return np.zeros_like(at)
+    reach = max(occlusion_margin_px, boundary_margin_px, 0)
+    v0, v1 = max(top - reach, 0), min(top + height + reach, labels.shape[0])
+    u0, u1 = max(left - reach, 0), min(left + width + reach, labels.shape[1])
+    inside = (rows >= v0) & (rows < v1) & (columns >= u0) & (columns < u1)
+    regions = np.zeros_like(at)
+    regions[inside] = _region_labels_in(
+        labels[v0:v1, u0:u1], rows[inside] - v0, columns[inside] - u0, occlusion_margin_px, boundary_margin_px
+    )
+    return regions
+
+
+def _region_labels_in(
+    labels: np.ndarray, rows: np.ndarray, columns: np.ndarray, occlusion_margin_px: int, boundary_margin_px: int
+) -> np.ndarray:
+    """`region_labels_at` by whole-image morphology of ``labels``."""
     at = labels[rows, columns]
     keep = np.ones(len(at), bool)
     if occlusion_margin_px > 0:
         kernel = np.ones((2 * occlusion_margin_px + 1, 2 * occlusion_margin_px + 1), np.uint8)
         largest = cv2.dilate(labels, kernel)[rows, columns]
-        background_high = np.where(labels == 0, np.iinfo(labels.dtype).max, labels).astype(labels.dtype)
-        smallest = cv2.erode(background_high, kernel)[rows, columns]
+        # The smallest part label around, less one: the background (0) wraps to the byte's largest value, above
+        # every part's; around a labelled pixel there is a part, so adding the one back is exact where it counts.
+        smallest = cv2.erode(labels - np.uint8(1), kernel)[rows, columns].astype(int) + 1
         keep &= ~((at > 0) & (smallest < largest))
     if boundary_margin_px > 0:
         kernel = np.ones((2 * boundary_margin_px + 1, 2 * boundary_margin_px + 1), np.uint8)
