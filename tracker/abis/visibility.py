@@ -15,12 +15,14 @@ it projects inside the image and its surface faces the camera: the back-face tes
 
 from __future__ import annotations
 
+import functools
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import cv2
+import numba
 import numpy as np
-from scipy.spatial import cKDTree
 
 from tracker.geometry.cameras import Camera
 from tracker.render.offscreen import DepthLabels
@@ -128,15 +130,60 @@ def reached_by_other_parts(
     feature window, or reaches it by the next frame if both keep moving as in the last one."""
     if len(uv) == 0 or len(visible) == 0:
         return np.zeros(len(uv), bool)
-    # Every (point, sample) pair within the farthest reach, a hair wider so that no pair the test below keeps is
-    # lost to the trees' own rounding: the test decides, by the same distances whatever the trees return.
-    reach = (margin_px + most_px) * (1 + 1e-9)
-    close = cKDTree(uv).sparse_distance_matrix(cKDTree(visible.uv), reach, output_type="ndarray")
-    point, near = close["i"], close["j"]  # (k,): which point, and which visible sample near it
-    distance = np.linalg.norm(visible.uv[near] - uv[point], axis=1)
-    relative = np.minimum(np.linalg.norm(visible_motion[near] - motion[point], axis=1), most_px)
-    hit = (visible.part[near] != parts[point]) & (distance <= margin_px + relative)
-    return np.bincount(point[hit], minlength=len(uv)) > 0
+    as_floats = functools.partial(np.ascontiguousarray, dtype=np.float64)
+    return _reached(
+        as_floats(uv),
+        np.ascontiguousarray(parts, dtype=np.int64),
+        as_floats(motion),
+        as_floats(visible.uv),
+        np.ascontiguousarray(visible.part, dtype=np.int64),
+        as_floats(visible_motion),
+        float(margin_px),
+        float(most_px),
+    )
+
+
+@numba.njit(cache=True, nogil=True)
+def _reached(uv, parts, motion, sample_uv, sample_parts, sample_motion, margin_px, most_px):
+    """`reached_by_other_parts`' test of every (point, sample) pair that can meet it: the samples sorted into square
+    cells a hair wider than the farthest reach (``margin_px + most_px``; at least a 512th of their spread, so that
+    the cells stay few), each point tried against the samples of its cell and the eight around it, which hold
+    every sample within that reach of it."""
+    low_u, low_v = sample_uv[:, 0].min(), sample_uv[:, 1].min()
+    spread = max(sample_uv[:, 0].max() - low_u, sample_uv[:, 1].max() - low_v)
+    cell = max((margin_px + most_px) * (1 + 1e-6), spread / 512, 1e-9)
+    columns = int((sample_uv[:, 0].max() - low_u) / cell) + 1
+    rows = int((sample_uv[:, 1].max() - low_v) / cell) + 1
+    cell_of = np.empty(len(sample_uv), np.int64)
+    starts = np.zeros(rows * columns + 1, np.int64)
+    for j in range(len(sample_uv)):
+        cell_of[j] = int((sample_uv[j, 1] - low_v) / cell) * columns + int((sample_uv[j, 0] - low_u) / cell)
+        starts[cell_of[j] + 1] += 1
+    for k in range(rows * columns):
+        starts[k + 1] += starts[k]
+    order, filled = np.empty(len(sample_uv), np.int64), starts[:-1].copy()
+    for j in range(len(sample_uv)):
+        order[filled[cell_of[j]]] = j
+        filled[cell_of[j]] += 1
+    reached = np.zeros(len(uv), np.bool_)
+    for i in range(len(uv)):
+        column, row = math.floor((uv[i, 0] - low_u) / cell), math.floor((uv[i, 1] - low_v) / cell)
+        for near_row in range(max(row - 1, 0), min(row + 2, rows)):
+            for near_column in range(max(column - 1, 0), min(column + 2, columns)):
+                k = near_row * columns + near_column
+                for j in order[starts[k] : starts[k + 1]]:
+                    if sample_parts[j] == parts[i]:
+                        continue
+                    du, dv = sample_uv[j, 0] - uv[i, 0], sample_uv[j, 1] - uv[i, 1]
+                    mu, mv = sample_motion[j, 0] - motion[i, 0], sample_motion[j, 1] - motion[i, 1]
+                    if math.sqrt(du * du + dv * dv) <= margin_px + min(math.sqrt(mu * mu + mv * mv), most_px):
+                        reached[i] = True
+                        break
+                if reached[i]:
+                    break
+            if reached[i]:
+                break
+    return reached
 
 
 def in_image(camera: Camera, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

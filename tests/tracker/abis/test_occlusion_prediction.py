@@ -3,6 +3,7 @@ the silhouette's margin kept out), and the points another part's edge reaches by
 naive implementation."""
 
 import numpy as np
+import pytest
 
 from tracker.abis.visibility import VisibleSamples, reached_by_other_parts, region_labels_at
 
@@ -67,15 +68,20 @@ def test_the_boundary_margin_drops_a_band_at_every_edge():
     assert (interior[5:7] == 0).all() and (interior[:, 5:7] == 0).all()  # the silhouette
 
 
-def test_points_are_reached_within_the_margin_plus_the_relative_motion_of_another_parts_samples():
+@pytest.mark.parametrize(
+    ("margin", "most", "spread"), [(4.0, 6.0, 100), (0.0, 0.0, 100), (7.0, 15.0, 640), (2.0, 0.0, 5)]
+)
+def test_points_are_reached_within_the_margin_plus_the_relative_motion_of_another_parts_samples(margin, most, spread):
+    """Against every (point, sample) pair tried: reaches wide and none at all, samples spread over an image or
+    crowded into a few pixels, points on whole pixels, some on a sample."""
     rng = np.random.default_rng(1)
-    samples_uv = rng.uniform(0, 100, (300, 2))
+    samples_uv = rng.uniform(0, spread, (300, 2))
     visible = VisibleSamples(rng.integers(0, 3, 300), np.arange(300), samples_uv)
     sample_motion = rng.normal(0, 3, (300, 2))
-    points = rng.uniform(0, 100, (80, 2))
+    points = np.round(rng.uniform(0, spread, (80, 2)))
+    points[:10] = samples_uv[:10]
     parts = rng.integers(0, 3, 80)
     motion = rng.normal(0, 3, (80, 2))
-    margin, most = 4.0, 6.0
     reached = reached_by_other_parts(points, parts, motion, visible, sample_motion, margin, most)
     naive = np.zeros(80, bool)
     for i in range(80):
@@ -85,7 +91,7 @@ def test_points_are_reached_within_the_margin_plus_the_relative_motion_of_anothe
             relative = min(np.linalg.norm(sample_motion[j] - motion[i]), most)
             naive[i] |= np.linalg.norm(samples_uv[j] - points[i]) <= margin + relative
     np.testing.assert_array_equal(reached, naive)
-    assert 0 < naive.sum() < 80
+    assert naive.any() and (spread < 10 or not naive.all())  # crowded into 5 px, every point is reached
     # Standing still, only the margin counts; a part's own samples never count.
     still = reached_by_other_parts(points, parts, np.zeros((80, 2)), visible, np.zeros((300, 2)), margin, most)
     one_part = np.zeros(80, int)
