@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from tracker.models.textures import block_noise_texture
-from tracker.observe.features import FeatureSettings, FeatureTracker, away_from
+from tracker.observe.features import FeatureSettings, FeatureTracker, away_from, detection_box
 
 
 def textured_image(seed=0, size=(240, 320)):
@@ -89,3 +89,41 @@ def test_the_mask_away_from_live_tracks_is_every_disc_drawn_by_opencv(radius):
         cv2.circle(drawn, (int(u), int(v)), radius, 0, thickness=-1)
     np.testing.assert_array_equal(away_from(shape, centres, radius), drawn)
     np.testing.assert_array_equal(away_from(shape, centres[:0], radius), np.full(shape, 255, np.uint8))
+
+
+def test_corners_are_found_on_the_detection_box_as_on_the_whole_image():
+    """`FeatureTracker` detects on `detection_box` alone: the same corners, in the same order, as
+    ``cv2.goodFeaturesToTrack`` on the whole image with the whole mask: textured patches on a plain background,
+    in the middle and reaching the image's edges, with live tracks masked out; a noisy image (its whole rectangle);
+    a plain one (no corner)."""
+    rng = np.random.default_rng(6)
+    settings = FeatureSettings(max_features=150)
+    cropped = 0
+    for case in range(24):
+        gray = np.full((120, 160), 40, np.uint8)
+        for _ in range(rng.integers(1, 4)):
+            v0, u0 = rng.integers(-10, 110), rng.integers(-10, 150)
+            patch = cv2.GaussianBlur((rng.random((30, 30)) * 255).astype(np.uint8), (3, 3), 0.8)
+            rows, columns = slice(max(v0, 0), min(v0 + 30, 120)), slice(max(u0, 0), min(u0 + 30, 160))
+            gray[rows, columns] = patch[: rows.stop - rows.start, : columns.stop - columns.start]
+        if case == 0:
+            gray = (rng.random(gray.shape) * 255).astype(np.uint8)  # noise everywhere
+        existing = rng.uniform(0, [160, 120], (rng.integers(0, 30), 2))
+        mask = away_from(gray.shape, np.rint(existing).astype(int), int(np.ceil(settings.min_distance_px)))
+        whole = cv2.goodFeaturesToTrack(
+            gray,
+            settings.max_features - len(existing),
+            settings.quality_level,
+            settings.min_distance_px,
+            mask=mask,
+            blockSize=settings.block_size,
+        )
+        expected = np.empty((0, 2)) if whole is None else whole.reshape(-1, 2).astype(np.float64)
+        found = FeatureTracker(settings)._detect(gray, existing)
+        v0, v1, u0, u1 = detection_box(gray, 4)
+        cropped += (v1 - v0) * (u1 - u0) < gray.size
+        assert len(expected) > 0
+        assert found.tobytes() == expected.tobytes(), case
+    assert cropped >= 12
+    assert len(FeatureTracker(settings)._detect(np.full((40, 50), 9, np.uint8), np.empty((0, 2)))) == 0
+    assert detection_box(np.full((40, 50), 9, np.uint8), 4) is None

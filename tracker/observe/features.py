@@ -110,17 +110,45 @@ class FeatureTracker:
         if wanted <= 0:
             return np.empty((0, 2))
         mask = away_from(gray.shape, np.rint(existing).astype(int), int(np.ceil(s.min_distance_px)))
+        box = detection_box(gray, 2 * (s.block_size // 2 + 1))
+        if box is None:  # a constant image: no corner anywhere
+            return np.empty((0, 2))
+        v0, v1, u0, u1 = box
         corners = cv2.goodFeaturesToTrack(
-            gray,
+            gray[v0:v1, u0:u1],
             maxCorners=wanted,
             qualityLevel=s.quality_level,
             minDistance=s.min_distance_px,
-            mask=mask,
+            mask=mask[v0:v1, u0:u1],
             blockSize=s.block_size,
         )
         if corners is None:
             return np.empty((0, 2))
-        return corners.reshape(-1, 2).astype(np.float64)
+        return corners.reshape(-1, 2).astype(np.float64) + [u0, v0]
+
+
+def detection_box(gray: np.ndarray, margin: int) -> tuple[int, int, int, int] | None:
+    """``(v0, v1, u0, u1)``: the rectangle of ``gray`` where Shi-Tomasi can find a corner, and on which it finds the
+    same ones as on the whole image (None: nowhere, the image is constant). Where the image is locally constant the
+    corner response is exactly 0: beyond the box of pixels that differ from a neighbour, the image is one value,
+    and a pixel farther from that box than the response's support (``margin`` >= twice it: its gradients' and
+    window's) has response 0 whether the rest is drawn or reflected at the rectangle's edge. An image with sensor
+    noise differs everywhere: its whole rectangle, found from its edges alone."""
+    height, width = gray.shape
+    edges = (gray[0], gray[-1], gray[:, 0], gray[:, -1])
+    if all(np.any(line[1:] != line[:-1]) for line in edges):  # varying along all four edges: the whole image
+        return 0, height, 0, width
+    across, down = gray[:, 1:] != gray[:, :-1], gray[1:] != gray[:-1]  # neighbours that differ, both of each pair
+    rows = np.flatnonzero(across.any(axis=1) | np.r_[down.any(axis=1), False] | np.r_[False, down.any(axis=1)])
+    columns = np.flatnonzero(down.any(axis=0) | np.r_[across.any(axis=0), False] | np.r_[False, across.any(axis=0)])
+    if not len(rows):
+        return None
+    return (
+        max(int(rows[0]) - margin, 0),
+        min(int(rows[-1]) + 1 + margin, height),
+        max(int(columns[0]) - margin, 0),
+        min(int(columns[-1]) + 1 + margin, width),
+    )
 
 
 def away_from(shape: tuple[int, int], centres: np.ndarray, radius: int) -> np.ndarray:
