@@ -146,12 +146,12 @@ def reached_by_other_parts(
 @numba.njit(cache=True, nogil=True)
 def _reached(uv, parts, motion, sample_uv, sample_parts, sample_motion, margin_px, most_px):
     """`reached_by_other_parts`' test of every (point, sample) pair that can meet it: the samples sorted into square
-    cells a hair wider than the farthest reach (``margin_px + most_px``; at least a 512th of their spread, so that
+    cells a hair wider than the farthest reach (``margin_px + most_px``; at least a 64th of their spread, so that
     the cells stay few), each point tried against the samples of its cell and the eight around it, which hold
     every sample within that reach of it."""
     low_u, low_v = sample_uv[:, 0].min(), sample_uv[:, 1].min()
     spread = max(sample_uv[:, 0].max() - low_u, sample_uv[:, 1].max() - low_v)
-    cell = max((margin_px + most_px) * (1 + 1e-6), spread / 512, 1e-9)
+    cell = max((margin_px + most_px) * (1 + 1e-6), spread / 64, 1e-9)
     columns = int((sample_uv[:, 0].max() - low_u) / cell) + 1
     rows = int((sample_uv[:, 1].max() - low_v) / cell) + 1
     cell_of = np.empty(len(sample_uv), np.int64)
