@@ -23,8 +23,8 @@ from typing import Annotated
 
 import cv2
 import numpy as np
-from scipy.ndimage import map_coordinates
 
+from tracker.bilinear import bilinear
 from tracker.ranges import Range
 
 Score = Annotated[float, Range(-1.0, 1.0)]
@@ -139,9 +139,8 @@ class _Synthesiser:
         texture_of = np.tile(self.texture_of, repeat)
         for index in np.unique(texture_of):
             mine = texture_of == index
-            values[mine] = map_coordinates(
-                self.textures[index], [rows[mine].ravel(), columns[mine].ravel()], order=1, mode="nearest"
-            ).reshape(-1, rows.shape[1])
+            at = np.column_stack([columns[mine].ravel(), rows[mine].ravel()])  # (u, v)
+            values[mine] = bilinear(self.textures[index][None], at)[:, 0].reshape(-1, rows.shape[1])
         return values.reshape(len(shift), 2 * half + 1, 2 * half + 1)
 
 

@@ -25,9 +25,10 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
+from tracker.bilinear import bilinear
 from tracker.geometry.nearest_points import nearest_points_compiled
 from tracker.hybrid.feature_pairs import ViewPairs
-from tracker.hybrid.view_field import ViewField, bilinear
+from tracker.hybrid.view_field import ViewField
 from tracker.models.body_mesh import BodyMesh
 from tracker.models.pose_kernels import add_vertex_levers, bone_chain, bone_offsets, joint_axes
 from tracker.tol import MIN_DEPTH_M

@@ -10,10 +10,10 @@ that he is not in its image, which the views that see him place him by."""
 from __future__ import annotations
 
 import cv2
-import numba
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 
+from tracker.bilinear import bilinear
 from tracker.geometry.cameras import Camera
 from tracker.tbf.costs import bounding_box, euclidean_distance
 
@@ -93,28 +93,3 @@ def gradient_at(values: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.nd
         behind = values[rows, before] if axis == 0 else values[before, cols]
         gradient[:, axis] = (ahead - behind) / np.where((index > 0) & (index < size - 1), 2.0, 1.0)
     return gradient
-
-
-@numba.njit(cache=True, nogil=True)
-def bilinear(fields: np.ndarray, local: np.ndarray) -> np.ndarray:
-    """``(n, F)``: each of ``fields`` ``(F, h, w)`` at the window's pixels ``local`` ``(n, 2)`` ``(u, v)``, bilinear;
-    beyond the window, each corner read at the border's pixel. Every field at once, and as
-    `scipy.ndimage.map_coordinates` (``order=1, mode="nearest"``) makes each to the bit: its weights ``1 - x`` and
-    ``1 - (1 - x)``, its corners row by row, each value times the row's weight, then the column's, added to 0."""
-    height, width = fields.shape[1], fields.shape[2]
-    sampled = np.empty((len(local), len(fields)))
-    corners, weights = np.empty((2, 2), np.int64), np.empty((2, 2))  # a point's, by axis (row, column)
-    for k in range(len(local)):
-        for axis, (at, size) in enumerate(((local[k, 1], height), (local[k, 0], width))):
-            first = np.floor(at)
-            for corner in range(2):  # beyond the border, the border's pixel
-                corners[axis, corner] = min(max(np.int64(first) + corner, 0), size - 1)
-            weights[axis, 0] = 1.0 - (at - first)
-            weights[axis, 1] = 1.0 - weights[axis, 0]
-        for f in range(len(fields)):
-            total = 0.0
-            for a in range(2):
-                for b in range(2):
-                    total += fields[f, corners[0, a], corners[1, b]] * weights[0, a] * weights[1, b]
-            sampled[k, f] = total
-    return sampled
