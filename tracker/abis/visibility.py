@@ -49,15 +49,29 @@ def visible_mask(
     Part j must have label ``j + 1`` in ``zbuffer`` (the convention of `tracker.models.dsq_arm`).
     """
     uv, z = camera.project(points)
-    pixel = np.rint(uv)
-    inside = np.all(np.isfinite(pixel), axis=1)
-    inside[inside] &= np.all((pixel[inside] >= 0) & (pixel[inside] <= [camera.width - 1, camera.height - 1]), 1)
-    rows, columns = pixel[inside, 1].astype(int), pixel[inside, 0].astype(int)
-    own_part = zbuffer.labels[rows, columns] == parts[inside] + 1
-    nearest = z[inside] <= zbuffer.depth_at(rows, columns) + VISIBILITY_DEPTH_M
+    shown, rows, columns = _shown_pixels(uv, np.ascontiguousarray(parts, dtype=np.int64), zbuffer.labels)
+    nearest = z[shown] <= zbuffer.depth_at(rows, columns) + VISIBILITY_DEPTH_M
     seen = np.zeros(len(points), bool)
-    seen[np.flatnonzero(inside)[own_part & nearest]] = True
+    seen[shown[nearest]] = True
     return seen, uv
+
+
+@numba.njit(cache=True, nogil=True)
+def _shown_pixels(uv: np.ndarray, parts: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The points (indices) whose pixel, ``uv`` ``(n, 2)`` rounded to the nearest (half to even), lies in the image
+    and shows their own part (label ``parts + 1``), and that pixel's row and column."""
+    height, width = labels.shape
+    shown, rows, columns = np.empty(len(uv), np.int64), np.empty(len(uv), np.int64), np.empty(len(uv), np.int64)
+    count = 0
+    for k in range(len(uv)):
+        u, v = np.rint(uv[k, 0]), np.rint(uv[k, 1])
+        if not (0 <= u <= width - 1 and 0 <= v <= height - 1):  # NaN too: behind the camera
+            continue
+        row, column = int(v), int(u)
+        if labels[row, column] == parts[k] + 1:
+            shown[count], rows[count], columns[count] = k, row, column
+            count += 1
+    return shown[:count], rows[:count], columns[:count]
 
 
 def visible_samples(camera: Camera, zbuffer: DepthLabels, samples_world: Sequence[np.ndarray]) -> VisibleSamples:

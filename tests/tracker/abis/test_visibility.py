@@ -1,9 +1,11 @@
 import numpy as np
 
 from tests.tracker.test_render import sphere_mesh
-from tracker.abis.visibility import visible_samples
+from tracker.abis.visibility import visible_mask, visible_samples
 from tracker.geometry.cameras import look_at
 from tracker.models.dsq import sample_grid
+from tracker.render.offscreen import DepthLabels
+from tracker.tol import VISIBILITY_DEPTH_M
 
 CAMERA = look_at(
     "c", np.array([0.0, -3.0, 0.0]), np.zeros(3), np.array([0, 0, 1.0]), width=320, height=240, focal_px=400.0
@@ -80,3 +82,52 @@ def test_arm_samples_visible_per_view(arm, motion, rig, renderer):
     assert counts["front"][1] > 50 and counts["top"][1] > 50
     n = len(arm.sample_grid.ids)
     assert all(count.max() < 0.7 * n for count in counts.values())  # never more than the near side
+
+
+def test_visible_mask_is_the_rule_applied_point_by_point(arm, motion, rig, renderer):
+    """`visible_mask` against its rule written out for each point: the pixel rounded (half to even) inside the
+    image, showing the point's own part, the z-buffer's depth there at most `VISIBILITY_DEPTH_M` in front of it.
+    The arm's samples and points off them, off the image, behind the camera and on half pixels."""
+    params = motion.params(arm, 3)
+    zbuffers = renderer.render_depth_labels(rig, arm.zbuffer_meshes(params))
+    samples = arm.sample_points(params)
+    points = np.concatenate(samples)
+    parts = np.repeat(np.arange(len(samples)), [len(s) for s in samples])
+    rng = np.random.default_rng(3)
+    points = np.concatenate(
+        [points, points[::7] + rng.normal(0, 0.05, (len(points[::7]), 3)), rng.normal(0, 3, (60, 3))]
+    )
+    parts = np.concatenate([parts, parts[::7], rng.integers(0, 3, 60)])
+    for camera in rig:
+        zbuffer = zbuffers[camera.name]
+        probe = points.copy()
+        probe[-5:] = camera.position + camera.rotation[:, 2] * -1.0  # behind the camera
+        seen, uv = visible_mask(camera, zbuffer, parts, probe)
+        pixels, depth = camera.project(probe)
+        np.testing.assert_array_equal(uv, pixels)
+        expected = np.zeros(len(probe), bool)
+        for k, ((u, v), z) in enumerate(zip(pixels, depth, strict=True)):
+            column, row = np.rint(u), np.rint(v)
+            if not (0 <= column <= camera.width - 1 and 0 <= row <= camera.height - 1):
+                continue
+            row, column = int(row), int(column)
+            own = zbuffer.labels[row, column] == parts[k] + 1
+            expected[k] = own and z <= zbuffer.depth[row, column] + VISIBILITY_DEPTH_M
+        np.testing.assert_array_equal(seen, expected)
+        assert 0 < seen.sum() < len(probe)
+
+
+def test_visible_mask_keeps_the_images_edge_pixels_and_drops_those_beyond():
+    """Points whose pixel rounds onto the image's first or last row or column are seen (a z-buffer of part 0
+    everywhere, 10 m deep); those rounding beyond are not."""
+    zbuffer = DepthLabels(
+        np.ones((240, 320), np.uint8),
+        np.zeros((240, 320), np.float32),
+        lambda raw: np.full(raw.shape, 10.0, np.float32),
+    )
+    pixels = np.array([[0, 0], [319, 239], [-0.4, 10], [-0.6, 10], [319.4, 5], [319.6, 5], [10, -0.6], [10, 239.4]])
+    depth = 2.0
+    rays = np.column_stack([(pixels[:, 0] - CAMERA.cx) / CAMERA.fx, (pixels[:, 1] - CAMERA.cy) / CAMERA.fy, np.ones(8)])
+    points = CAMERA.position + (depth * rays) @ CAMERA.rotation.T
+    seen, _ = visible_mask(CAMERA, zbuffer, np.zeros(8, int), points)
+    np.testing.assert_array_equal(seen, [True, True, True, False, True, False, False, True])
