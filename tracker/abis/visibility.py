@@ -20,7 +20,6 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import cv2
 import numba
 import numpy as np
 
@@ -90,43 +89,43 @@ def region_labels_at(
 ) -> np.ndarray:
     """The labels at pixels ``(rows, columns)`` ``(n,)``, 0 where the pixel is on an occlusion edge or near the
     silhouette: a part's pixel with another part (not the background) within ``occlusion_margin_px`` (a square
-    neighbourhood), where a feature's window straddles two parts' surfaces; or with another label, the background
-    among them, within ``boundary_margin_px``. The neighbourhoods' extremes come from morphology over the labelled
-    pixels' bounding box widened by the larger margin (beyond it every pixel is background, and so are the
-    extremes around it: the same as over the whole image), the comparisons are made at the pixels alone (a view's
-    few hundred features, not its whole image)."""
-    at = labels[rows, columns]
-    left, top, width, height = cv2.boundingRect(labels)  # of the labelled (non-zero) pixels
-    if width == 0:
-        return np.zeros_like(at)
-    reach = max(occlusion_margin_px, boundary_margin_px, 0)
-    v0, v1 = max(top - reach, 0), min(top + height + reach, labels.shape[0])
-    u0, u1 = max(left - reach, 0), min(left + width + reach, labels.shape[1])
-    inside = (rows >= v0) & (rows < v1) & (columns >= u0) & (columns < u1)
-    regions = np.zeros_like(at)
-    regions[inside] = _region_labels_in(
-        labels[v0:v1, u0:u1], rows[inside] - v0, columns[inside] - u0, occlusion_margin_px, boundary_margin_px
-    )
+    neighbourhood, cut at the image's edge), where a feature's window straddles two parts' surfaces; or with another
+    label, the background among them, within ``boundary_margin_px``. Each neighbourhood is read at the asked pixels
+    alone, in one compiled pass (a view's few hundred features, not its whole image)."""
+    labels = np.ascontiguousarray(labels)
+    height, width = labels.shape
+    rows, columns = np.asarray(rows, dtype=np.int64), np.asarray(columns, dtype=np.int64)
+    if np.any((rows < -height) | (rows >= height) | (columns < -width) | (columns >= width)):
+        raise IndexError(f"a pixel lies outside the {height}x{width} label image")
+    rows, columns = np.where(rows < 0, rows + height, rows), np.where(columns < 0, columns + width, columns)
+    return _region_labels(labels, rows, columns, max(int(occlusion_margin_px), 0), max(int(boundary_margin_px), 0))
+
+
+@numba.njit(cache=True, nogil=True)
+def _region_labels(labels, rows, columns, occlusion, boundary):
+    """`region_labels_at` at pixels within the image, margins of at least 0."""
+    height, width = labels.shape
+    regions = np.zeros(len(rows), labels.dtype)
+    for k in range(len(rows)):
+        row, column, at = rows[k], columns[k], labels[rows[k], columns[k]]
+        if at == 0:
+            continue
+        keep = True
+        if occlusion > 0:  # another part within the margin: the largest and the smallest part label around differ
+            largest, smallest = at, at
+            for near_row in range(max(row - occlusion, 0), min(row + occlusion + 1, height)):
+                for near_column in range(max(column - occlusion, 0), min(column + occlusion + 1, width)):
+                    value = labels[near_row, near_column]
+                    if value > 0:
+                        largest, smallest = max(largest, value), min(smallest, value)
+            keep = smallest == largest
+        if keep and boundary > 0:  # any other label within the margin, the background too
+            for near_row in range(max(row - boundary, 0), min(row + boundary + 1, height)):
+                for near_column in range(max(column - boundary, 0), min(column + boundary + 1, width)):
+                    keep = keep and labels[near_row, near_column] == at
+        if keep:
+            regions[k] = at
     return regions
-
-
-def _region_labels_in(
-    labels: np.ndarray, rows: np.ndarray, columns: np.ndarray, occlusion_margin_px: int, boundary_margin_px: int
-) -> np.ndarray:
-    """`region_labels_at` by whole-image morphology of ``labels``."""
-    at = labels[rows, columns]
-    keep = np.ones(len(at), bool)
-    if occlusion_margin_px > 0:
-        kernel = np.ones((2 * occlusion_margin_px + 1, 2 * occlusion_margin_px + 1), np.uint8)
-        largest = cv2.dilate(labels, kernel)[rows, columns]
-        # The smallest part label around, less one: the background (0) wraps to the byte's largest value, above
-        # every part's; around a labelled pixel there is a part, so adding the one back is exact where it counts.
-        smallest = cv2.erode(labels - np.uint8(1), kernel)[rows, columns].astype(int) + 1
-        keep &= ~((at > 0) & (smallest < largest))
-    if boundary_margin_px > 0:
-        kernel = np.ones((2 * boundary_margin_px + 1, 2 * boundary_margin_px + 1), np.uint8)
-        keep &= (cv2.erode(labels, kernel)[rows, columns] == at) & (cv2.dilate(labels, kernel)[rows, columns] == at)
-    return np.where(keep, at, 0)
 
 
 def reached_by_other_parts(

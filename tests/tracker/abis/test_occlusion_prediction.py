@@ -42,14 +42,24 @@ def regions_everywhere(labels, occlusion_margin, boundary_margin):
 
 def test_feature_regions_drop_occlusion_edges_and_the_silhouettes_margin_as_a_naive_window_does():
     """Every pixel of a label image, margins 0 to 3: the label, or 0 on an occlusion edge or near another label. The
-    parts within the image, in a corner of a larger one (the morphology is cropped to the labelled pixels), reaching
-    its edges, and none at all."""
+    parts within the image, in a corner of a larger one, reaching its edges (where the neighbourhoods are cut), and
+    none at all."""
     labels = three_parts(np.random.default_rng(0))
     in_a_corner = np.zeros((70, 90), np.uint8)
     in_a_corner[:40, :50] = labels
     at_the_edges = np.zeros((40, 50), np.uint8)
-    at_the_edges[15:, 10:] = labels[10:35, 5:45]  # part 2 reaches the bottom and the right edge
-    for image in (labels, in_a_corner, at_the_edges, np.zeros((10, 12), np.uint8)):
+    at_the_edges[15:, 10:] = labels[10:35, 5:45]  # part 2 reaches the bottom and the right edge (turned: the top, left)
+    top_and_bottom = np.zeros((40, 50), np.uint8)
+    top_and_bottom[:6, :20], top_and_bottom[-6:, :20] = 1, 2  # two parts across the image from each other
+    images = (
+        labels,
+        in_a_corner,
+        at_the_edges,
+        at_the_edges[::-1, ::-1].copy(),
+        top_and_bottom,
+        np.zeros((10, 12), np.uint8),
+    )
+    for image in images:
         for occlusion_margin, boundary_margin in [(0, 0), (1, 0), (3, 0), (0, 2), (3, 2), (1, 3)]:
             dropped = naive_occlusion_edges(image, occlusion_margin) | naive_near_another_label(image, boundary_margin)
             expected = np.where(dropped, 0, image)
