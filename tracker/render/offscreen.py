@@ -291,18 +291,10 @@ class SceneRenderer:
         )
 
     def _label_primitive(self, meshes: Sequence[SurfaceMesh]):
-        """Every mesh as one primitive, in order, each vertex coloured by its mesh's label (an 8-bit grey)."""
-        offsets = np.cumsum([0] + [len(mesh.vertices) for mesh in meshes])[:-1]
-        colors = np.concatenate(
-            [np.full((len(mesh.vertices), 4), (mesh.label, mesh.label, mesh.label, 255), np.uint8) for mesh in meshes]
-        )
+        """Every mesh as one primitive (`_label_arrays`)."""
+        positions, colours, indices = _label_arrays(meshes)
         return self._pyrender.Primitive(
-            positions=np.concatenate([mesh.vertices for mesh in meshes]).astype(np.float32),
-            indices=np.concatenate([mesh.faces + offset for mesh, offset in zip(meshes, offsets, strict=True)]).astype(
-                np.uint32
-            ),
-            color_0=colors,
-            material=self._label_material,
+            positions=positions, indices=indices, color_0=colours, material=self._label_material
         )
 
     def _material(self, mesh: SurfaceMesh):
@@ -357,20 +349,11 @@ class _DirectLabels:
         gl.glBindVertexArray(0)
 
     def load(self, meshes: Sequence[SurfaceMesh]) -> None:
-        """Every mesh as one, in order, each vertex coloured by its mesh's label, as `_label_primitive` makes it
-        and pyrender uploads it."""
+        """Every mesh as one (`_label_arrays`, as `_label_primitive` has them), uploaded as pyrender uploads a
+        primitive: position and colour (in [0, 1], pyrender's ``format_color_array``) interleaved in float32."""
         gl = self._gl
-        vertices = sum(len(mesh.vertices) for mesh in meshes)
-        data = np.empty((vertices, 7), np.float32)
-        faces, first = [], 0
-        for mesh in meshes:
-            last = first + len(mesh.vertices)
-            data[first:last, :3] = mesh.vertices
-            data[first:last, 3:6] = np.float32(mesh.label / 255.0)
-            data[first:last, 6] = 1.0
-            faces.append(mesh.faces + first)
-            first = last
-        indices = np.ascontiguousarray(np.concatenate(faces) if faces else np.zeros((0, 3)), np.uint32)
+        positions, colours, indices = _label_arrays(meshes)
+        data = np.hstack([positions, (colours / 255.0).astype(np.float32)])
         gl.glBindVertexArray(self._vertex_array)
         gl.glBindBuffer(gl.GL_ARRAY_BUFFER, self._vertex_buffer)
         gl.glBufferData(gl.GL_ARRAY_BUFFER, data.nbytes, data, gl.GL_DYNAMIC_DRAW)
@@ -411,6 +394,20 @@ class _DirectLabels:
             gl.glBindVertexArray(0)
             program._unbind()
         gl.glFlush()
+
+
+def _label_arrays(meshes: Sequence[SurfaceMesh]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every mesh as one, in order: ``(n, 3)`` float32 positions, ``(n, 4)`` uint8 colours (each vertex its mesh's
+    label as an 8-bit grey, opaque) and ``(m, 3)`` uint32 faces."""
+    if not meshes:
+        return np.zeros((0, 3), np.float32), np.zeros((0, 4), np.uint8), np.zeros((0, 3), np.uint32)
+    offsets = np.cumsum([0] + [len(mesh.vertices) for mesh in meshes])[:-1]
+    colours = np.concatenate(
+        [np.full((len(mesh.vertices), 4), (mesh.label, mesh.label, mesh.label, 255), np.uint8) for mesh in meshes]
+    )
+    positions = np.concatenate([mesh.vertices for mesh in meshes]).astype(np.float32)
+    faces = np.concatenate([mesh.faces + offset for mesh, offset in zip(meshes, offsets, strict=True)])
+    return positions, colours, faces.astype(np.uint32)
 
 
 @functools.cache
