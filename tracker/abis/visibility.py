@@ -163,10 +163,9 @@ def _reached(uv, parts, motion, sample_uv, sample_parts, sample_motion, margin_p
     the cells stay few), each point tried against the samples of its cell and the eight around it, which hold
     every sample within that reach of it."""
     low_u, low_v = sample_uv[:, 0].min(), sample_uv[:, 1].min()
-    spread = max(sample_uv[:, 0].max() - low_u, sample_uv[:, 1].max() - low_v)
-    cell = max((margin_px + most_px) * (1 + 1e-6), spread / 64, 1e-9)
-    columns = int((sample_uv[:, 0].max() - low_u) / cell) + 1
-    rows = int((sample_uv[:, 1].max() - low_v) / cell) + 1
+    span_u, span_v = sample_uv[:, 0].max() - low_u, sample_uv[:, 1].max() - low_v
+    cell = max((margin_px + most_px) * (1 + 1e-6), max(span_u, span_v) / 64, 1e-9)
+    columns, rows = int(span_u / cell) + 1, int(span_v / cell) + 1
     cell_of = np.empty(len(sample_uv), np.int64)
     starts = np.zeros(rows * columns + 1, np.int64)
     for j in range(len(sample_uv)):
@@ -184,19 +183,34 @@ def _reached(uv, parts, motion, sample_uv, sample_parts, sample_motion, margin_p
         for near_row in range(max(row - 1, 0), min(row + 2, rows)):
             for near_column in range(max(column - 1, 0), min(column + 2, columns)):
                 k = near_row * columns + near_column
-                for j in order[starts[k] : starts[k + 1]]:
-                    if sample_parts[j] == parts[i]:
-                        continue
-                    du, dv = sample_uv[j, 0] - uv[i, 0], sample_uv[j, 1] - uv[i, 1]
-                    mu, mv = sample_motion[j, 0] - motion[i, 0], sample_motion[j, 1] - motion[i, 1]
-                    if math.sqrt(du * du + dv * dv) <= margin_px + min(math.sqrt(mu * mu + mv * mv), most_px):
-                        reached[i] = True
-                        break
-                if reached[i]:
-                    break
-            if reached[i]:
-                break
+                if not reached[i]:
+                    reached[i] = _reaches(
+                        order[starts[k] : starts[k + 1]],
+                        i,
+                        uv,
+                        parts,
+                        motion,
+                        sample_uv,
+                        sample_parts,
+                        sample_motion,
+                        margin_px,
+                        most_px,
+                    )
     return reached
+
+
+@numba.njit(cache=True, nogil=True)
+def _reaches(near, i, uv, parts, motion, sample_uv, sample_parts, sample_motion, margin_px, most_px) -> bool:
+    """Whether one of the samples ``near`` of another part than point ``i``'s is within ``margin_px`` plus their
+    relative motion (at most ``most_px``) of it."""
+    for j in near:
+        if sample_parts[j] == parts[i]:
+            continue
+        du, dv = sample_uv[j, 0] - uv[i, 0], sample_uv[j, 1] - uv[i, 1]
+        mu, mv = sample_motion[j, 0] - motion[i, 0], sample_motion[j, 1] - motion[i, 1]
+        if math.sqrt(du * du + dv * dv) <= margin_px + min(math.sqrt(mu * mu + mv * mv), most_px):
+            return True
+    return False
 
 
 def in_image(camera: Camera, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
