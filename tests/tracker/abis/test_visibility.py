@@ -87,7 +87,7 @@ def test_arm_samples_visible_per_view(arm, motion, rig, renderer):
 def test_visible_mask_is_the_rule_applied_point_by_point(arm, motion, rig, renderer):
     """`visible_mask` against its rule written out for each point: the pixel rounded (half to even) inside the
     image, showing the point's own part, the z-buffer's depth there at most `VISIBILITY_DEPTH_M` in front of it.
-    The arm's samples and points off them, off the image, behind the camera and on half pixels."""
+    The arm's samples and points off them, off the image and behind the camera."""
     params = motion.params(arm, 3)
     zbuffers = renderer.render_depth_labels(rig, arm.zbuffer_meshes(params))
     samples = arm.sample_points(params)
