@@ -157,12 +157,13 @@ class TreeFilter:
         observed = (observed,) if isinstance(observed, np.ndarray) else tuple(observed)
         if all(view is None for view in observed):
             raise ValueError("no view sees the person")
-        observed = self.observed = self._seeing(observed)
+        observed, top = self._seeing(observed)
+        self.observed = observed
         if (self.spot_pixels is None) != (reference is None):
             raise ValueError("a filter with spot pixels scores from a reference sample's spot, and only such a filter")
         self._reference = reference
         timings: dict[str, float] = {}
-        scorers = self._scorers(observed)  # the worker threads start on them (after the prior, if under way)
+        scorers = self._scorers(observed, top)  # the worker threads start on them (after the prior, if under way)
         start = time.perf_counter()
         if self._first:  # frame 0's prior is the initial Gaussian itself
             prior, terms = self._posterior.copy(), 0
@@ -200,13 +201,21 @@ class TreeFilter:
             timings_ms=timings,
         )
 
-    def _seeing(self, observed: tuple[np.ndarray | None, ...]) -> tuple[np.ndarray | None, ...]:
-        """The views' observations as the filter takes them: with several views, one whose silhouette vanishes at
-        the top level (a few pixels at the image's edge) has lost the person too (None), unless none would see him."""
+    def _seeing(
+        self, observed: tuple[np.ndarray | None, ...]
+    ) -> tuple[tuple[np.ndarray | None, ...], tuple[np.ndarray | None, ...]]:
+        """The views' observations as the filter takes them, and each one's at the top level (the views' as given
+        with one view): with several views, one whose silhouette vanishes at the top level (a few pixels at the
+        image's edge) has lost the person too (None), unless none would see him."""
         if len(observed) == 1:
-            return observed
-        seeing = tuple(None if view is None or not self.observation_at(0, view).any() else view for view in observed)
-        return seeing if any(view is not None for view in seeing) else observed
+            return observed, observed
+        top = tuple(None if view is None else self.observation_at(0, view) for view in observed)
+        seeing = tuple(
+            None if view is None or not small.any() else view for view, small in zip(observed, top, strict=True)
+        )
+        if all(view is None for view in seeing):
+            return observed, top
+        return seeing, tuple(None if view is None else small for view, small in zip(seeing, top, strict=True))
 
     @property
     def posterior(self) -> np.ndarray:
@@ -322,13 +331,18 @@ class TreeFilter:
         resolution = tuple(self.tree.levels[level].resolution)
         return observed if observed.shape[::-1] == resolution else resize_silhouette(observed, *resolution)
 
-    def _scorers(self, observed: tuple[np.ndarray | None, ...]) -> list[list[Callable[[], ObservationScorer] | None]]:
+    def _scorers(
+        self, observed: tuple[np.ndarray | None, ...], top: tuple[np.ndarray | None, ...]
+    ) -> list[list[Callable[[], ObservationScorer] | None]]:
         """Per level, each view's `ObservationScorer` of the observation at the level's resolution (None for a view
-        that lost the person), to ask for when the descent reaches it: made then, unless a worker thread, starting
-        from the finest level's, has made it already (`tracker.threads.TwoEndedJobs`)."""
+        that lost the person; ``top``: the observations at the top level's, or at any), to ask for when the descent
+        reaches it: made then, unless a worker thread, starting from the finest level's, has made it already
+        (`tracker.threads.TwoEndedJobs`)."""
         levels, views = range(len(self.tree.levels)), range(len(observed))
         pairs = [(k, v) for k in levels for v in views if observed[v] is not None]
-        jobs = TwoEndedJobs([functools.partial(self._scorer, k, v, observed[v]) for k, v in pairs])
+        jobs = TwoEndedJobs(
+            [functools.partial(self._scorer, k, v, top[v] if k == 0 else observed[v]) for k, v in pairs]
+        )
         job = {pair: n for n, pair in enumerate(pairs)}
         return [[functools.partial(jobs.result, job[k, v]) if (k, v) in job else None for v in views] for k in levels]
 
