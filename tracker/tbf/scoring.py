@@ -87,24 +87,15 @@ class SilhouetteRuns:
         """As `sums` over silhouettes ``rows`` of a window ``width`` pixels wide, each moved by its whole-pixel
         ``shifts`` ``(len(rows), 2)`` ``(du, dv)`` first: pixels moved out of the window count nothing.
 
-        The window's values are framed by zeros as wide as the largest shift (at most the window's own size: a
-        silhouette moved further is wholly out either way), so that every moved run lies on the frame's row of its
-        own and reads two prefix sums there. The frame's prefix sums at the window's pixels are the window's own (a
-        zero added changes no bits), and beyond the window's edge they hold its row's end or start: a run moved
-        partly out of the window sums its part within it, a run moved wholly out sums to 0."""
-        height = len(values) // width
-        du, dv = np.clip(shifts[:, 0], -width, width), np.clip(shifts[:, 1], -height, height)
-        margin_u, margin_v = int(np.abs(du).max(initial=0)), int(np.abs(dv).max(initial=0))
-        framed_width = width + 2 * margin_u
-        framed = np.zeros((height + 2 * margin_v, framed_width))
-        framed[margin_v : margin_v + height, margin_u : margin_u + width] = np.reshape(values, (height, width))
-        prefix = np.empty(framed.size + 1)
+        Every moved run is cut into its pieces along the window's rows, and each piece's part within the window
+        reads two of the window's prefix sums (`_moved_run_sums`); a piece moved wholly out of the window reads
+        the same sum twice (0)."""
+        prefix = np.empty(len(values) + 1)
         prefix[0] = 0.0
-        np.cumsum(framed.ravel(), out=prefix[1:])
-        # where each silhouette's row 0, column 0 lands in the frame, moved
-        moved = ((dv + margin_v) * framed_width + du + margin_u).astype(np.int64)
+        np.cumsum(values, out=prefix[1:])
         rows = np.ascontiguousarray(rows, dtype=np.int64)  # one compiled signature for every caller
-        return _moved_run_sums(prefix, self.starts, self.ends, self.ptr, rows, moved, width, framed_width)
+        shifts = np.asarray(shifts, dtype=np.int64)
+        return _moved_run_sums(prefix, self.starts, self.ends, self.ptr, rows, shifts[:, 0], shifts[:, 1], width)
 
     def masks(self, shape: tuple[int, int], rows: np.ndarray | None = None) -> np.ndarray:
         """Silhouettes ``rows`` (all by default) as ``(len(rows), h, w)`` bool images of ``shape`` ``(h, w)``: the
@@ -354,14 +345,16 @@ def _moved_run_sums(
     ends: np.ndarray,
     ptr: np.ndarray,
     rows: np.ndarray,
-    moved: np.ndarray,
+    du: np.ndarray,
+    dv: np.ndarray,
     width: int,
-    framed_width: int,
 ) -> np.ndarray:
-    """`SilhouetteRuns.shifted_sums`'s loop: per silhouette ``rows[i]``, the framed window's ``prefix`` sums read at
-    each of its runs' pieces, one piece a row of the window it spans (a run can go on into the next row), each piece
-    moved by ``moved[i]`` in the frame. The pieces are summed in the order a weighted `np.bincount` over all of them
-    would add them: every run's first piece, silhouette by silhouette, then every run's second, and so on."""
+    """`SilhouetteRuns.shifted_sums`'s loop: per silhouette ``rows[i]``, the window's ``prefix`` sums read at each of
+    its runs' pieces, one piece a row of the window it spans (a run can go on into the next row), each piece moved
+    by ``(du[i], dv[i])`` and cut at the window's edges (`_window_index`). The pieces are summed in the order a
+    weighted `np.bincount` over all of them would add them: every run's first piece, silhouette by silhouette, then
+    every run's second, and so on."""
+    height = (len(prefix) - 1) // width
     sums = np.zeros(len(rows))
     wrapping = False
     for i in range(len(rows)):
@@ -371,16 +364,19 @@ def _moved_run_sums(
         # a silhouette's runs come in the window's order: its first run's row divided out, the others' followed on
         # (a 64-bit division per run took a third of the loop's time)
         row_start = np.int64(starts[first]) // width * width
-        base = row_start // width * (framed_width - width) + moved[i]  # the frame's index less the window's
+        row = row_start // width
         total = 0.0
         for run in range(first, last):
             start, end = np.int64(starts[run]), np.int64(ends[run])
             while start >= row_start + width:
                 row_start += width
-                base += framed_width - width
+                row += 1
             if end > row_start + width:
                 end, wrapping = row_start + width, True
-            total += prefix[base + end] - prefix[base + start]
+            total += (
+                prefix[_window_index(row + dv[i], end - row_start + du[i], width, height)]
+                - prefix[_window_index(row + dv[i], start - row_start + du[i], width, height)]
+            )
         sums[i] = total
     piece = 1
     while wrapping:  # the next piece of each run that goes on into another row
@@ -393,10 +389,24 @@ def _moved_run_sums(
                     continue
                 if end > start + width:
                     end, wrapping = start + width, True
-                base = row * framed_width + moved[i] - row * width
-                sums[i] += prefix[base + end] - prefix[base + start]
+                moved_row = row + dv[i]
+                sums[i] += (
+                    prefix[_window_index(moved_row, end - start + du[i], width, height)]
+                    - prefix[_window_index(moved_row, du[i], width, height)]
+                )
         piece += 1
     return sums
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _window_index(row: int, column: int, width: int, height: int) -> int:
+    """The count of a window's pixels (row-major) before pixel ``(row, column)``, for any row and column: the
+    window's edge where the pixel lies beyond it (0 above the window, all of it below)."""
+    if row < 0:
+        return 0
+    if row >= height:
+        return height * width
+    return row * width + min(max(column, 0), width)
 
 
 @numba.njit(cache=True, nogil=True)

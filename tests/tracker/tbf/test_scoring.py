@@ -74,6 +74,57 @@ def test_run_indices_take_two_bytes_up_to_65535_pixels_and_read_as_wider_ones():
         np.testing.assert_allclose(moved[3], masks[4].ravel() @ values, atol=1e-9)  # not moved: its plain sum
 
 
+def _framed_moved_sums(runs, values, width, rows, shifts):
+    """`SilhouetteRuns.shifted_sums` the plain way: the window's values framed by zeros as wide as the largest
+    shift, one prefix sum over the frame, and each run's pieces (one a window row) read there moved, added in the
+    kernel's order (every run's first piece, silhouette by silhouette, then every second, ...)."""
+    height = len(values) // width
+    margin_u, margin_v = int(np.abs(shifts[:, 0]).max()), int(np.abs(shifts[:, 1]).max())
+    framed = np.zeros((height + 2 * margin_v, width + 2 * margin_u))
+    framed[margin_v : margin_v + height, margin_u : margin_u + width] = values.reshape(height, width)
+    prefix = np.r_[0.0, np.cumsum(framed.ravel())]
+    pieces = [[] for _ in rows]  # per silhouette, per run, its pieces' sums
+    for i, (row, (du, dv)) in enumerate(zip(rows, shifts, strict=True)):
+        for run in range(runs.ptr[row], runs.ptr[row + 1]):
+            start, end, read = int(runs.starts[run]), int(runs.ends[run]), []
+            while start < end:
+                v, u = divmod(start, width)
+                piece_end = min(end, (v + 1) * width)
+                at = (v + dv + margin_v) * framed.shape[1] + margin_u + du - v * width
+                read.append(prefix[at + piece_end] - prefix[at + start])
+                start = piece_end
+            pieces[i].append(read)
+    sums = np.zeros(len(rows))
+    for piece in range(max((len(read) for runs_read in pieces for read in runs_read), default=0)):
+        for i, runs_read in enumerate(pieces):
+            for read in runs_read:
+                if piece < len(read):
+                    sums[i] += read[piece]
+    return sums
+
+
+def test_moved_sums_read_the_windows_own_prefix_sums_with_the_bits_of_a_framed_one():
+    """Cutting each moved piece at the window's edges and reading the window's prefix sums gives the bits of
+    reading a prefix sum over the window framed by zeros (zeros added change no sum): shifts within and beyond the
+    window's size each way, runs that wrap over several rows, an empty silhouette."""
+    rng = np.random.default_rng(17)
+    height, width = 9, 7
+    masks = rng.random((12, height, width)) < 0.45
+    masks[3] = False
+    masks[5, 2:6, :] = True  # one run over four rows
+    masks[6, :, -2:], masks[6, :, :2] = True, True  # runs wrapping from each row's end into the next's start
+    runs = SilhouetteRuns.from_masks(masks)
+    values = rng.normal(size=height * width) * 10.0 ** rng.integers(-6, 6, height * width)  # rounding shows
+    rows = np.array([5, 6, 0, 3, 11, 6, 5, 2, 9, 1, 4, 7, 8, 10])
+    for shifts in (
+        rng.integers(-3, 4, (len(rows), 2)),
+        rng.integers(-2 * height, 2 * height, (len(rows), 2)),
+        np.array([[width, 0], [-width, 0], [0, height], [0, -height], [width - 1, height - 1]] + [[0, 0]] * 9),
+    ):
+        expected = _framed_moved_sums(runs, values, width, rows, shifts)
+        assert runs.shifted_sums(values, width, rows, shifts).tobytes() == expected.tobytes()
+
+
 def _moved(mask, du, dv):
     """``mask`` moved by whole pixels pixel by pixel, what leaves the image lost (the naive reference)."""
     moved = np.zeros_like(mask)
