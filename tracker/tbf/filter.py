@@ -105,7 +105,7 @@ class TreeFilter:
         spot_pixels: list[np.ndarray] | None = None,
     ) -> None:
         samples = SampleViews.of(samples)
-        self.samples, self.tree, self.cost, self.motion, self.settings = samples, tree, cost, motion, settings
+        self.samples, self.tree, self.cost, self.motion, self.settings = samples, tree.prepare(), cost, motion, settings
         self.space, self.spot_pixels = space, spot_pixels
         self._prior = PosePrior(samples.poses, motion, transitions=transitions, space=space)
         self._stacks = [samples.silhouettes(level.resolution) for level in tree.levels]
@@ -257,7 +257,7 @@ class TreeFilter:
         for k, level in enumerate(self.tree.levels):
             start = time.perf_counter()
             nodes = level.children_of(survivors) if k > 0 else np.arange(len(level))
-            mass = np.bincount(level.node_of_sample, weights=prior, minlength=len(level))[nodes]
+            mass = level.masses(prior, nodes if k > 0 else None)
             nodes, mass = nodes[mass > 0], mass[mass > 0]
             if len(nodes) == 0:
                 raise RuntimeError("the prior gives no sample any weight")

@@ -17,6 +17,7 @@ leaves are the last level's nodes and every sample is in exactly one of them.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import logging
@@ -38,6 +39,53 @@ log = logging.getLogger(__name__)
 _ARRAYS = ("representatives", "seeds", "parents", "node_of_sample")  # TreeLevel's arrays, in order
 
 
+class Groups:
+    """Items grouped by an index each (``group_of``, ``(items,)``, of ``groups`` groups): the items sorted by group,
+    ascending within each, and where each group's run of them starts, so that a few groups' items are read without
+    a pass over every item."""
+
+    def __init__(self, group_of: np.ndarray, groups: int) -> None:
+        self.order = np.argsort(group_of, kind="stable")
+        self.ptr = np.r_[0, np.cumsum(np.bincount(group_of, minlength=groups))].astype(np.int64)
+
+    def items(self, groups: np.ndarray) -> np.ndarray:
+        """The items of ``groups`` (any order; repeats and indices past the last group count nothing), ascending."""
+        return _grouped_items(self.order, self.ptr, np.asarray(groups, dtype=np.int64))
+
+    def sums(self, weights: np.ndarray, groups: np.ndarray) -> np.ndarray:
+        """Per group of ``groups``, its items' ``weights`` (float64) added one by one in ascending order from 0, as
+        ``np.bincount(group_of, weights)`` adds them: the same bits."""
+        return _grouped_sums(weights, self.order, self.ptr, np.asarray(groups, dtype=np.int64))
+
+
+@numba.njit(cache=True, nogil=True)
+def _grouped_items(order: np.ndarray, ptr: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    groups = np.unique(groups)
+    groups = groups[(groups >= 0) & (groups < len(ptr) - 1)]
+    count = 0
+    for group in groups:
+        count += ptr[group + 1] - ptr[group]
+    items = np.empty(count, order.dtype)
+    at = 0
+    for group in groups:
+        for j in range(ptr[group], ptr[group + 1]):
+            items[at] = order[j]
+            at += 1
+    items.sort()
+    return items
+
+
+@numba.njit(cache=True, nogil=True)
+def _grouped_sums(weights: np.ndarray, order: np.ndarray, ptr: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    sums = np.zeros(len(groups))
+    for i in range(len(groups)):
+        total = 0.0
+        for j in range(ptr[groups[i]], ptr[groups[i] + 1]):
+            total += weights[order[j]]
+        sums[i] = total
+    return sums
+
+
 @dataclass(frozen=True, eq=False)
 class TreeLevel:
     representatives: np.ndarray  # (nodes,) sample index of each node's representative (after step 4)
@@ -50,12 +98,25 @@ class TreeLevel:
     def __len__(self) -> int:
         return len(self.representatives)
 
+    @functools.cached_property
+    def nodes_by_parent(self) -> Groups:
+        return Groups(self.parents, int(self.parents.max(initial=-1)) + 1)
+
+    @functools.cached_property
+    def samples_by_node(self) -> Groups:
+        return Groups(self.node_of_sample, len(self))
+
     def children_of(self, parents: np.ndarray) -> np.ndarray:
-        """The nodes of this level whose parent is among ``parents``."""
-        parents = np.asarray(parents, dtype=np.int64)
-        chosen = np.zeros(max(int(self.parents.max(initial=-1)), int(parents.max(initial=-1))) + 1, bool)
-        chosen[parents] = True  # a mask over the level above: one lookup per node, where np.isin would sort
-        return np.flatnonzero(chosen[self.parents])
+        """The nodes of this level whose parent is among ``parents``, ascending."""
+        return self.nodes_by_parent.items(parents)
+
+    def masses(self, weights: np.ndarray, nodes: np.ndarray | None = None) -> np.ndarray:
+        """Per node (of ``nodes``; all for None), the sum of its samples' ``weights`` (float64; e.g. a prior's
+        mass), each node's added in the samples' order: the bits of ``np.bincount(node_of_sample, weights)``, which
+        gives them all."""
+        if nodes is None:
+            return np.bincount(self.node_of_sample, weights=weights, minlength=len(self))
+        return self.samples_by_node.sums(weights, nodes)
 
 
 @dataclass(frozen=True, eq=False)
@@ -68,10 +129,16 @@ class PoseTree:
         return [len(level) for level in self.levels]
 
     def leaf_members(self, leaves: np.ndarray) -> np.ndarray:
-        """The samples in ``leaves`` (nodes of the last level)."""
-        chosen = np.zeros(len(self.levels[-1]), bool)
-        chosen[leaves] = True
-        return np.flatnonzero(chosen[self.levels[-1].node_of_sample])
+        """The samples in ``leaves`` (nodes of the last level), ascending."""
+        return self.levels[-1].samples_by_node.items(leaves)
+
+    def prepare(self) -> PoseTree:
+        """The tree with its groupings made (`TreeLevel.nodes_by_parent`, `samples_by_node`) and their compiled
+        loops loaded, which a search would otherwise do at its first frame."""
+        for level in self.levels:
+            level.children_of(np.zeros(0, np.int64))
+            level.masses(np.zeros(len(level.node_of_sample)), np.arange(1))
+        return self
 
 
 def tree_key(samples: PoseSampleSet | SampleViews, thresholds: tuple[float, ...], resolutions=LEVEL_RESOLUTIONS) -> str:

@@ -12,7 +12,7 @@ from tracker.tbf.pose_sets import arm_grid
 from tracker.tbf.sample_build import load_or_build
 from tracker.tbf.scoring import ObservationScorer
 from tracker.tbf.tracker import most_probable
-from tracker.tbf.tree import build_tree, thresholds_for_shares
+from tracker.tbf.tree import Groups, build_tree, thresholds_for_shares
 
 CAMERA = mono(position=(4.0, 0.0, 0.9), target=(0.0, 0.0, 0.9), focal_px=480.0, width=320, height=240)[0]
 THRESHOLDS = (0.006, 0.002, 0.001)
@@ -44,6 +44,25 @@ def test_every_sample_is_in_exactly_one_leaf_and_nodes_nest(samples, tree):
         # a sample's node below is a child of its node above
         np.testing.assert_array_equal(below.parents[below.node_of_sample], above.node_of_sample)
     assert tree.node_counts[0] < tree.node_counts[1] <= tree.node_counts[2] <= len(samples)
+
+
+def test_grouped_items_and_sums_equal_a_pass_over_every_item():
+    """`Groups` (a level's children, a node's samples, their prior mass) against the passes over every item it
+    replaces: a mask over the groups, and a weighted `np.bincount`, to the bit; groups asked in any order, repeated,
+    empty or past the last, items of one group scattered, weights zero on most items and of mixed magnitudes."""
+    rng = np.random.default_rng(23)
+    for items, groups in ((1, 1), (40, 7), (5000, 900)):
+        group_of = rng.integers(0, groups, items)
+        group_of[group_of == groups // 2] = 0  # one group without items (unless it is group 0)
+        weights = rng.random(items) * 10.0 ** rng.integers(-12, 3, items) * (rng.random(items) < 0.3)
+        grouping = Groups(group_of, groups)
+        for asked in (np.arange(groups), rng.integers(0, groups + 3, 2 * groups), np.zeros(0, np.int64)):
+            chosen = np.zeros(groups + 3, bool)
+            chosen[asked] = True
+            np.testing.assert_array_equal(grouping.items(asked), np.flatnonzero(chosen[group_of]))
+            mass = np.bincount(group_of, weights=weights, minlength=groups)
+            kept = asked[asked < groups]
+            assert grouping.sums(weights, kept).tobytes() == mass[kept].tobytes()
 
 
 def test_representatives_are_members_and_the_thresholds_hold(samples, tree):
