@@ -41,10 +41,7 @@ def run_frames(
             empty = background_frames(cameras, renderer, settings.silhouette.background_frames, nuisance, nuisance_rng)
             capture = SilhouetteCapture.learn(empty, settings.silhouette)
         frames = simulate(model, components.scene, cameras, renderer, settings.frames, nuisance, nuisance_rng)
-        # A frame's linear algebra is small (the hybrid's fit: systems of 72 unknowns): BLAS threads waiting for
-        # each other cost more than they share, most on a busy machine (the hybrid's refinement took 4x as long
-        # with two threads as with one while the machine ran other work).
-        with threadpool_limits(limits=1, user_api="blas"):
+        with frame_threads():
             for frame in tqdm(frames, total=settings.frames, desc="frames", disable=not sys.stderr.isatty()):
                 captured = capture_frame(capture, frame)
                 result = estimate(tracker, frame, frame.observation(captured.silhouettes if captured else None))
@@ -53,6 +50,15 @@ def run_frames(
                 log.add(frame_rows(frame, components, result, captured, evaluated), frame.timings_ms, result)
                 if stop.requested:
                     break
+
+
+def frame_threads() -> threadpool_limits:
+    """The thread limits a run steps its tracker under, and benchmarks time it under (`experiments.bench`): BLAS on
+    one thread. A frame's linear algebra is small (the hybrid's fit: systems of 72 unknowns): BLAS threads waiting
+    for each other cost more than they share, most on a busy machine (the hybrid's refinement took 4x as long with
+    two threads as with one while the machine ran other work), and they spin on the cores the tracker's own worker
+    threads use."""
+    return threadpool_limits(limits=1, user_api="blas")
 
 
 def capture_frame(capture: SilhouetteCapture | None, frame: RenderedFrame) -> CapturedFrame | None:

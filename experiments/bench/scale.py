@@ -33,6 +33,7 @@ from eval.runs import markdown
 from experiments.bench.tbf import observations, start_tracker, stepped_ms
 from experiments.cli_runs import run_child, write_text
 from experiments.components import build, compose
+from experiments.loop import frame_threads
 from experiments.steps import Section, Step
 
 log = logging.getLogger(__name__)
@@ -54,7 +55,9 @@ def measure_cell(experiment: str, frames: int, overrides: list[str]) -> dict[str
     start = time.perf_counter()
     start_tracker(run)
     start_s = time.perf_counter() - start
-    per_frame = [stepped_ms(tracker, observation) for observation in observations(run, frames)]
+    observed = observations(run, frames)
+    with frame_threads():  # as a run steps it
+        per_frame = [stepped_ms(tracker, observation) for observation in observed]
     samples, views = len(tracker.filter.samples), len(run.cameras)
     return {"samples": samples, "views": views, "start_s": start_s, "ms_per_frame": statistics.median(per_frame)}
 

@@ -16,6 +16,7 @@ import numpy as np
 
 from experiments.bench.common import report_machine
 from experiments.components import Components, build, compose
+from experiments.loop import frame_threads
 from tracker.observe.silhouettes import SilhouetteCapture
 from tracker.protocol import Observation
 from tracker.sequence import background_frames, simulate
@@ -38,16 +39,18 @@ def bench_tbf(frames: int, experiment: str, overrides: list[str]) -> dict[str, o
     tracker, frames = run.tracker, min(frames, run.settings.frames)  # a clip's preset runs it whole
     observed = observations(run, frames)
     start_tracker(run)
-    estimate_ms = [stepped_ms(tracker, observation) for observation in observed]
+    with frame_threads():  # as a run steps it
+        estimate_ms = [stepped_ms(tracker, observation) for observation in observed]
     start_tracker(run)  # again: the second pass steps through the same frames with the checks in between
     filter_ = tracker.filter
     top = filter_.tree.levels[0]
     top_runs = [stack.runs.subset(top.representatives) for stack in filter_.samples.silhouettes(top.resolution)]
     per_frame, worst = [], 0.0
-    for observation in observed:
-        figures, difference = frame_figures(tracker, top_runs, observation)
-        per_frame.append(figures)
-        worst = max(worst, difference)
+    with frame_threads():
+        for observation in observed:
+            figures, difference = frame_figures(tracker, top_runs, observation)
+            per_frame.append(figures)
+            worst = max(worst, difference)
     return {
         "samples": len(filter_.samples),
         "nodes": filter_.tree.node_counts,
