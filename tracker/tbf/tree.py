@@ -53,8 +53,9 @@ class Groups:
         return _grouped_items(self.order, self.ptr, np.asarray(groups, dtype=np.int64))
 
     def sums(self, weights: np.ndarray, groups: np.ndarray) -> np.ndarray:
-        """Per group of ``groups``, its items' ``weights`` (float64) added one by one in ascending order from 0, as
-        ``np.bincount(group_of, weights)`` adds them: the same bits."""
+        """Per group of ``groups`` (each one of this grouping's: `IndexError` otherwise), its items' ``weights``
+        (float64) added one by one in ascending order from 0, as ``np.bincount(group_of, weights)`` adds them: the
+        same bits."""
         return _grouped_sums(weights, self.order, self.ptr, np.asarray(groups, dtype=np.int64))
 
 
@@ -79,6 +80,8 @@ def _grouped_items(order: np.ndarray, ptr: np.ndarray, groups: np.ndarray) -> np
 def _grouped_sums(weights: np.ndarray, order: np.ndarray, ptr: np.ndarray, groups: np.ndarray) -> np.ndarray:
     sums = np.zeros(len(groups))
     for i in range(len(groups)):
+        if groups[i] < 0 or groups[i] >= len(ptr) - 1:
+            raise IndexError("a group the grouping does not hold")
         total = 0.0
         for j in range(ptr[groups[i]], ptr[groups[i] + 1]):
             total += weights[order[j]]

@@ -63,6 +63,9 @@ def test_grouped_items_and_sums_equal_a_pass_over_every_item():
             mass = np.bincount(group_of, weights=weights, minlength=groups)
             kept = asked[asked < groups]
             assert grouping.sums(weights, kept).tobytes() == mass[kept].tobytes()
+        for outside in (groups, -1):  # summed, a group it does not hold is an error, not memory read past its end
+            with pytest.raises(IndexError):
+                grouping.sums(weights, np.array([0, outside]))
 
 
 def test_representatives_are_members_and_the_thresholds_hold(samples, tree):
