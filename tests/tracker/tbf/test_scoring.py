@@ -88,7 +88,7 @@ def _framed_moved_sums(runs, values, width, rows, shifts):
         for run in range(runs.ptr[row], runs.ptr[row + 1]):
             start, end, read = int(runs.starts[run]), int(runs.ends[run]), []
             while start < end:
-                v, u = divmod(start, width)
+                v = start // width
                 piece_end = min(end, (v + 1) * width)
                 at = (v + dv + margin_v) * framed.shape[1] + margin_u + du - v * width
                 read.append(prefix[at + piece_end] - prefix[at + start])
