@@ -48,6 +48,11 @@ def test_occluded_features_are_lost_and_new_ones_fill_the_gap():
     assert np.isin(second.ids[second.tracked], hidden_ids).sum() <= 0.1 * len(hidden_ids)
     assert inside(second.points[second.new]).sum() > 20  # the new texture gets new corners
     assert len(np.intersect1d(second.ids[second.new], first.ids)) == 0  # new features get new ids
+    # The lost ones are the last frame's ids not live now, in increasing order.
+    np.testing.assert_array_equal(second.lost_ids, np.setdiff1d(first.ids, second.ids))
+    third = tracker.step(image)  # the covered texture is gone again: its corners are lost in turn
+    assert len(third.lost_ids) > 20
+    np.testing.assert_array_equal(third.lost_ids, np.setdiff1d(second.ids, third.ids))
 
 
 def test_new_corners_keep_their_distance_from_live_tracks():

@@ -70,9 +70,10 @@ class FeatureTracker:
         gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
         previous_ids = self._ids
         if self._gray is None or len(self._ids) == 0:
-            ids, points = np.empty(0, dtype=np.int64), np.empty((0, 2))
+            kept, points = np.zeros(len(self._ids), bool), np.empty((0, 2))
         else:
-            ids, points = self._track(self._gray, gray)
+            kept, points = self._track(self._gray, gray)
+        ids = previous_ids[kept]
         new_points = self._detect(gray, points)
         new_ids = np.arange(self._next_id, self._next_id + len(new_points), dtype=np.int64)
         self._next_id += len(new_points)
@@ -83,11 +84,12 @@ class FeatureTracker:
             ids=self._ids,
             points=self._points,
             new=np.concatenate([np.zeros(len(ids), bool), np.ones(len(new_ids), bool)]),
-            lost_ids=np.setdiff1d(previous_ids, ids),
+            lost_ids=previous_ids[~kept],  # ids are handed out in increasing order and tracks keep theirs: sorted
             gray=gray,
         )
 
     def _track(self, previous: np.ndarray, current: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Which live features are found in ``current`` (a mask), and where they are found (``(kept, 2)``)."""
         s = self.settings
         lk = dict(
             winSize=(s.window_px, s.window_px),
@@ -102,7 +104,7 @@ class FeatureTracker:
         inside = np.all((forward >= 0) & (forward <= [width - 1, height - 1]), axis=1)
         consistent = np.linalg.norm(back - self._points, axis=1) <= s.max_forward_backward_px
         keep = found.ravel().astype(bool) & found_back.ravel().astype(bool) & inside & consistent
-        return self._ids[keep], forward[keep]
+        return keep, forward[keep]
 
     def _detect(self, gray: np.ndarray, existing: np.ndarray) -> np.ndarray:
         s = self.settings
