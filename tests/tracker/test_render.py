@@ -293,9 +293,24 @@ def test_camera_size_must_match_the_renderer(renderer):
         renderer.render([small], [])
 
 
-def _run_python(code):
-    env = {k: v for k, v in os.environ.items() if k != "PYOPENGL_PLATFORM"}
-    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+def _run_python(code, **exported):
+    """``code`` in a fresh Python, with this one's environment but for what `load_pyrender` sets, and ``exported``."""
+    env = {k: v for k, v in os.environ.items() if k not in ("PYOPENGL_PLATFORM", "LP_NUM_THREADS")}
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env | exported)
+
+
+@pytest.mark.parametrize(("exported", "rasterising_threads"), [({}, 0), ({"LP_NUM_THREADS": "2"}, 2)])
+def test_llvmpipe_rasterises_in_the_drawing_thread_unless_the_user_says_otherwise(exported, rasterising_threads):
+    result = _run_python(
+        "import os\n"
+        "from tracker.render.offscreen import SceneRenderer\n"
+        "with SceneRenderer(32, 24) as renderer:\n"
+        "    tasks = [open(f'/proc/self/task/{t}/comm').read() for t in os.listdir('/proc/self/task')]\n"
+        "print(sum(name.startswith('llvmpipe') for name in tasks))",
+        **exported,
+    )
+    assert result.returncode == 0, result.stderr
+    assert int(result.stdout) == rasterising_threads
 
 
 def test_missing_pyrender_or_osmesa_names_the_fix():

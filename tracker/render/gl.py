@@ -3,6 +3,13 @@
 PyOpenGL picks its platform when first imported, so ``PYOPENGL_PLATFORM`` must be set before any import of
 ``OpenGL`` or ``pyrender``. We default it to ``osmesa`` (software off-screen rendering: no display, no GPU); a
 user who exports another value (e.g. ``egl`` on a GPU machine) keeps it.
+
+On OSMesa we also default ``LP_NUM_THREADS`` to 0: Mesa's llvmpipe then rasterises in the thread that draws, not
+on threads of its own (one per core), which it reads once, when it makes its first context. Our draws are small
+(a few meshes at 320x240 or 640x480) and come one at a time between the tracker's own work: handing each to
+rasterising threads and waiting for them costs more than they share (a tracker's z-buffer pass takes longer with
+them, the lit pass no less), and those threads take turns on the cores with the tracker's own worker.
+The pixels are the same: each tile is rasterised the same way by whichever thread. A user's own value is kept.
 """
 
 from __future__ import annotations
@@ -16,6 +23,7 @@ import numpy as np
 
 PLATFORM_VARIABLE = "PYOPENGL_PLATFORM"
 DEFAULT_PLATFORM = "osmesa"
+RASTERISER_THREADS_VARIABLE = "LP_NUM_THREADS"  # llvmpipe's rasterising threads beside the drawing one
 OSMESA_FIX = "install Debian's libosmesa6 (`sudo apt-get install libosmesa6`, or run `make setup`)"
 
 
@@ -31,6 +39,8 @@ def load_pyrender() -> ModuleType:
             "load tracker.render before anything that imports OpenGL, or export PYOPENGL_PLATFORM=osmesa"
         )
     platform = os.environ.setdefault(PLATFORM_VARIABLE, DEFAULT_PLATFORM)
+    if platform == "osmesa":
+        os.environ.setdefault(RASTERISER_THREADS_VARIABLE, "0")  # before Mesa's first context reads it
     logging.getLogger("OpenGL.acceleratesupport").setLevel(logging.WARNING)  # "no OpenGL_accelerate" is expected
     try:
         import pyrender
