@@ -84,7 +84,7 @@ class FeatureTracker:
             ids=self._ids,
             points=self._points,
             new=np.concatenate([np.zeros(len(ids), bool), np.ones(len(new_ids), bool)]),
-            lost_ids=previous_ids[~kept],  # ids are handed out in increasing order and tracks keep theirs: sorted
+            lost_ids=previous_ids[~kept],  # sorted: ids are handed out in increasing order, tracks keep their order
             gray=gray,
         )
 

@@ -4,8 +4,8 @@ PyOpenGL picks its platform when first imported, so ``PYOPENGL_PLATFORM`` must b
 ``OpenGL`` or ``pyrender``. We default it to ``osmesa`` (software off-screen rendering: no display, no GPU); a
 user who exports another value (e.g. ``egl`` on a GPU machine) keeps it.
 
-On OSMesa we also default ``LP_NUM_THREADS`` to 0: Mesa's llvmpipe then rasterises in the thread that draws, not
-on threads of its own (one per core), which it reads once, when it makes its first context. Our draws are small
+On OSMesa we also default ``LP_NUM_THREADS`` to 0 (Mesa reads it once, when it makes its first context): llvmpipe
+then rasterises in the thread that draws, not on threads of its own (one per core). Our draws are small
 (a few meshes at 320x240 or 640x480) and come one at a time between the tracker's own work: handing each to
 rasterising threads and waiting for them costs more than they share (a tracker's z-buffer pass takes longer with
 them, the lit pass no less), and those threads take turns on the cores with the tracker's own worker.
