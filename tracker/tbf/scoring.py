@@ -363,8 +363,8 @@ def _moved_run_sums(
             continue
         # a silhouette's runs come in the window's order: its first run's row divided out, the others' followed on
         # (a 64-bit division per run took a third of the loop's time)
-        row_start = np.int64(starts[first]) // width * width
-        row = row_start // width
+        row = np.int64(starts[first]) // width
+        row_start = row * width
         total = 0.0
         for run in range(first, last):
             start, end = np.int64(starts[run]), np.int64(ends[run])
