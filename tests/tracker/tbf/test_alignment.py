@@ -241,10 +241,9 @@ def test_a_sample_is_scored_where_it_stands_however_high_its_centroid(body, tmp_
     person = raised.copy()
     person[:2] += (0.3, -0.4)
     seen = [_silhouette(body, camera, person, tmp_path / f"seen{camera.name}") for camera in rig]
-    placed, offset = placement.place(seen)
-    shifts = np.rint(
-        spot_pixels(rig, placement.spots, (320, 240))[0] - spot_pixels(rig, placement.spots, (320, 240))[1]
-    )
+    placed, _ = placement.place(seen)
+    pixels = spot_pixels(rig, placement.spots, (320, 240))  # (samples, views, 2)
+    shifts = np.rint(pixels[0] - pixels[1])  # the reference's less the raised posture's, per view
     for silhouette, stack, (du, dv) in zip(placed, samples.silhouettes((320, 240)), shifts.astype(int), strict=True):
         sample = np.zeros_like(silhouette)
         u0, v0, u1, v1 = stack.window
