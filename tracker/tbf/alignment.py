@@ -257,9 +257,9 @@ def sample_spots(cameras: Sequence[Camera], samples: SampleViews) -> np.ndarray:
     samples' roots stand over one point, but a posture's spot moves with its limbs: arms raised to one side move it
     that way), brought to one height, the crossings' median. How high the crossing lies is how high the posture's
     centroid is (a squat's is lower than a stand's); every sample stands on the floor, so a sample moved onto the
-    reference's spot must move across the image, not up or down it. At their own heights, each sample was lifted
-    or lowered to the reference's centroid: on a clip that squats (indian_14), the sample nearest the truth was
-    lifted 11 pixels off the floor at 320x240, its distance in each view three to four times that on the floor."""
+    reference's spot must move across the image, not up or down it. At its own height, a sample would be lifted or
+    lowered to the reference's centroid: on a clip that squats (indian_14), the squatting sample nearest the truth
+    11 pixels off the floor at 320x240, its distance in each view three to four times that on the floor."""
     centroids = []
     for stack in samples.silhouettes(LEVEL_RESOLUTIONS[-1]):
         u0, v0, u1, v1 = stack.window
