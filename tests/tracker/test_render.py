@@ -8,7 +8,7 @@ import pytest
 
 from tracker.geometry.cameras import look_at
 from tracker.models.dsq import DSQShape, dsq_points, mesh_topology
-from tracker.render.gl import load_pyrender
+from tracker.render.gl import PLATFORM_VARIABLE, RASTERISER_THREADS_VARIABLE, load_pyrender
 from tracker.render.mesh import SurfaceMesh, vertex_normals
 from tracker.render.offscreen import BOX_MARGIN_PX, DEFAULT_BACKGROUND, SceneRenderer, drawn_box
 
@@ -295,7 +295,7 @@ def test_camera_size_must_match_the_renderer(renderer):
 
 def _run_python(code, **exported):
     """``code`` in a fresh Python, with this one's environment but for what `load_pyrender` sets, and ``exported``."""
-    env = {k: v for k, v in os.environ.items() if k not in ("PYOPENGL_PLATFORM", "LP_NUM_THREADS")}
+    env = {k: v for k, v in os.environ.items() if k not in (PLATFORM_VARIABLE, RASTERISER_THREADS_VARIABLE)}
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env | exported)
 
 

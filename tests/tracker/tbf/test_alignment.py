@@ -192,14 +192,7 @@ def test_several_views_place_a_walking_person_without_a_reference(body, tmp_path
             assert iou > 0.8, iou  # measured 0.81-1.0: off the samples' spot a view sees him from another side
     # Each sample's spot, from all of them at once, is where the rays through its own silhouettes' centroids cross,
     # brought to one height: the crossings' median.
-    crossings = []
-    for index in range(len(postures)):
-        centroids = []
-        for stack in samples.silhouettes((320, 240)):
-            v, u = np.nonzero(stack.mask(index))
-            centroids.append([u.mean() + stack.window[0], v.mean() + stack.window[1]])
-        crossings.append(nearest_to_rays(*centroid_rays(rig, np.array(centroids))))
-    crossings = np.array(crossings)
+    crossings = np.array([_crossing(rig, samples, index) for index in range(len(postures))])
     np.testing.assert_allclose(placement.spots[:, :2], crossings[:, :2], atol=1e-12)
     np.testing.assert_array_equal(placement.spots[:, 2], np.median(crossings[:, 2]))
     # Placed on another posture's spot, the estimate is still moved until its own spot is his.
@@ -230,13 +223,7 @@ def test_a_sample_is_scored_where_it_stands_however_high_its_centroid(body, tmp_
             for camera in rig
         )
     )
-    crossings = [  # where each posture's centroid rays cross: the raised arms' higher
-        nearest_to_rays(
-            *centroid_rays(rig, np.array([_centroid(_silhouette(body, c, p, tmp_path / f"c{k}{c.name}")) for c in rig]))
-        )
-        for k, p in enumerate((down, raised))
-    ]
-    assert crossings[1][2] - crossings[0][2] > 0.08
+    assert _crossing(rig, samples, 1)[2] - _crossing(rig, samples, 0)[2] > 0.08  # the raised arms' cross higher
     placement = ViewsPlacement(rig, samples, reference=0)
     person = raised.copy()
     person[:2] += (0.3, -0.4)
@@ -293,6 +280,15 @@ def test_views_that_see_the_person_cut_by_their_border_do_not_place_him(body, tm
         centroids = [_centroid(view) for view in seen]
         every = nearest_to_rays(*centroid_rays(rig, np.array(centroids))) - placement.spot(1)
         assert np.linalg.norm(every[:2] - step) > 2 * np.linalg.norm(offset[:2] - step), (every, offset)
+
+
+def _crossing(rig, samples, index):
+    """Where the rays through sample ``index``'s silhouettes' centroids cross, from its masks (at its own height)."""
+    centroids = []
+    for stack in samples.silhouettes((320, 240)):
+        v, u = np.nonzero(stack.mask(index))
+        centroids.append([u.mean() + stack.window[0], v.mean() + stack.window[1]])
+    return nearest_to_rays(*centroid_rays(rig, np.array(centroids)))
 
 
 def _centroid(silhouette):
