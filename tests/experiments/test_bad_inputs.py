@@ -138,6 +138,15 @@ AT_START = [
         r"^tracker\.estimate=mean: the arm's grid is not averaged, allowed map$",
     ),
     (
+        ["model=dsq_arm", "tracker=tbf", "cost=nwxor", "motion=dm2", "tracker.filter.flip_share=0.05"],
+        r"^tracker\.filter\.flip_share=0\.05: the arm's grid has no flips, allowed 0$",
+    ),
+    (
+        [*BODY_TBF, "tracker.placed_on=own"],
+        r"^tracker\.placed_on=own: the samples' anchors stand on the floor, tracker\.align=none places nobody there "
+        r"\(align=ground does\); allowed reference$",
+    ),
+    (
         ["model=body_mesh", "tracker=tbf", "motion=dm1"],
         r"^tracker=tbf needs cost: add cost=nwxor \(allowed cost=xor\|wxor\|nwxor\)$",
     ),

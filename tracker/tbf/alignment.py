@@ -91,6 +91,25 @@ def feet_anchor(mask: np.ndarray) -> tuple[float, float] | None:
     return float(np.median(columns)), float(rows[-1])
 
 
+def sample_anchors(samples: PoseSampleSet) -> np.ndarray:
+    """``(n, 2)``: each sample's anchor ``(u, v)`` at the finest resolution (full-image pixels): its silhouette's
+    centroid column over its lowest row. A person and his mirror image through the plane facing the camera look
+    alike in one silhouette, but put their nearer foot, lowest in the image, at opposite sides: anchored on his feet's
+    column, a silhouette placed on one sample's anchor looks like that sample's side. The centroid's column does not
+    take a side. (A sample the window does not show: the samples' mean anchor.)"""
+    stack = samples.silhouettes(LEVEL_RESOLUTIONS[-1])
+    (height, width), (u0, v0, u1, v1), runs = stack.shape, stack.window, stack.runs
+    columns = np.tile(np.arange(u0, u1, dtype=np.float64), height)
+    count = runs.sums(np.ones(columns.size))
+    seen = count > 0
+    last = np.maximum(runs.ptr[1:] - 1, 0)  # each silhouette's last run, in row-major order: its lowest row's
+    anchors = np.stack(
+        [runs.sums(columns) / np.where(seen, count, 1.0), (np.asarray(runs.ends)[last] - 1) // width + v0], axis=1
+    ).astype(np.float64)
+    anchors[~seen] = anchors[seen].mean(axis=0) if seen.any() else [(u0 + u1) / 2, v1 - 1]
+    return anchors
+
+
 def samples_anchor(samples: PoseSampleSet) -> tuple[float, float]:
     """The samples' typical feet ``(u, v)`` at the finest resolution (full-image pixels), kept with the set."""
     resolution = LEVEL_RESOLUTIONS[-1]
@@ -147,7 +166,7 @@ class Placement:
 
     silhouette: np.ndarray
     scale: float  # the silhouette's magnification into the samples' frame
-    feet: tuple[float, float]  # the observed feet's pixel (finest level) ...
+    feet: tuple[float, float]  # the observed feet's pixel (finest level; with anchors, the anchor's) ...
     reference_feet: tuple[float, float]  # ... and the reference's they were moved onto
 
     def to_observed(self, pixel: np.ndarray) -> np.ndarray:
@@ -159,10 +178,14 @@ class GroundPlacement:
     """``align="ground"`` (see the module docstring) for ``camera`` and a sample set. The feet the silhouette is
     moved onto are those of the last estimate's sample (``reference``; at first the sample nearest the initial
     pose): the feet's lowest rows are the toes or the heels by how the body stands and turns, so the spot they
-    give moves by a foot's length with the posture, and the last estimate is the nearest posture known."""
+    give moves by a foot's length with the posture, and the last estimate is the nearest posture known. With
+    ``anchors`` (`sample_anchors`), the silhouette's centroid column over its feet's lowest row is moved onto the
+    reference's anchor instead, and the filter scores every sample as if it had been moved onto the sample's own."""
 
-    def __init__(self, camera: Camera, samples: PoseSampleSet, reference: int) -> None:
-        self.camera, self.samples, self.reference = camera, samples, reference
+    def __init__(
+        self, camera: Camera, samples: PoseSampleSet, reference: int, anchors: np.ndarray | None = None
+    ) -> None:
+        self.camera, self.samples, self.reference, self.anchors = camera, samples, reference, anchors
         self.stack = samples.silhouettes(LEVEL_RESOLUTIONS[-1])
         self.pixel = camera.width / LEVEL_RESOLUTIONS[-1][0]  # camera pixels per pixel of the finest level
         self._feet: dict[int, tuple[tuple[float, float], np.ndarray | None]] = {}
@@ -196,6 +219,9 @@ class GroundPlacement:
             return None
         depths = self.camera.world_to_camera(np.array([ground, reference_ground]))[:, 2]
         scale = float(depths[0] / depths[1])
+        if self.anchors is not None:
+            feet = (silhouette_centroid(observed)[0], feet[1])
+            a, b = map(float, self.anchors[self.reference])
         return Placement(scaled_onto(observed, scale, feet, (a, b)), scale, feet, (a, b))
 
     def pose(self, sample: int, placement: Placement) -> np.ndarray:

@@ -63,6 +63,11 @@ class FilterSettings:
     # space of many joints the motion model's steps reach only the samples next to the last posterior; this share
     # lets the likelihood find the pose anywhere in the tree, as a detector would, when the views can tell.
     jump_share: Annotated[float, Range(0.0, 1.0, high_open=True)] = 0.0
+    # The share of each frame's prior moved from every sample to its depth flip (`tracker.tbf.flips`; one camera
+    # only): the samples whose mirror image through the plane facing the camera casts the same silhouette. The
+    # motion model never reaches the other side; this share lets a run that started on, or slipped to, the wrong
+    # side come back when the silhouettes' perspective says so (0: the paper's).
+    flip_share: Annotated[float, Range(0.0, 0.5)] = 0.0
 
     def __post_init__(self) -> None:
         validate(self)
@@ -103,10 +108,14 @@ class TreeFilter:
         transitions: np.ndarray | None = None,
         space: PoseSpace = BODY_SPACE,
         spot_pixels: list[np.ndarray] | None = None,
+        flips: np.ndarray | None = None,
     ) -> None:
         samples = SampleViews.of(samples)
         self.samples, self.tree, self.cost, self.motion, self.settings = samples, tree.prepare(), cost, motion, settings
         self.space, self.spot_pixels = space, spot_pixels
+        if settings.flip_share > 0 and flips is None:
+            raise ValueError("a flip share moves the prior to each sample's depth flip: the filter needs the flips")
+        self.flips = flips
         self._prior = PosePrior(samples.poses, motion, transitions=transitions, space=space)
         self._stacks = [samples.silhouettes(level.resolution) for level in tree.levels]
         # The top level, scored whole at frame 0 and, with a jump share, at every frame: its representatives as run
@@ -165,13 +174,15 @@ class TreeFilter:
         timings: dict[str, float] = {}
         scorers = self._scorers(observed, top)  # the worker threads start on them (after the prior, if under way)
         start = time.perf_counter()
-        if self._first:  # frame 0's prior is the initial Gaussian itself
+        first, self._first = self._first, False
+        if first:  # frame 0's prior is the initial Gaussian itself
             prior, terms = self._posterior.copy(), 0
-            self._first = False
         else:
             prior, terms = self._next_prior()
-            if self.settings.jump_share > 0:
-                prior = (1 - self.settings.jump_share) * prior / prior.sum() + self.settings.jump_share / len(prior)
+        if self.settings.flip_share > 0:
+            prior = self.flipped(prior)
+        if not first and self.settings.jump_share > 0:
+            prior = (1 - self.settings.jump_share) * prior / prior.sum() + self.settings.jump_share / len(prior)
         timings["prior"] = elapsed_ms(start)
         leaves, leaf_likelihood, evaluated, kept = self._descend(prior, scorers, timings)
         start = time.perf_counter()
@@ -200,6 +211,14 @@ class TreeFilter:
             entropy=float(-(nonzero * np.log(nonzero)).sum()),
             timings_ms=timings,
         )
+
+    def flipped(self, prior: np.ndarray) -> np.ndarray:
+        """``prior`` normalised, ``flip_share`` of each sample's mass moved to its depth flip."""
+        share, total = self.settings.flip_share, prior.sum()
+        carried = np.flatnonzero(prior)  # a prior is zero beyond its kernels' reach
+        flipped = (1 - share) / total * prior
+        np.add.at(flipped, self.flips[carried], share / total * prior[carried])
+        return flipped
 
     def _seeing(
         self, observed: tuple[np.ndarray | None, ...]

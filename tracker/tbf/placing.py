@@ -7,7 +7,8 @@ there; `columns` are the frame's columns of it in the run's table.
     `AsSeen`        ``none``: the silhouettes as they are, the sample as it is.
     `FeetAligned`   ``feet``: each view's silhouette moved by whole pixels onto the samples' feet; the estimate's
                     root moved back by as much (the mean over views).
-    `GroundPlaced`  ``ground``, one view: placed on the floor (`tracker.tbf.alignment.GroundPlacement`).
+    `GroundPlaced`  ``ground``, one view: placed on the floor (`tracker.tbf.alignment.GroundPlacement`); with
+                    anchors, on a reference sample's, the filter scoring each sample from its own.
     `ViewsPlaced`   ``ground``, several views: placed on a reference sample's spot, where the views' centroid
                     rays cross (`tracker.tbf.alignment.ViewsPlacement`); the filter scores each sample from it.
 """
@@ -103,8 +104,10 @@ class GroundPlaced(AsSeen):
 
     def place(self, observed: Sequence[np.ndarray]) -> Placed:
         silhouette = self.finest(observed[0])
+        # with anchors, the filter scores each sample from its own, the reference's being where it was placed
+        reference = None if self.placement.anchors is None else self.placement.reference
         placement: Placement | None = self.placement.place(silhouette)  # None: no feet below the horizon
-        return Placed((placement.silhouette if placement else silhouette,), how=placement)
+        return Placed((placement.silhouette if placement else silhouette,), reference, how=placement)
 
     def estimate(self, sample: int, pose: np.ndarray, placed: Placed) -> np.ndarray:
         return pose.copy() if placed.how is None else self.placement.pose(sample, placed.how)

@@ -57,6 +57,12 @@ class TbfSettings:
     # the floor: scaled by its feet's depth and moved onto the samples' feet, the root estimated on the ground from
     # where the feet stand (`tracker.tbf.alignment.GroundPlacement`): a person who walks about.
     align: Literal["none", "feet", "ground"] = "none"
+    # With ``align=ground`` from one camera: every sample scored on the observation as placed on the reference
+    # sample's feet (``reference``), or each as if it had been placed on the sample's own anchor, its silhouette's
+    # centroid column over its lowest row (``own``; several views always score each sample from its own spot).
+    # Placed on one sample's feet, the observation looks like that sample's side (`tracker.tbf.alignment
+    # .sample_anchors`): a run stays on whichever side of the camera's depth ambiguity it stands.
+    placed_on: Literal["reference", "own"] = "reference"
     # The DSQ arm's pose samples (model=dsq_arm; `tracker.tbf.arm_dictionary`): a grid of its parameters.
     arm_samples: ArmGridSpec = field(default_factory=ArmGridSpec)
 
@@ -79,6 +85,14 @@ def check_settings(settings: TbfSettings, frames: int, key: str, model: str) -> 
         raise ValueError(f"{key}.build.backend=ray: Ray is not installed here (make ray installs it); allowed loky")
     if model == "dsq_arm" and settings.align != "none":
         raise ValueError(f"{key}.align={settings.align}: the arm stands on no floor, allowed none")
+    if settings.placed_on == "own" and settings.align != "ground":
+        raise ValueError(
+            f"{key}.placed_on=own: the samples' anchors stand on the floor, {key}.align={settings.align} places "
+            "nobody there (align=ground does); allowed reference"
+        )
+    if model == "dsq_arm" and settings.filter.flip_share > 0:
+        share = settings.filter.flip_share
+        raise ValueError(f"{key}.filter.flip_share={share}: the arm's grid has no flips, allowed 0")
     if model == "dsq_arm" and settings.estimate != "map":
         raise ValueError(f"{key}.estimate={settings.estimate}: the arm's grid is not averaged, allowed map")
     for index, path, rate in clip_files(settings.samples, key):

@@ -34,10 +34,11 @@ from tracker.motion.posture import arms_pose
 from tracker.presentation import STAGES_PANEL, Panel, Presentation
 from tracker.protocol import Observation, SampleDictionary, StepResult, Tracker
 from tracker.registry import TRACKERS, Fit
-from tracker.tbf.alignment import GroundPlacement, ViewsPlacement, sample_spots, spot_pixels
+from tracker.tbf.alignment import GroundPlacement, ViewsPlacement, sample_anchors, sample_spots, spot_pixels
 from tracker.tbf.arm_dictionary import ArmDictionary
 from tracker.tbf.costs import Cost, EmptySilhouette
 from tracker.tbf.filter import FilterResult, TreeFilter
+from tracker.tbf.flips import depth_flips
 from tracker.tbf.motion import BODY_SPACE, PoseSpace, RandomWalk
 from tracker.tbf.own_body import own_body
 from tracker.tbf.placing import AsSeen, FeetAligned, GroundPlaced, Placing, ViewsPlaced
@@ -123,16 +124,24 @@ class TbfTracker(Tracker):
     def start(
         self, model: BodyMesh | DSQArm, cameras: Sequence[Camera], initial: np.ndarray, rng: np.random.Generator
     ) -> None:
+        if self.settings.filter.flip_share > 0 and len(cameras) > 1:  # before the samples are loaded or built
+            raise ValueError(
+                f"tracker.filter.flip_share={self.settings.filter.flip_share}: {len(cameras)} views tell a pose from "
+                "its depth flip, allowed 0 (one camera's ambiguity)"
+            )
         self.cameras, self.part_names = tuple(cameras), model.part_names
         start = time.perf_counter()
         posable, space, poses, initial_pose = self._dictionary(model, initial)
         self._samples_and_tree(posable, poses)
         spots = sample_spots(self.cameras, self.samples) if self._placed_by_views else None
-        pixels = (
-            None
-            if spots is None
-            else [spot_pixels(self.cameras, spots, level.resolution) for level in self.tree.levels]
-        )
+        anchors = sample_anchors(self.samples.sets[0]) if self._placed_by_anchors else None
+        if spots is not None:
+            pixels = [spot_pixels(self.cameras, spots, level.resolution) for level in self.tree.levels]
+        elif anchors is not None:  # the finest level's pixels in each level's
+            finest = np.array(LEVEL_RESOLUTIONS[-1], dtype=np.float64)
+            pixels = [anchors[:, None] * (np.array(level.resolution) / finest) for level in self.tree.levels]
+        else:
+            pixels = None
         self.filter = TreeFilter(
             self.samples,
             self.tree,
@@ -142,11 +151,12 @@ class TbfTracker(Tracker):
             self.transitions,
             space,
             pixels,
+            self._flips(),
         )
         # frame -> the silhouettes the filter saw (finest level, packed) and the sample whose spot they were placed on
         self._seen: dict[int, tuple[list[np.ndarray], int | None]] = {}
         self.filter.start(initial_pose)
-        self.placing = self._placing(spots)
+        self.placing = self._placing(spots, anchors)
         # whether the last frame's placing found where the person stands (else its estimate's root is its sample's
         # own: the views could not place him, e.g. someone out of a view, or ``align=none``)
         self.person_placed = False
@@ -173,6 +183,15 @@ class TbfTracker(Tracker):
     def _joint_positions(self) -> np.ndarray:
         """The body samples' joint positions, on the tracker's own body (`SampleDictionary.joint_positions`)."""
         return cached_joint_positions(self.body, self.samples.poses, Path(self.settings.cache_dir) / "joints")
+
+    def _flips(self) -> np.ndarray | None:
+        """Each sample's depth flip for the one camera (`tracker.tbf.flips`), when the filter moves a share of its
+        prior to them (``filter.flip_share``); else None."""
+        if self.settings.filter.flip_share == 0:
+            return None
+        joints = self._joint_positions()
+        self._aligned_joints = joints - joints[:, :1]
+        return depth_flips(joints, self.cameras[0], np.median(self.samples.poses[:, :3], axis=0))
 
     def _dictionary(
         self, model: BodyMesh | DSQArm, initial: np.ndarray
@@ -213,7 +232,12 @@ class TbfTracker(Tracker):
         """Placed on the floor where the views' centroid rays cross (several views)."""
         return self.settings.align == "ground" and len(self.cameras) > 1
 
-    def _placing(self, spots: np.ndarray | None) -> Placing:
+    @property
+    def _placed_by_anchors(self) -> bool:
+        """Placed on the floor from one view, each sample scored from its own anchor (``placed_on=own``)."""
+        return self.settings.align == "ground" and len(self.cameras) == 1 and self.settings.placed_on == "own"
+
+    def _placing(self, spots: np.ndarray | None, anchors: np.ndarray | None) -> Placing:
         """The alignment mode (`TbfSettings.align`); the floor's placings start on the initial prior's sample."""
         align, initial = self.settings.align, self.filter.initial_sample
         finest = len(self.tree.levels) - 1
@@ -226,7 +250,7 @@ class TbfTracker(Tracker):
         if self._placed_by_views:
             return ViewsPlaced(ViewsPlacement(self.cameras, self.samples, initial, spots), at_finest)
         if align == "ground":
-            return GroundPlaced(GroundPlacement(self.cameras[0], self.samples.sets[0], initial), at_finest)
+            return GroundPlaced(GroundPlacement(self.cameras[0], self.samples.sets[0], initial, anchors), at_finest)
         return AsSeen()
 
     def mean_rotations(self) -> np.ndarray:
@@ -234,8 +258,17 @@ class TbfTracker(Tracker):
         weighted by their posterior (`mean_rotation_vectors`): a pose vector's entries from 3 on."""
         posterior = self.filter.posterior
         top = most_probable(posterior, self.settings.mean_of)
+        if self.filter.flips is not None:  # of the most probable sample's side
+            top = top[self.on_side_of(top[0], top)]
         rotations = np.asarray(self.samples.poses[top], dtype=np.float64)[:, 3:]
         return mean_rotation_vectors(rotations.reshape(len(top), -1, 3), posterior[top]).ravel()
+
+    def on_side_of(self, sample: int, others: np.ndarray) -> np.ndarray:
+        """Which of ``others`` lie on ``sample``'s side of the depth ambiguity: nearer it than its flip (root-aligned
+        joints, as `tracker.tbf.flips` measures). A posterior may hold both sides; their mean is neither."""
+        joints, flip = self._aligned_joints, self.filter.flips[sample]
+        own = ((joints[others] - joints[sample]) ** 2).sum(axis=(1, 2))
+        return own <= ((joints[others] - joints[flip]) ** 2).sum(axis=(1, 2))
 
     def estimate_of(self, pose: np.ndarray) -> np.ndarray:
         """A sample's pose vector as the run's estimate: the body's pose vector itself, the arm's parameters."""

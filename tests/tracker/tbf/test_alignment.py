@@ -7,6 +7,7 @@ from scipy.spatial.transform import Rotation
 
 from tracker.geometry.cameras import look_at, wholly_in_view
 from tracker.geometry.rigs import View, cameras
+from tracker.models.body_skeleton import JOINT_INDEX, turned_about_vertical
 from tracker.motion.posture import arms_pose
 from tracker.tbf.alignment import (
     GroundPlacement,
@@ -15,11 +16,13 @@ from tracker.tbf.alignment import (
     feet_anchor,
     ground_point,
     nearest_to_rays,
+    sample_anchors,
     shifted,
     silhouette_centroid,
     spot_pixels,
     world_offset,
 )
+from tracker.tbf.pose_sets import grounded, mirrored
 from tracker.tbf.sample_build import load_or_build
 from tracker.tbf.samples import SampleViews
 
@@ -134,6 +137,68 @@ def test_ground_placement_finds_where_a_walking_person_stands(body, tmp_path):
         sample[v0:v1, u0:u1] = samples.silhouettes((320, 240)).mask(index)
         iou = np.count_nonzero(placed.silhouette & sample) / np.count_nonzero(placed.silhouette | sample)
         assert iou > 0.85, iou  # scaled and moved onto the sample's spot, the silhouettes agree
+
+
+def test_a_samples_anchor_is_its_silhouettes_centroid_column_over_its_lowest_row(body, tmp_path):
+    camera = _front_camera()
+    postures = np.array(
+        [
+            arms_pose(body, (swing, 10.0, 30.0), (-swing, 20.0, 0.0), yaw_deg=yaw)
+            for swing in (-40.0, 30.0, 150.0)
+            for yaw in (-90.0, 0.0)
+        ]
+    )
+    samples = load_or_build(body, camera, postures, tmp_path / "samples", progress=False)
+    stack = samples.silhouettes((320, 240))
+    u0, v0 = stack.window[:2]
+    for index, (u, v) in enumerate(sample_anchors(samples)):
+        rows, columns = np.nonzero(stack.mask(index))
+        assert u == pytest.approx(columns.mean() + u0, abs=1e-9) and v == rows.max() + v0
+
+
+def test_one_view_scores_each_sample_from_its_own_anchor_whichever_it_was_placed_on(body, tmp_path):
+    """A stride towards the camera and its depth flip (`tracker.tbf.flips`: facing away, the other leg forward)
+    cast one outline but for perspective: the nearer foot lowest in the image, 19 pixels to one side in the one,
+    to the other in the flip. Placed on a sample's feet, the observed stride looks like that sample, so the run's
+    side confirms itself; scored each from its own anchor (the silhouette's centroid column over its lowest row),
+    the stride wins on either sample's."""
+    camera = _front_camera()
+    stride = arms_pose(body, (10.0, 8.0, 20.0), (-10.0, 8.0, 20.0), yaw_deg=-90.0)
+    stride[3 + 3 * JOINT_INDEX["LeftUpLeg"]], stride[3 + 3 * JOINT_INDEX["RightUpLeg"]] = 0.4, -0.4
+    postures = grounded(body, np.array([stride, turned_about_vertical(mirrored(stride[None]), np.pi)[0]]))
+    samples = load_or_build(body, camera, postures, tmp_path / "samples", progress=False)
+    anchors = sample_anchors(samples)
+    stack = samples.silhouettes((320, 240))
+    for step in (-0.6, 0.7):  # he walked nearer the camera, or away
+        person = postures[0].copy()
+        person[1] += step
+        seen = _silhouette(body, camera, person, tmp_path / f"seen{step}")
+        for reference in (0, 1):
+            own = GroundPlacement(camera, samples, reference, anchors).place(seen).silhouette
+            at_feet = GroundPlacement(camera, samples, reference).place(seen).silhouette
+            differing_own, differing_at_feet = [], []
+            for index in (0, 1):
+                sample = np.zeros_like(seen)
+                u0, v0, u1, v1 = stack.window
+                sample[v0:v1, u0:u1] = stack.mask(index)
+                differing_at_feet.append(np.count_nonzero(at_feet ^ sample))
+                du, dv = np.rint(anchors[reference] - anchors[index]).astype(int)
+                differing_own.append(np.count_nonzero(own ^ shifted(sample, du, dv)))
+            assert differing_own[0] < differing_own[1], (step, reference, differing_own)
+            # placed on the sample's feet, that sample looks nearer: the flip, when it is the reference
+            assert (differing_at_feet[0] < differing_at_feet[1]) == (reference == 0), (step, reference)
+
+
+def _front_camera():
+    return look_at(
+        "main",
+        np.array([0.0, -4.5, 0.9]),
+        np.array([0.0, 0.0, 0.9]),
+        np.array([0.0, 0.0, 1.0]),
+        width=320,
+        height=240,
+        focal_px=420.0,
+    )
 
 
 def _silhouette(body, camera, pose, folder):

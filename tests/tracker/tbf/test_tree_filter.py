@@ -435,3 +435,38 @@ def test_bit_rows_are_the_images_packed():
     expected = np.zeros((40, 16), np.uint8)  # 117 pixels: two 64-bit words
     expected[:, :15] = np.packbits(images.reshape(40, -1), axis=1)
     np.testing.assert_array_equal(_packed_bits(stack), expected.view(np.uint64))
+
+
+def test_a_flip_share_moves_each_samples_prior_to_its_flip_and_reaches_what_the_walk_cannot(samples, tree):
+    """``flip_share`` of each sample's prior mass goes to its flip (a naive loop over the samples); a sample the
+    motion model cannot reach from the start is found through the flip of the start's sample."""
+    count = len(samples.poses)
+    rng = np.random.default_rng(5)
+    flips = rng.integers(0, count, count)
+    settings = FilterSettings(initial_sigma=0.05, likelihood_sigma=0.5, prune_fraction=1e-6, flip_share=0.2)
+    filter_ = TreeFilter(samples, tree, COSTS.defaults("nwxor"), OccludedWiderWalk(), settings, flips=flips)
+    prior = rng.random(count) * (rng.random(count) < 0.3)
+    expected = 0.8 * prior / prior.sum()
+    for sample in range(count):
+        expected[flips[sample]] += 0.2 * prior[sample] / prior.sum()
+    np.testing.assert_allclose(filter_.flipped(prior), expected, rtol=1e-12)
+
+    held, start = 0, 72  # swing -60 degrees, and 48: far apart for the walk
+    unflipped = TreeFilter(
+        samples,
+        tree,
+        COSTS.defaults("nwxor"),
+        OccludedWiderWalk(),
+        FilterSettings(initial_sigma=0.05, likelihood_sigma=0.5, prune_fraction=1e-6),
+    )
+    unflipped.start(samples.poses[start])
+    assert unflipped.step(_observed(samples, held)).sample != held and unflipped.posterior[held] == 0
+    flips = np.arange(count)
+    flips[unflipped.initial_sample] = held
+    flipped = TreeFilter(samples, tree, COSTS.defaults("nwxor"), OccludedWiderWalk(), settings, flips=flips)
+    flipped.start(samples.poses[start])
+    result = flipped.step(_observed(samples, held))
+    leaf_of = tree.levels[-1].node_of_sample
+    assert leaf_of[result.sample] == leaf_of[held] and flipped.posterior[held] > 0
+    with pytest.raises(ValueError, match="needs the flips"):
+        TreeFilter(samples, tree, COSTS.defaults("nwxor"), OccludedWiderWalk(), settings)

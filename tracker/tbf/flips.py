@@ -1,0 +1,57 @@
+"""Depth flips: the pose samples one silhouette cannot tell from each other.
+
+Seen by one camera, a person and his mirror image through the vertical plane facing the camera (through his
+root, across the line of sight) cast nearly the same silhouette: only perspective tells them apart (the nearer
+foot lower in the image, the nearer limbs larger). That mirror image is itself a person's pose, his left and right
+swapped: a person facing the camera flips to one turned away, a side view's lead leg to the other leg. A pose's
+**flip** is the pose sample nearest that mirror image, by the root-aligned distance of every joint (the squared
+distances summed).
+
+The filter moves a share of each frame's prior from every sample to its flip (`tracker.tbf.filter.FilterSettings
+.flip_share`): without it, its motion model never reaches the other side, and the side it started on, or slipped
+to, lasts the whole clip.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tracker.geometry.cameras import Camera
+from tracker.models.body_skeleton import MIRROR_JOINTS
+
+FLIP_BLOCK = 512  # samples whose flips are searched at once (a block's distances to every sample in memory)
+
+
+def mirrored_through(joints: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """``(n, J, 3)`` root-aligned joint positions (joint 0 the root) mirrored through the plane of ``normal`` (a
+    unit vector) through the root, each joint's position given to its mirror twin: the joints of the person whose
+    body is that mirror image."""
+    aligned = joints - joints[:, :1]
+    reflected = aligned - 2.0 * (aligned @ normal)[..., None] * normal
+    return reflected[:, list(MIRROR_JOINTS)]
+
+
+def line_of_sight(camera: Camera, point: np.ndarray) -> np.ndarray:
+    """The horizontal unit vector from ``camera`` towards ``point``."""
+    direction = np.asarray(point, dtype=np.float64) - camera.position
+    direction[2] = 0.0
+    length = np.linalg.norm(direction)
+    if length == 0:
+        raise ValueError("the point is straight below or above the camera: no line of sight across the floor")
+    return direction / length
+
+
+def depth_flips(joints: np.ndarray, camera: Camera, spot: np.ndarray) -> np.ndarray:
+    """``(n,)``: each sample's flip (see the module docstring) for ``camera``, the samples standing at ``spot``:
+    the index of the sample whose root-aligned ``joints`` ``(n, J, 3)`` are nearest its mirror image's."""
+    aligned = np.asarray(joints, dtype=np.float64)
+    aligned = (aligned - aligned[:, :1]).reshape(len(aligned), -1)
+    mirrored = mirrored_through(np.asarray(joints, dtype=np.float64), line_of_sight(camera, spot))
+    mirrored = mirrored.reshape(len(mirrored), -1)
+    squared_norms = np.einsum("nk,nk->n", aligned, aligned)
+    flips = np.empty(len(aligned), dtype=np.int64)
+    for first in range(0, len(aligned), FLIP_BLOCK):
+        block = mirrored[first : first + FLIP_BLOCK]
+        distances = squared_norms[None, :] - 2.0 * block @ aligned.T  # + |block|^2, the same along each row
+        flips[first : first + FLIP_BLOCK] = np.argmin(distances, axis=1)
+    return flips
