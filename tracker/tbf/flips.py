@@ -15,11 +15,10 @@ to, lasts the whole clip.
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from tracker.geometry.cameras import Camera
 from tracker.models.body_skeleton import MIRROR_JOINTS
-
-FLIP_BLOCK = 512  # samples whose flips are searched at once (a block's distances to every sample in memory)
 
 
 def mirrored_through(joints: np.ndarray, normal: np.ndarray) -> np.ndarray:
@@ -41,17 +40,11 @@ def line_of_sight(camera: Camera, point: np.ndarray) -> np.ndarray:
     return direction / length
 
 
-def depth_flips(joints: np.ndarray, camera: Camera, spot: np.ndarray) -> np.ndarray:
-    """``(n,)``: each sample's flip (see the module docstring) for ``camera``, the samples standing at ``spot``:
-    the index of the sample whose root-aligned ``joints`` ``(n, J, 3)`` are nearest its mirror image's."""
-    aligned = np.asarray(joints, dtype=np.float64)
-    aligned = (aligned - aligned[:, :1]).reshape(len(aligned), -1)
-    mirrored = mirrored_through(np.asarray(joints, dtype=np.float64), line_of_sight(camera, spot))
-    mirrored = mirrored.reshape(len(mirrored), -1)
-    squared_norms = np.einsum("nk,nk->n", aligned, aligned)
-    flips = np.empty(len(aligned), dtype=np.int64)
-    for first in range(0, len(aligned), FLIP_BLOCK):
-        block = mirrored[first : first + FLIP_BLOCK]
-        distances = squared_norms[None, :] - 2.0 * block @ aligned.T  # + |block|^2, the same along each row
-        flips[first : first + FLIP_BLOCK] = np.argmin(distances, axis=1)
-    return flips
+def depth_flips(joints: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """``(n,)``: each sample's flip (see the module docstring) through the plane of ``normal`` (`line_of_sight`):
+    the index of the sample whose root-aligned ``joints`` ``(n, J, 3)`` are nearest its mirror image's (a KD-tree
+    over the samples' joints: postures fill few of their ~90 components' directions, and the search is quick)."""
+    joints = np.asarray(joints, dtype=np.float64)
+    aligned = (joints - joints[:, :1]).reshape(len(joints), -1)
+    _, flips = cKDTree(aligned).query(mirrored_through(joints, normal).reshape(len(joints), -1))
+    return flips.astype(np.int64)

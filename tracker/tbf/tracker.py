@@ -38,7 +38,7 @@ from tracker.tbf.alignment import GroundPlacement, ViewsPlacement, sample_anchor
 from tracker.tbf.arm_dictionary import ArmDictionary
 from tracker.tbf.costs import Cost, EmptySilhouette
 from tracker.tbf.filter import FilterResult, TreeFilter
-from tracker.tbf.flips import depth_flips
+from tracker.tbf.flips import depth_flips, line_of_sight
 from tracker.tbf.motion import BODY_SPACE, PoseSpace, RandomWalk
 from tracker.tbf.own_body import own_body
 from tracker.tbf.placing import AsSeen, FeetAligned, GroundPlaced, Placing, ViewsPlaced
@@ -191,7 +191,7 @@ class TbfTracker(Tracker):
             return None
         joints = self._joint_positions()
         self._aligned_joints = joints - joints[:, :1]
-        return depth_flips(joints, self.cameras[0], np.median(self.samples.poses[:, :3], axis=0))
+        return depth_flips(joints, line_of_sight(self.cameras[0], np.median(self.samples.poses[:, :3], axis=0)))
 
     def _dictionary(
         self, model: BodyMesh | DSQArm, initial: np.ndarray

@@ -43,7 +43,7 @@ def test_each_pose_and_its_mirror_image_through_the_plane_facing_the_camera_are_
     bearing = np.arctan2(*line_of_sight(camera, np.zeros(3))[1::-1])
     made = turned_about_vertical(mirrored(poses), 2.0 * bearing)
     joints = body.joint_positions(np.concatenate([poses, made]))
-    flips = depth_flips(joints, camera, np.zeros(3))
+    flips = depth_flips(joints, line_of_sight(camera, np.zeros(3)))
     count = len(poses)
     np.testing.assert_array_equal(flips, np.r_[np.arange(count, 2 * count), np.arange(count)])
     # The joints mirrored are the other poses' to within the rest skeleton's own asymmetry: its toes are 2 cm, its
