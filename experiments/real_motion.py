@@ -37,7 +37,10 @@ VARIANTS = {
         ),
     ),
     "dm2": ("DM2's random walk instead of the learned transitions", ("motion=dm2",)),
-    "no_placement": ("no root placement (the silhouette as it is)", ("tracker.align=none",)),
+    "no_placement": (
+        "no root placement (the silhouette as it is)",
+        ("tracker.align=none", "tracker.placed_on=reference"),
+    ),
     "base_body": ("MakeHuman's base mesh instead of the nearest standard body", ("tracker.body=base",)),
 }
 

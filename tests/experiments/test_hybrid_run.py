@@ -65,7 +65,8 @@ def test_the_fed_posterior_reaches_the_next_prior_as_if_fed_at_once(hybrid_cache
     """A worker thread searches the sample nearest each refined pose between the frames; the next step moves the
     posterior onto it before its prior, so every frame's posterior is the same as when the feed is made within the
     step (a feed lost, or made after the prior, would change the next one)."""
-    run = build(compose(list(small_run(hybrid_cache, "experiment=hybrid_paper_scale", "frames=3"))))
+    overrides = small_run(hybrid_cache, "experiment=hybrid_paper_scale", "frames=3", "tracker.feed=0.5")
+    run = build(compose(list(overrides)))  # (the one-camera preset feeds nothing back)
     observed = observations(run, 3)
     posteriors: dict[bool, list] = {False: [], True: []}
     for at_once in posteriors:
