@@ -79,15 +79,7 @@ def test_the_world_offset_moves_the_projection_by_the_pixels_asked():
 
 
 def test_a_ground_point_projects_back_onto_its_pixel_and_lies_on_the_floor():
-    camera = look_at(
-        "main",
-        np.array([0.0, -4.5, 0.9]),
-        np.array([0.0, 0.0, 0.9]),
-        np.array([0.0, 0.0, 1.0]),
-        width=320,
-        height=240,
-        focal_px=420.0,
-    )
+    camera = _front_camera()
     for u, v in [(160.0, 200.0), (20.5, 239.0), (300.0, 130.0)]:
         point = ground_point(camera, u, v)
         assert point[2] == pytest.approx(0.0, abs=1e-12)
@@ -96,15 +88,7 @@ def test_a_ground_point_projects_back_onto_its_pixel_and_lies_on_the_floor():
 
 
 def test_ground_placement_finds_where_a_walking_person_stands(body, tmp_path):
-    camera = look_at(
-        "main",
-        np.array([0.0, -4.5, 0.9]),
-        np.array([0.0, 0.0, 0.9]),
-        np.array([0.0, 0.0, 1.0]),
-        width=320,
-        height=240,
-        focal_px=420.0,
-    )
+    camera = _front_camera()
     postures = np.array(
         [
             arms_pose(body, (swing, 10.0, elbow), (0.0, 8.0, 0.0), yaw_deg=-90.0)
