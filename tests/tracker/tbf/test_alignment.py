@@ -142,8 +142,8 @@ def test_a_samples_anchor_is_its_silhouettes_centroid_column_over_its_lowest_row
 
 def test_one_view_scores_each_sample_from_its_own_anchor_whichever_it_was_placed_on(body, tmp_path):
     """A stride towards the camera and its depth flip (`tracker.tbf.flips`: facing away, the other leg forward)
-    cast one outline but for perspective: the nearer foot lowest in the image, 19 pixels to one side in the one,
-    to the other in the flip. Placed on a sample's feet, the observed stride looks like that sample, so the run's
+    cast one outline but for perspective: the nearer foot, lowest in the image, stands 19 pixels from where the
+    flip's nearer foot stands. Placed on a sample's feet, the observed stride looks like that sample, so the run's
     side confirms itself; scored each from its own anchor (the silhouette's centroid column over its lowest row),
     the stride wins on either sample's."""
     camera = _front_camera()
