@@ -53,6 +53,7 @@ import numpy as np
 from tracker.geometry.cameras import Camera, wholly_in_view
 from tracker.models.body_skeleton import turned_about_vertical
 from tracker.tbf.samples import LEVEL_RESOLUTIONS, PoseSampleSet, SampleViews
+from tracker.tbf.scoring import SilhouetteStack
 
 FEET_BAND = 0.06  # the bottom this fraction of a silhouette's height holds the feet
 ANCHOR_SAMPLES = 200  # samples whose feet give the set's anchor, picked evenly through it
@@ -98,16 +99,25 @@ def sample_anchors(samples: PoseSampleSet) -> np.ndarray:
     column, a silhouette placed on one sample's anchor looks like that sample's side. The centroid's column does not
     take a side. (A sample the window does not show: the samples' mean anchor.)"""
     stack = samples.silhouettes(LEVEL_RESOLUTIONS[-1])
-    (height, width), (u0, v0, u1, v1), runs = stack.shape, stack.window, stack.runs
-    columns = np.tile(np.arange(u0, u1, dtype=np.float64), height)
-    count = runs.sums(np.ones(columns.size))
-    seen = count > 0
+    (_, width), (u0, v0, u1, v1), runs = stack.shape, stack.window, stack.runs
+    centroids, seen = stack_centroids(stack)
     last = np.maximum(runs.ptr[1:] - 1, 0)  # each silhouette's last run, in row-major order: its lowest row's
-    anchors = np.stack(
-        [runs.sums(columns) / np.where(seen, count, 1.0), (np.asarray(runs.ends)[last] - 1) // width + v0], axis=1
-    ).astype(np.float64)
+    anchors = np.stack([centroids[:, 0], (np.asarray(runs.ends)[last] - 1) // width + v0], axis=1).astype(np.float64)
     anchors[~seen] = anchors[seen].mean(axis=0) if seen.any() else [(u0 + u1) / 2, v1 - 1]
     return anchors
+
+
+def stack_centroids(stack: SilhouetteStack) -> tuple[np.ndarray, np.ndarray]:
+    """``(n, 2)`` each silhouette's centroid ``(u, v)`` in full-image pixels of its resolution, from the sums of its
+    runs, and ``(n,)`` whether it has any pixel; an empty one gets the mean centroid of all the pixels (the window's
+    centre when every one is empty)."""
+    u0, v0, u1, v1 = stack.window
+    columns, rows = np.meshgrid(np.arange(u0, u1, dtype=np.float64), np.arange(v0, v1, dtype=np.float64))
+    count = stack.runs.sums(np.ones(columns.size))
+    sums = np.stack([stack.runs.sums(columns.ravel()), stack.runs.sums(rows.ravel())], axis=1)
+    seen = count > 0
+    sums[~seen] = (sums[seen].sum(axis=0) / count[seen].sum()) if seen.any() else [(u0 + u1) / 2, (v0 + v1) / 2]
+    return sums / np.where(seen, count, 1.0)[:, None], seen
 
 
 def samples_anchor(samples: PoseSampleSet) -> tuple[float, float]:
@@ -286,15 +296,8 @@ def sample_spots(cameras: Sequence[Camera], samples: SampleViews) -> np.ndarray:
     reference's spot must move across the image, not up or down it. At its own height, a sample would be lifted or
     lowered to the reference's centroid: on a clip that squats (indian_14), the squatting sample nearest the truth
     11 pixels off the floor at 320x240, its distance in each view three to four times that on the floor."""
-    centroids = []
-    for stack in samples.silhouettes(LEVEL_RESOLUTIONS[-1]):
-        u0, v0, u1, v1 = stack.window
-        columns, rows = np.meshgrid(np.arange(u0, u1, dtype=np.float64), np.arange(v0, v1, dtype=np.float64))
-        count = stack.runs.sums(np.ones(columns.size))
-        sums = np.stack([stack.runs.sums(columns.ravel()), stack.runs.sums(rows.ravel())], axis=1)
-        seen = count > 0  # a sample this view does not see at all: the mean centroid (its silhouette is empty anyway)
-        sums[~seen] = (sums[seen].sum(axis=0) / count[seen].sum()) if seen.any() else [(u0 + u1) / 2, (v0 + v1) / 2]
-        centroids.append(sums / np.where(seen, count, 1.0)[:, None])
+    # a sample a view does not see at all: the mean centroid (its silhouette is empty anyway)
+    centroids = [stack_centroids(stack)[0] for stack in samples.silhouettes(LEVEL_RESOLUTIONS[-1])]
     spots = nearest_to_rays(*centroid_rays(cameras, np.stack(centroids, axis=1)))
     spots[:, 2] = np.median(spots[:, 2])
     return spots
