@@ -59,10 +59,12 @@ class FilterSettings:
     # the power V, as the views' likelihoods multiply).
     prune_fraction: Annotated[float, Range(0.0, 1.0, high_open=True)] = 0.01
     initial_sigma: Positive = 0.3  # frame 0's prior: N(initial pose, this sigma on every joint component)
-    # The share of each frame's prior spread evenly over every sample (0: eq 14 alone, the paper's). In a pose
-    # space of many joints the motion model's steps reach only the samples next to the last posterior; this share
-    # lets the likelihood find the pose anywhere in the tree, as a detector would, when the views can tell.
-    jump_share: Annotated[float, Range(0.0, 1.0, high_open=True)] = 0.0
+    # The share of each frame's prior (after frame 0's) spread evenly over every sample (0: eq 14 alone, the
+    # paper's). In a pose space of many joints the motion model's steps reach only the samples next to the last
+    # posterior; this share lets the likelihood find the pose anywhere in the tree, as a detector would, when the
+    # views can tell. At 1 the tree is searched by the likelihood alone: no motion model, no flips (what a chain of
+    # candidates needs, `tracker.tbf.chains`).
+    jump_share: Annotated[float, Range(0.0, 1.0)] = 0.0
     # The share of each frame's prior moved from every sample to its depth flip (`tracker.tbf.flips`; one camera
     # only): the samples whose mirror image through the plane facing the camera casts the same silhouette. The
     # motion model never reaches the other side; this share lets a run that started on, or slipped to, the wrong
@@ -138,6 +140,7 @@ class TreeFilter:
         # prune_fraction per view, as each view adds its own log-likelihood (one view: the paper's).
         self.prune_log = np.log(max(settings.prune_fraction, TINY))
         self._posterior: np.ndarray | None = None
+        self._likely: tuple[np.ndarray, np.ndarray] | None = None  # the last step's leaves' members, log-likelihoods
         self._reference: int | None = None  # with spot pixels: the sample whose spot this frame's observation is on
         self._previous_flags: np.ndarray | None = None
         # The next frame's prior, made by a worker thread from the last posterior between the frames (`_next_prior`)
@@ -177,11 +180,13 @@ class TreeFilter:
         first, self._first = self._first, False
         if first:  # frame 0's prior is the initial Gaussian itself
             prior, terms = self._posterior.copy(), 0
+        elif self.searches_alone:
+            prior, terms = np.full(len(self._posterior), 1.0 / len(self._posterior)), 0
         else:
             prior, terms = self._next_prior()
-        if self.settings.flip_share > 0:
+        if self.settings.flip_share > 0 and (first or not self.searches_alone):
             prior = self.flipped(prior)
-        if not first and self.settings.jump_share > 0:
+        if not first and 0 < self.settings.jump_share < 1:
             prior = (1 - self.settings.jump_share) * prior / prior.sum() + self.settings.jump_share / len(prior)
         timings["prior"] = elapsed_ms(start)
         leaves, leaf_likelihood, evaluated, kept = self._descend(prior, scorers, timings)
@@ -197,8 +202,10 @@ class TreeFilter:
         posterior[members] = weights / weights.sum()
         best = int(members[np.argmax(weights)])
         self._posterior = posterior
+        self._likely = members, likelihood_of_leaf[leaf_of]
         self._previous_flags = self._occluded[best]
-        self._coming_prior = TwoEndedJobs([functools.partial(self._prior.prior, posterior, self._previous_flags)])
+        if not self.searches_alone:
+            self._coming_prior = TwoEndedJobs([functools.partial(self._prior.prior, posterior, self._previous_flags)])
         nonzero = posterior[posterior > 0]
         timings["leaves"] = elapsed_ms(start)
         return FilterResult(
@@ -211,6 +218,22 @@ class TreeFilter:
             entropy=float(-(nonzero * np.log(nonzero)).sum()),
             timings_ms=timings,
         )
+
+    @property
+    def searches_alone(self) -> bool:
+        """Whether the frames after the first are searched by the likelihood alone (``jump_share`` 1)."""
+        return self.settings.jump_share == 1
+
+    def most_likely(self, count: int) -> tuple[np.ndarray, np.ndarray]:
+        """The ``count`` samples of the last step's surviving leaves that the observation makes most likely (of equal
+        ones the lower index first; a leaf's members share its likelihood), and their log-likelihoods."""
+        members, log_likelihood = self._likely
+        order = np.lexsort((members, -log_likelihood))[:count]
+        return members[order], log_likelihood[order]
+
+    def occluded_of(self, sample: int) -> np.ndarray:
+        """``(parts,)`` eq 3's occlusion flags of ``sample``."""
+        return self._occluded[sample].copy()
 
     def flipped(self, prior: np.ndarray) -> np.ndarray:
         """``prior`` normalised, ``flip_share`` of each sample's mass moved to its depth flip."""

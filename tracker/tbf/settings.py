@@ -14,6 +14,7 @@ from tracker.motion.mocap import read_body_clip
 from tracker.ranges import Finite, Positive, Range
 from tracker.tbf.arm_dictionary import ArmGridSpec
 from tracker.tbf.build_workers import BuildSettings
+from tracker.tbf.chains import ChainSettings
 from tracker.tbf.filter import FilterSettings
 from tracker.tbf.sample_spec import SampleSpec, clip_files
 
@@ -38,6 +39,9 @@ class TbfSettings:
     # what the filter does next (its prior comes from its posterior).
     estimate: Literal["map", "mean"] = "map"
     mean_of: Annotated[int, Range(2, 10_000)] = 10
+    # Or the end of the best chain of each frame's most likely samples (`tracker.tbf.chains`; with
+    # ``filter.jump_share`` 1, a search by the likelihood alone): ``chain.candidates`` > 0.
+    chain: ChainSettings = field(default_factory=ChainSettings)
     initial_yaw_deg: Finite = -90.0  # the initial pose: upright, arms down, facing this way (the body faces -y)
     # Frame 0's prior centred on that upright pose (``upright``: paper 2's start), or on the frame-0 pose the run gives,
     # its joint rotations and the root's orientation, in place (``given``: paper 1's user-assisted start, as AbIS
@@ -93,6 +97,15 @@ def check_settings(settings: TbfSettings, frames: int, key: str, model: str) -> 
     if model == "dsq_arm" and settings.filter.flip_share > 0:
         share = settings.filter.flip_share
         raise ValueError(f"{key}.filter.flip_share={share}: the arm's grid has no flips, allowed 0")
+    if settings.chain.candidates > 0 and model == "dsq_arm":
+        raise ValueError(
+            f"{key}.chain.candidates={settings.chain.candidates}: the arm's grid has no joints to chain, allowed 0"
+        )
+    if settings.chain.candidates > 0 and settings.estimate != "map":
+        raise ValueError(
+            f"{key}.estimate={settings.estimate}: a chain's estimate is its best candidate "
+            f"({key}.chain.candidates={settings.chain.candidates}), allowed map"
+        )
     if model == "dsq_arm" and settings.estimate != "map":
         raise ValueError(f"{key}.estimate={settings.estimate}: the arm's grid is not averaged, allowed map")
     for index, path, rate in clip_files(settings.samples, key):

@@ -20,7 +20,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -36,6 +36,7 @@ from tracker.protocol import Observation, SampleDictionary, StepResult, Tracker
 from tracker.registry import TRACKERS, Fit
 from tracker.tbf.alignment import GroundPlacement, ViewsPlacement, sample_anchors, sample_spots, spot_pixels
 from tracker.tbf.arm_dictionary import ArmDictionary
+from tracker.tbf.chains import BestChain
 from tracker.tbf.costs import Cost, EmptySilhouette
 from tracker.tbf.filter import FilterResult, TreeFilter
 from tracker.tbf.flips import depth_flips, line_of_sight
@@ -156,6 +157,8 @@ class TbfTracker(Tracker):
         # frame -> the silhouettes the filter saw (finest level, packed) and the sample whose spot they were placed on
         self._seen: dict[int, tuple[list[np.ndarray], int | None]] = {}
         self.filter.start(initial_pose)
+        chain = self.settings.chain
+        self.chain = BestChain(self._joint_positions(), chain.step_m) if chain.candidates > 0 else None
         self.placing = self._placing(spots, anchors)
         # whether the last frame's placing found where the person stands (else its estimate's root is its sample's
         # own: the views could not place him, e.g. someone out of a view, or ``align=none``)
@@ -343,6 +346,10 @@ class TbfTracker(Tracker):
                 timings_ms={"filter": elapsed_ms(start)},
                 failure=f"{error}",
             )
+        if self.chain is not None:
+            sample = self.chain.step(*self.filter.most_likely(self.settings.chain.candidates))
+            pose, occluded = np.asarray(self.samples.poses[sample]).copy(), self.filter.occluded_of(sample)
+            found = replace(found, sample=sample, pose=pose, occluded=occluded)
         finest = len(self.tree.levels) - 1
         packed = [
             None if view is None else np.packbits(self.filter.observation_at(finest, view))

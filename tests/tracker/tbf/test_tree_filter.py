@@ -1,3 +1,5 @@
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -470,3 +472,32 @@ def test_a_flip_share_moves_each_samples_prior_to_its_flip_and_reaches_what_the_
     assert leaf_of[result.sample] == leaf_of[held] and flipped.posterior[held] > 0
     with pytest.raises(ValueError, match="needs the flips"):
         TreeFilter(samples, tree, COSTS.defaults("nwxor"), OccludedWiderWalk(), settings)
+
+
+def test_a_search_by_the_likelihood_alone_reaches_what_the_walk_cannot_and_ranks_the_leaves_members(samples, tree):
+    """``jump_share`` 1: after frame 0 the prior is flat, so a pose far from the last estimate is found; the most
+    likely samples are the surviving leaves' members by their leaf's likelihood (its representative scored anew),
+    best first, and the posterior is that likelihood normalised."""
+    settings = FilterSettings(initial_sigma=0.05, likelihood_sigma=0.5, prune_fraction=1e-6, jump_share=1.0)
+    alone = TreeFilter(samples, tree, COSTS.defaults("nwxor"), OccludedWiderWalk(), settings)
+    walking = TreeFilter(samples, tree, COSTS.defaults("nwxor"), OccludedWiderWalk(), replace(settings, jump_share=0.0))
+    held, start = 0, 72  # swing -60 degrees, and 48: far apart for the walk
+    for filter_ in (alone, walking):
+        filter_.start(samples.poses[start])
+        filter_.step(_observed(samples, start))
+    assert walking.step(_observed(samples, held)).sample != held
+    result = alone.step(_observed(samples, held))
+    finest = tree.levels[-1]
+    assert finest.node_of_sample[result.sample] == finest.node_of_sample[held]
+
+    likely, log_likelihood = alone.most_likely(len(samples.poses))
+    assert set(likely) == set(np.flatnonzero(alone.posterior))
+    assert np.all(np.diff(log_likelihood) <= 0)
+    representatives = finest.representatives[finest.node_of_sample[likely]]
+    scored = alone.log_likelihood(
+        len(tree.levels) - 1, alone.score_samples(len(tree.levels) - 1, (_observed(samples, held),), representatives)
+    )
+    np.testing.assert_allclose(log_likelihood, scored, rtol=1e-12, atol=1e-12)
+    expected = np.exp(log_likelihood - log_likelihood.max())
+    np.testing.assert_allclose(alone.posterior[likely], expected / expected.sum(), rtol=1e-9)
+    assert np.array_equal(alone.most_likely(3)[0], likely[:3])
