@@ -7,12 +7,13 @@ sets the initial prior around the configured initial pose (upright, arms down, f
 takes the frame's observed silhouettes (background subtraction, done by the run's capture stage:
 ``observation.silhouettes``), moves each onto its view's samples' feet or places the person on the floor when ``align``
 says so (`tracker.tbf.alignment`; from several views, where their centroid rays cross), and runs
-`tracker.tbf.filter.TreeFilter` on the views together (their likelihoods multiplied). The tracker never sees the
-truth: measuring the subject's size at `start` stands for the paper's measuring of the person. It describes its
-samples as ``dictionary`` (`tracker.protocol.SampleDictionary`), by which the evaluation measures after the run
-what the samples allow and where the silhouette could not tell (`tracker.evaluation.dictionary`). The DSQ arm
-(``model=dsq_arm``) is tracked the same way over a grid of its parameters (`tracker.tbf.arm_dictionary`), from
-the initial pose at frame 0 as paper 1 starts.
+`tracker.tbf.filter.TreeFilter` on the views together (their likelihoods multiplied): the estimate is its best
+sample, or the end of the best chain of each frame's most likely ones (``chain``, `tracker.tbf.chains`). The tracker
+never sees the truth: measuring the subject's size at `start` stands for the paper's measuring of the person. It
+describes its samples as ``dictionary`` (`tracker.protocol.SampleDictionary`), by which the evaluation measures
+after the run what the samples allow and where the silhouette could not tell (`tracker.evaluation.dictionary`). The
+DSQ arm (``model=dsq_arm``) is tracked the same way over a grid of its parameters (`tracker.tbf.arm_dictionary`),
+from the initial pose at frame 0 as paper 1 starts.
 """
 
 from __future__ import annotations
@@ -328,8 +329,9 @@ class TbfTracker(Tracker):
         return bool(likelihood[0] >= likelihood[1])
 
     def step(self, observation: Observation) -> TbfResult:
-        """Place the frame's silhouettes (`placing`), filter them down the tree, and put the best sample where the
-        person stands (with ``estimate=mean``, its joints turned to the most probable samples' mean)."""
+        """Place the frame's silhouettes (`placing`), filter them down the tree, and put the best sample (with a
+        ``chain``, the end of the best chain) where the person stands (with ``estimate=mean``, its joints turned to
+        the most probable samples' mean)."""
         if not observation.silhouettes:
             raise ValueError("tracker=tbf needs the frame's silhouette (the capture stage of a body scene)")
         start = time.perf_counter()
