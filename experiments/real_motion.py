@@ -21,6 +21,15 @@ from tracker.motion.mocap import available_frames, read_clip
 # The project's own held-out clips: never among the preset's tracker.samples.clips.
 HELD_OUT = ("mocap/143_33.bvh", "mocap/69_20.bvh")
 FPS = 15.0  # the preset's scene.fps and tracker.samples.clip_fps
+# The preset's tree filtering before the chain of likely samples (the filter's motion model, shares of its prior
+# on the depth flips and on every sample, the posterior's mean).
+FILTERED = (
+    "tracker.chain.candidates=0",
+    "tracker.filter.jump_share=0.05",
+    "tracker.filter.flip_share=0.05",
+    "tracker.filter.prune_fraction=0.01",
+    "tracker.estimate=mean",
+)
 # Folder -> (what the row says, the overrides that take that part of the build away).
 VARIANTS = {
     "full": ("the whole build", ()),
@@ -36,7 +45,8 @@ VARIANTS = {
             "tracker.thresholds=[0.038,0.033,0.026]",
         ),
     ),
-    "dm2": ("DM2's random walk instead of the learned transitions", ("motion=dm2",)),
+    "filtered": ("the filter's motion model and shares of its prior instead of the chain of likely samples", FILTERED),
+    "dm2": ("that filter with DM2's random walk instead of the learned transitions", (*FILTERED, "motion=dm2")),
     "no_placement": (
         "no root placement (the silhouette as it is)",
         ("tracker.align=none", "tracker.placed_on=reference"),

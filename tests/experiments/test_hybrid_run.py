@@ -65,8 +65,10 @@ def test_the_fed_posterior_reaches_the_next_prior_as_if_fed_at_once(hybrid_cache
     """A worker thread searches the sample nearest each refined pose between the frames; the next step moves the
     posterior onto it before its prior, so every frame's posterior is the same as when the feed is made within the
     step (a feed lost, or made after the prior, would change the next one)."""
-    overrides = small_run(hybrid_cache, "experiment=hybrid_paper_scale", "frames=3", "tracker.feed=0.5")
-    run = build(compose(list(overrides)))  # (the one-camera preset feeds nothing back)
+    # (the one-camera preset feeds nothing back: its chain searches by the likelihood alone, without a prior)
+    filtered = ("tracker.chain.candidates=0", "tracker.filter.jump_share=0.05")
+    overrides = small_run(hybrid_cache, "experiment=hybrid_paper_scale", "frames=3", "tracker.feed=0.5", *filtered)
+    run = build(compose(list(overrides)))
     observed = observations(run, 3)
     posteriors: dict[bool, list] = {False: [], True: []}
     for at_once in posteriors:
@@ -107,7 +109,9 @@ def test_tree_filtering_from_one_camera_keeps_the_way_its_start_faces_and_from_t
 
     def built(*overrides: str):
         both_ways = "tracker.samples.clip_turns_deg=[0.0,180.0]"  # the dictionary holds him facing either way
-        return build(compose(list(small_run(hybrid_cache, "experiment=tbf_paper_scale", both_ways, *overrides))))
+        filtered = ("tracker.chain.candidates=0", "tracker.filter.jump_share=0.05")  # the filter's own estimate
+        overrides = (both_ways, *filtered, *overrides)
+        return build(compose(list(small_run(hybrid_cache, "experiment=tbf_paper_scale", *overrides))))
 
     run = built()  # only its scene: the pose it gives
     given = run.scene.params(run.model, 0)
