@@ -147,11 +147,6 @@ AT_START = [
         r"\(align=ground does\); allowed reference$",
     ),
     (
-        [*BODY_TBF, "tracker.chain.candidates=50", "tracker.estimate=mean"],
-        r"^tracker\.estimate=mean: a chain's estimate is its best candidate \(tracker\.chain\.candidates=50\), "
-        r"allowed map$",
-    ),
-    (
         ["model=dsq_arm", "tracker=tbf", "cost=nwxor", "motion=dm2", "tracker.chain.candidates=50"],
         r"^tracker\.chain\.candidates=50: the arm's grid has no joints to chain, allowed 0$",
     ),

@@ -10,7 +10,8 @@ by the likelihood alone (`FilterSettings.jump_share` 1), the ``candidates`` most
 
 d is the root-mean-square distance between the two samples' joints, each relative to its root (a turn or a flip is
 far); s is ``step_m``. The estimate is the best-scoring candidate: the end of the most probable chain so far, known
-at once (a smoother would also revise the frames before it; a run does not).
+at once (a smoother would also revise the frames before it; a run does not); or (``estimate=mean``) the mean of the
+candidates near it, each weighted by its chain's probability.
 """
 
 from __future__ import annotations
@@ -31,6 +32,9 @@ class ChainSettings:
     candidates: Annotated[int, Range(0, 1000)] = 0  # 0: no chain (the filter's own estimate, the paper's)
     # s: the joints' root-mean-square move between two frames at which a link costs half a nat (metres)
     step_m: Positive = 0.08
+    # With ``estimate=mean``: the candidates whose joints lie within this of the best's (root-mean-square, root-aligned,
+    # metres) are averaged, each weighted by its chain's probability (`BestChain.around_best`).
+    mean_radius_m: Positive = 0.3
 
     def __post_init__(self) -> None:
         validate(self)
@@ -58,6 +62,13 @@ class BestChain:
             ).max(axis=0)
         self.candidates, self.scores = np.asarray(candidates), scores - scores.max()
         return int(self.candidates[np.argmax(self.scores)])
+
+    def around_best(self, radius_m: float) -> tuple[np.ndarray, np.ndarray]:
+        """The last frame's candidates within ``radius_m`` of the best (the root-mean-square distance of their
+        joints), the best among them, and the probability of each one's chain relative to the best's (1)."""
+        best = self.candidates[np.argmax(self.scores)]
+        near = self.squared_distances(np.array([best]), self.candidates)[0] <= radius_m**2
+        return self.candidates[near], np.exp(self.scores[near])
 
     def squared_distances(self, these: np.ndarray, those: np.ndarray) -> np.ndarray:
         """``(len(these), len(those))`` the mean over joints of the squared distance between their root-aligned

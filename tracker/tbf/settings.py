@@ -40,7 +40,8 @@ class TbfSettings:
     estimate: Literal["map", "mean"] = "map"
     mean_of: Annotated[int, Range(2, 10_000)] = 10
     # Or the end of the best chain of each frame's most likely samples (`tracker.tbf.chains`; with
-    # ``filter.jump_share`` 1, a search by the likelihood alone): ``chain.candidates`` > 0.
+    # ``filter.jump_share`` 1, a search by the likelihood alone): ``chain.candidates`` > 0; its ``mean``, of the
+    # candidates near that end (``chain.mean_radius_m``), weighted by their chains' probabilities.
     chain: ChainSettings = field(default_factory=ChainSettings)
     initial_yaw_deg: Finite = -90.0  # the initial pose: upright, arms down, facing this way (the body faces -y)
     # Frame 0's prior centred on that upright pose (``upright``: paper 2's start), or on the frame-0 pose the run gives,
@@ -100,11 +101,6 @@ def check_settings(settings: TbfSettings, frames: int, key: str, model: str) -> 
     if settings.chain.candidates > 0 and model == "dsq_arm":
         raise ValueError(
             f"{key}.chain.candidates={settings.chain.candidates}: the arm's grid has no joints to chain, allowed 0"
-        )
-    if settings.chain.candidates > 0 and settings.estimate != "map":
-        raise ValueError(
-            f"{key}.estimate={settings.estimate}: a chain's estimate is its best candidate "
-            f"({key}.chain.candidates={settings.chain.candidates}), allowed map"
         )
     if model == "dsq_arm" and settings.estimate != "map":
         raise ValueError(f"{key}.estimate={settings.estimate}: the arm's grid is not averaged, allowed map")

@@ -267,6 +267,13 @@ class TbfTracker(Tracker):
         rotations = np.asarray(self.samples.poses[top], dtype=np.float64)[:, 3:]
         return mean_rotation_vectors(rotations.reshape(len(top), -1, 3), posterior[top]).ravel()
 
+    def chain_mean_rotations(self) -> np.ndarray:
+        """The joint rotations of the chain's candidates near its best (`BestChain.around_best`), averaged weighted
+        by their chains' probabilities: a pose vector's entries from 3 on."""
+        near, weights = self.chain.around_best(self.settings.chain.mean_radius_m)
+        rotations = np.asarray(self.samples.poses[near], dtype=np.float64)[:, 3:]
+        return mean_rotation_vectors(rotations.reshape(len(near), -1, 3), weights).ravel()
+
     def on_side_of(self, sample: int, others: np.ndarray) -> np.ndarray:
         """Which of ``others`` lie on ``sample``'s side of the depth ambiguity: nearer it than its flip (root-aligned
         joints, as `tracker.tbf.flips` measures). A posterior may hold both sides; their mean is neither."""
@@ -360,7 +367,7 @@ class TbfTracker(Tracker):
         self._seen[observation.frame] = (packed, placed.reference)
         estimate = self.placing.estimate(found.sample, found.pose, placed)
         if self.settings.estimate == "mean":
-            estimate[3:] = self.mean_rotations()
+            estimate[3:] = self.mean_rotations() if self.chain is None else self.chain_mean_rotations()
         self._estimate = self.estimate_of(estimate)
         result = TbfResult.of(
             self.part_names,

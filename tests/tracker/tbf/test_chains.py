@@ -41,3 +41,20 @@ def test_a_chain_keeps_its_pose_against_one_frames_doubt_and_follows_a_lasting_c
     assert [chain.step(both, np.array([-1.0, 0.0])) for _ in range(3)] == [0, 0, 0]
     link = 0.1875 / (2 * 0.08**2)  # 14.6 nats: the cost of the jump
     assert [chain.step(both, np.array([-2 * link, 0.0])) for _ in range(2)] == [1, 1]
+
+
+def test_around_the_best_are_the_candidates_within_the_radius_weighted_by_their_chains_probability():
+    rng = np.random.default_rng(8)
+    joints = rng.normal(0.0, 0.2, (30, 5, 3))
+    chain = BestChain(joints, step_m=0.1)
+    for candidates in (np.arange(0, 12), np.arange(6, 30)):
+        chain.step(candidates, rng.normal(0.0, 2.0, len(candidates)))
+    best = chain.candidates[np.argmax(chain.scores)]
+    aligned = joints - joints[:, :1]
+    rms = {int(c): np.sqrt(((aligned[c] - aligned[best]) ** 2).sum(axis=1).mean()) for c in chain.candidates}
+    radius = float(np.median(list(rms.values())))
+    near, weights = chain.around_best(radius)
+    assert sorted(near.tolist()) == sorted(c for c, d in rms.items() if d <= radius) and best in near
+    score = dict(zip(chain.candidates.tolist(), chain.scores, strict=True))
+    np.testing.assert_allclose(weights, [np.exp(score[c]) for c in near.tolist()], rtol=1e-12)
+    assert weights[near.tolist().index(best)] == 1.0
