@@ -4,8 +4,9 @@ a tracker on more views), into ``reports/combinations/`` and ``reports/combinati
 
 - the held-out real clips (`experiments.real_motion.HELD_OUT`, whole, at 15 fps) tracked by tree filtering on the
   paper-scale samples from 1, 2 and 3 cameras (``experiment=tbf_multi_view``, its ``rig=body_multi`` cut to its
-  first views: front; front and side; front, side and the 45° view), and from one camera as paper 2 tracks
-  (``experiment=tbf_paper_scale``: its multi-view settings' jumps let one ambiguous view jump to a wrong pose); and
+  first views: front; front and side; front, side and the 45° view), and from one camera by the one-camera preset
+  (``experiment=tbf_paper_scale``: its chain of likely samples; the multi-view settings' jumps let one ambiguous view
+  jump to a wrong pose); and
   by paper 1's AbIS from 3 cameras at 640x480 (``experiment=abis_body``: features on a textured skin, the body's
   parts fitted top-down), at 15 fps and at 60 fps (the same clip, its limbs moving a quarter as far per frame);
 - paper 1's arm in its elbow swing (``experiment=abis_fig8_fig9``, 3 orthogonal views) by AbIS and by tree
