@@ -142,9 +142,8 @@ def test_a_candidate_turned_further_than_max_turn_deg_from_the_last_estimate_is_
     tilted[3:6] = (
         Rotation.from_rotvec(np.radians(100.0) * np.array([0.6, 0.0, 0.8])) * Rotation.from_rotvec(last[3:6])
     ).as_rotvec()
-    assert not tracker.turned_away(candidates).any()  # no estimate yet: any may be chosen
-    tracker.refined = last
-    assert tracker.turned_away([*candidates, tilted]).tolist() == [False, False, False, True, True, True]
+    assert not tracker.turned_away(candidates, None).any()  # no estimate yet: any may be chosen
+    assert tracker.turned_away([*candidates, tilted], last).tolist() == [False, False, False, True, True, True]
 
 
 def test_screen_best_screens_the_candidates_cheapest_as_proposed_and_the_last_pose(hybrid_cache):

@@ -75,6 +75,9 @@ class HybridSettings(TbfSettings):
     # A candidate whose root turned more than this from the last refined pose is not chosen (180: any may be): one
     # silhouette looks much the same from the front and the back, a person seldom turns that far in a frame.
     max_turn_deg: Annotated[float, Range(0.0, 180.0)] = 180.0
+    # What that turn is measured from: the last refined pose (``refined``), or tree filtering's estimate of the frame
+    # (``proposal``: a candidate is chosen on the side of the camera's depth ambiguity the filter found).
+    turn_from: Literal["refined", "proposal"] = "refined"
     # Where frame 0 starts: tree filtering's initial prior alone (upright, facing ``initial_yaw_deg``), or also the
     # frame-0 pose the run gives (paper 1's user-assisted alignment, as AbIS starts): a candidate of frame 0, and
     # ``feed``'s share of the first prior on its nearest sample.
@@ -162,6 +165,7 @@ class HybridTracker(TbfTracker):
     def __init__(self, settings: HybridSettings, cost: Cost, motion: RandomWalk) -> None:
         super().__init__(settings, cost, motion)
         self.refined: np.ndarray | None = None
+        self._turn_reference: np.ndarray | None = None  # what a candidate's turn is measured from (`turned_away`)
         self._before_refined: np.ndarray | None = None  # the refined pose of the frame before (`extrapolate`)
         self._feeding: TwoEndedJobs[int] | None = None  # the sample nearest the last refined pose, to come
         self._recent_costs: deque[float] = deque(maxlen=self.RECENT_FRAMES)  # the last estimates' `fit_cost`
@@ -210,11 +214,12 @@ class HybridTracker(TbfTracker):
         self.fit.observe([observation.silhouettes[camera.name] for camera in self.cameras], pairs)
         placed = self.root_held(found.estimate)
         self._given_root = None
+        self._turn_reference = self.refined if self.settings.turn_from == "refined" else found.estimate
         candidates = self.proposals(found, placed) + self.moved_on()
         candidates += [self.refined] if self.refined is not None else []
         kept = self.screened(candidates)
         screened = self._screen(candidates, kept, placed)
-        turned_away = self.turned_away([pose for pose, _ in screened])
+        turned_away = self.turned_away([pose for pose, _ in screened], self._turn_reference)
         best = int(np.argmin(np.where(turned_away, np.inf, [cost for _, cost in screened])))
         choice = int(kept[best])
         self._before_refined = self.refined
@@ -294,7 +299,7 @@ class HybridTracker(TbfTracker):
         more = np.setdiff1d(np.arange(len(candidates)), kept)
         indices = np.r_[kept, more].astype(np.int64)
         screened = [*screened, *self._screen(candidates, more, placed)]
-        turned_away = self.turned_away([pose for pose, _ in screened])
+        turned_away = self.turned_away([pose for pose, _ in screened], self._turn_reference)
         costs = np.where(turned_away, np.inf, [cost for _, cost in screened])
         best = chosen
         picked = [
@@ -334,12 +339,13 @@ class HybridTracker(TbfTracker):
             costs[-1] = -np.inf
         return np.sort(np.argsort(costs, kind="stable")[:keep])
 
-    def turned_away(self, poses: Sequence[np.ndarray]) -> np.ndarray:
-        """``(len(poses),)`` bool: the poses whose root turned more than ``max_turn_deg`` from the last refined pose
-        (none at the first frame; the last refined pose itself, screened, never)."""
-        if self.refined is None or self.settings.max_turn_deg >= 180.0:
+    def turned_away(self, poses: Sequence[np.ndarray], reference: np.ndarray | None) -> np.ndarray:
+        """``(len(poses),)`` bool: the poses whose root turned more than ``max_turn_deg`` from ``reference``, the
+        frame's (``turn_from``: the last refined pose, none at the first frame and never itself, screened; or tree
+        filtering's estimate)."""
+        if reference is None or self.settings.max_turn_deg >= 180.0:
             return np.zeros(len(poses), bool)
-        last = rotation_vectors_to_matrices(self.refined[3:6])[0]
+        last = rotation_vectors_to_matrices(reference[3:6])[0]
         roots = rotation_vectors_to_matrices(np.array([pose[3:6] for pose in poses]))
         return np.array([rotation_angle_deg(last, root) for root in roots]) > self.settings.max_turn_deg
 
