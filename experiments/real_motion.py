@@ -28,7 +28,6 @@ FILTERED = (
     "tracker.filter.jump_share=0.05",
     "tracker.filter.flip_share=0.05",
     "tracker.filter.prune_fraction=0.01",
-    "tracker.estimate=mean",
 )
 # Folder -> (what the row says, the overrides that take that part of the build away).
 VARIANTS = {
