@@ -63,6 +63,7 @@ def test_the_mean_estimate_averages_the_most_probable_samples_and_leaves_the_fil
     from tests.experiments.test_hybrid_run import SMALL_DICTIONARY
 
     overrides = ["experiment=tbf_multi_view", "scene.path=mocap/69_20.bvh", f"tracker.cache_dir={tmp_path}"]
+    overrides += ["tracker.chain.candidates=0", "tracker.filter.jump_share=0.01"]  # the filter's own estimate
     runs = {way: build(compose([*overrides, *SMALL_DICTIONARY, f"tracker.estimate={way}"])) for way in ("map", "mean")}
     observed = observations(runs["map"], 3)
     for run in runs.values():
@@ -82,3 +83,36 @@ def test_the_mean_estimate_averages_the_most_probable_samples_and_leaves_the_fil
             assert Rotation.from_rotvec(mean[3 * joint : 3 * joint + 3]).approx_equal(expected, atol=1e-9)
         averaged += len(top) > 1 and not np.allclose(mean, best)
     assert averaged  # some frame's estimate lies between the samples
+
+
+def test_a_chains_mean_averages_the_candidates_near_its_end_weighted_by_their_chains(tmp_path):
+    """With a chain (``tbf_multi_view``'s), ``tracker.estimate=mean``: each joint's rotation the mean (SciPy's, joint
+    by joint) of the candidates within ``chain.mean_radius_m`` of the best chain's end, weighted by their chains'
+    probabilities, the root placed as that end's; the chain steps as with ``map``."""
+    import numpy as np
+    from scipy.spatial.transform import Rotation
+
+    from experiments.bench.tbf import observations, start_tracker
+    from experiments.components import build, compose
+    from tests.experiments.test_hybrid_run import SMALL_DICTIONARY
+
+    overrides = ["experiment=tbf_multi_view", "scene.path=mocap/69_20.bvh", f"tracker.cache_dir={tmp_path}"]
+    runs = {way: build(compose([*overrides, *SMALL_DICTIONARY, f"tracker.estimate={way}"])) for way in ("map", "mean")}
+    observed = observations(runs["map"], 3)
+    for run in runs.values():
+        start_tracker(run)
+    averaged = 0
+    for observation in observed:
+        found = {way: run.tracker.step(observation) for way, run in runs.items()}
+        chain, other = runs["mean"].tracker.chain, runs["map"].tracker.chain
+        np.testing.assert_array_equal(chain.scores, other.scores)
+        near, weights = chain.around_best(runs["mean"].tracker.settings.chain.mean_radius_m)
+        samples = runs["mean"].tracker.samples.poses[near]
+        mean, end = found["mean"].estimate, found["map"].estimate
+        assert found["map"].filter.sample == chain.candidates[np.argmax(chain.scores)]
+        np.testing.assert_array_equal(mean[:3], end[:3])
+        for joint in range(1, len(mean) // 3):
+            expected = Rotation.from_rotvec(samples[:, 3 * joint : 3 * joint + 3]).mean(weights)
+            assert Rotation.from_rotvec(mean[3 * joint : 3 * joint + 3]).approx_equal(expected, atol=1e-9)
+        averaged += len(near) > 1 and not np.allclose(mean, end)
+    assert averaged  # some frame's estimate lies between the candidates
