@@ -70,6 +70,9 @@ class FilterSettings:
     # motion model never reaches the other side; this share lets a run that started on, or slipped to, the wrong
     # side come back when the silhouettes' perspective says so (0: the paper's).
     flip_share: Annotated[float, Range(0.0, 0.5)] = 0.0
+    # At most this many nodes kept a level, those of the highest posterior (None: every node the pruning keeps): a
+    # bound on a frame's work where many nodes are nearly as likely, as when the likelihood alone leads the search.
+    beam: Annotated[int, Range(1, 1_000_000)] | None = None
 
     def __post_init__(self) -> None:
         validate(self)
@@ -313,8 +316,10 @@ class TreeFilter:
                 distances = self._level_distances(k, level_scorers, None if len(nodes) == len(level) else nodes)
                 log_likelihood = self.log_likelihood(k, distances)
             log_posterior = log_likelihood + np.log(mass)
-            keep = log_posterior >= log_posterior.max() + seeing * self.prune_log
-            kept.append(int(keep.sum()))
+            keep = np.flatnonzero(log_posterior >= log_posterior.max() + seeing * self.prune_log)
+            if self.settings.beam is not None and len(keep) > self.settings.beam:
+                keep = np.sort(keep[np.argsort(-log_posterior[keep], kind="stable")[: self.settings.beam]])
+            kept.append(len(keep))
             survivors, node_likelihood = nodes[keep], log_likelihood[keep]
             timings[f"level{k + 1}"] = elapsed_ms(start)
         return survivors, node_likelihood, evaluated, kept

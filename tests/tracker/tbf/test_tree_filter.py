@@ -501,3 +501,28 @@ def test_a_search_by_the_likelihood_alone_reaches_what_the_walk_cannot_and_ranks
     expected = np.exp(log_likelihood - log_likelihood.max())
     np.testing.assert_allclose(alone.posterior[likely], expected / expected.sum(), rtol=1e-9)
     assert np.array_equal(alone.most_likely(3)[0], likely[:3])
+
+
+def test_a_beam_keeps_at_most_its_width_of_the_best_nodes_a_level(samples, tree):
+    """``beam``: each level keeps at most that many nodes, the pruning's survivors of highest posterior: the next
+    level scores only their children. Wider than the pruning keeps, it changes nothing, to the bit."""
+    settings = FilterSettings(initial_sigma=1.0, likelihood_sigma=4.0, prune_fraction=1e-9, jump_share=1.0)
+    filters = {
+        beam: TreeFilter(samples, tree, COSTS.defaults("nwxor"), OccludedWiderWalk(), replace(settings, beam=beam))
+        for beam in (None, 2, 10**6)
+    }
+    results = {}
+    for beam, filter_ in filters.items():
+        filter_.start(samples.poses[60])
+        filter_.step(_observed(samples, 60))
+        results[beam] = filter_.step(_observed(samples, 72))
+    wide = results[None]
+    assert max(wide.nodes_kept) > 2 and max(results[2].nodes_kept) <= 2
+    np.testing.assert_array_equal(filters[10**6].posterior, filters[None].posterior)
+    narrow = filters[2]
+    for level, evaluated in enumerate(narrow.last_evaluated[1:], 1):  # the children of the best 2 above
+        above = tree.levels[level - 1]
+        parents = {int(above.node_of_sample[tree.levels[level].representatives[node]]) for node in evaluated}
+        assert len(parents) <= 2
+    leaf_of = tree.levels[-1].node_of_sample
+    assert leaf_of[results[2].sample] == leaf_of[wide.sample]  # here the best leaf's ancestors lead their levels
