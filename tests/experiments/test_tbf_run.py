@@ -58,16 +58,8 @@ def test_the_mean_estimate_averages_the_most_probable_samples_and_leaves_the_fil
     import numpy as np
     from scipy.spatial.transform import Rotation
 
-    from experiments.bench.tbf import observations, start_tracker
-    from experiments.components import build, compose
-    from tests.experiments.test_hybrid_run import SMALL_DICTIONARY
-
-    overrides = ["experiment=tbf_multi_view", "scene.path=mocap/69_20.bvh", f"tracker.cache_dir={tmp_path}"]
-    overrides += ["tracker.chain.candidates=0", "tracker.filter.jump_share=0.01"]  # the filter's own estimate
-    runs = {way: build(compose([*overrides, *SMALL_DICTIONARY, f"tracker.estimate={way}"])) for way in ("map", "mean")}
-    observed = observations(runs["map"], 3)
-    for run in runs.values():
-        start_tracker(run)
+    filtered = ("tracker.chain.candidates=0", "tracker.filter.jump_share=0.01")  # the filter's own estimate
+    runs, observed = map_and_mean_runs(tmp_path, *filtered)
     averaged = 0
     for observation in observed:
         found = {way: run.tracker.step(observation) for way, run in runs.items()}
@@ -92,15 +84,7 @@ def test_a_chains_mean_averages_the_candidates_near_its_end_weighted_by_their_ch
     import numpy as np
     from scipy.spatial.transform import Rotation
 
-    from experiments.bench.tbf import observations, start_tracker
-    from experiments.components import build, compose
-    from tests.experiments.test_hybrid_run import SMALL_DICTIONARY
-
-    overrides = ["experiment=tbf_multi_view", "scene.path=mocap/69_20.bvh", f"tracker.cache_dir={tmp_path}"]
-    runs = {way: build(compose([*overrides, *SMALL_DICTIONARY, f"tracker.estimate={way}"])) for way in ("map", "mean")}
-    observed = observations(runs["map"], 3)
-    for run in runs.values():
-        start_tracker(run)
+    runs, observed = map_and_mean_runs(tmp_path)
     averaged = 0
     for observation in observed:
         found = {way: run.tracker.step(observation) for way, run in runs.items()}
@@ -116,3 +100,18 @@ def test_a_chains_mean_averages_the_candidates_near_its_end_weighted_by_their_ch
             assert Rotation.from_rotvec(mean[3 * joint : 3 * joint + 3]).approx_equal(expected, atol=1e-9)
         averaged += len(near) > 1 and not np.allclose(mean, end)
     assert averaged  # some frame's estimate lies between the candidates
+
+
+def map_and_mean_runs(cache_dir, *overrides):
+    """``tbf_multi_view`` on the small dictionary with each estimate (``map``, ``mean``), both started, and 3 frames'
+    observations."""
+    from experiments.bench.tbf import observations, start_tracker
+    from experiments.components import build, compose
+    from tests.experiments.test_hybrid_run import SMALL_DICTIONARY
+
+    preset = ["experiment=tbf_multi_view", "scene.path=mocap/69_20.bvh", f"tracker.cache_dir={cache_dir}", *overrides]
+    runs = {way: build(compose([*preset, *SMALL_DICTIONARY, f"tracker.estimate={way}"])) for way in ("map", "mean")}
+    observed = observations(runs["map"], 3)
+    for run in runs.values():
+        start_tracker(run)
+    return runs, observed
