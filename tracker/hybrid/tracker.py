@@ -10,13 +10,13 @@ and the last refined pose) by the continuous fit of the tracker's own body to ev
 (`tracker.hybrid.silhouette_fit`: the joints and the root by Levenberg-Marquardt with the skinning's analytic Jacobian,
 the root held near where tree filtering placed the person, or, where the views could not place him, where the last
 refined pose stood: `root_held`), and the one that then explains the views best (the lowest
-`SilhouetteFit.fit_cost`; of those whose root turned at most ``max_turn_deg`` from the last refined pose) is refined on
-to the estimate. A hard frame, whose estimate costs more than ``rescue_ratio`` times the last frames' median, is
-searched again: every candidate screened, the ``screen_best`` lowest after their screen refined in full, the lowest
-kept. ``feed`` of the filter's posterior is moved onto the sample nearest it, so the next frame's prior starts from it
-(a worker thread searches the samples for it between the frames, `tracker.threads`; the next step moves the posterior
-before its prior). The tracker never sees the truth; the evaluation judges its estimates, and its dictionary's floor, as
-tree filtering's.
+`SilhouetteFit.fit_cost`; of those whose root turned at most ``max_turn_deg`` from the last refined pose, or from tree
+filtering's estimate: ``turn_from``) is refined on to the estimate. A hard frame, whose estimate costs more than
+``rescue_ratio`` times the last frames' median, is searched again: every candidate screened, the ``screen_best``
+lowest after their screen refined in full, the lowest kept. ``feed`` of the filter's posterior is moved onto the
+sample nearest it, so the next frame's prior starts from it (a worker thread searches the samples for it between the
+frames, `tracker.threads`; the next step moves the posterior before its prior). The tracker never sees the truth;
+the evaluation judges its estimates, and its dictionary's floor, as tree filtering's.
 
 The fit also follows the skin's features (`tracker.hybrid.feature_pairs`): each frame's features are tied to the
 refined body, and the next frame's pairs ask those points to move with them. They guide each candidate's fit; the

@@ -52,7 +52,8 @@ BOUNDING_NODES = 16  # the top level's nodes scored in every view first, for a l
 
 @dataclass(frozen=True)
 class FilterSettings:
-    """Eq 10's sigma, the pruning threshold, frame 0's prior and the prior's share spread over every sample."""
+    """Eq 10's sigma, the pruning threshold and beam, frame 0's prior, and the prior's shares moved to the depth flips
+    and spread over every sample."""
 
     likelihood_sigma: Positive = 1.0  # eq 10's sigma, in units of the cost's neighbour step at each level
     # Keep a node whose posterior is at least this fraction of its level's best (per view: with V views, this to

@@ -338,7 +338,7 @@ class TbfTracker(Tracker):
     def step(self, observation: Observation) -> TbfResult:
         """Place the frame's silhouettes (`placing`), filter them down the tree, and put the best sample (with a
         ``chain``, the end of the best chain) where the person stands (with ``estimate=mean``, its joints turned to
-        the most probable samples' mean)."""
+        the mean of the most probable samples, or of the chain's candidates near its end)."""
         if not observation.silhouettes:
             raise ValueError("tracker=tbf needs the frame's silhouette (the capture stage of a body scene)")
         start = time.perf_counter()
