@@ -258,21 +258,19 @@ class TbfTracker(Tracker):
         return AsSeen()
 
     def mean_rotations(self) -> np.ndarray:
-        """The joint rotations of the ``mean_of`` most probable samples (those of nonzero posterior), averaged
-        weighted by their posterior (`mean_rotation_vectors`): a pose vector's entries from 3 on."""
-        posterior = self.filter.posterior
-        top = most_probable(posterior, self.settings.mean_of)
-        if self.filter.flips is not None:  # of the most probable sample's side
-            top = top[self.on_side_of(top[0], top)]
-        rotations = np.asarray(self.samples.poses[top], dtype=np.float64)[:, 3:]
-        return mean_rotation_vectors(rotations.reshape(len(top), -1, 3), posterior[top]).ravel()
-
-    def chain_mean_rotations(self) -> np.ndarray:
-        """The joint rotations of the chain's candidates near its best (`BestChain.around_best`), averaged weighted
-        by their chains' probabilities: a pose vector's entries from 3 on."""
-        near, weights = self.chain.around_best(self.settings.chain.mean_radius_m)
-        rotations = np.asarray(self.samples.poses[near], dtype=np.float64)[:, 3:]
-        return mean_rotation_vectors(rotations.reshape(len(near), -1, 3), weights).ravel()
+        """The joint rotations the mean estimate averages (`mean_rotation_vectors`), weighted: a pose vector's entries
+        from 3 on. With a chain, its candidates near its best (`BestChain.around_best`), by their chains'
+        probabilities; else the ``mean_of`` most probable samples (those of nonzero posterior; with flips, of the most
+        probable sample's side), by their posterior."""
+        if self.chain is not None:
+            averaged, weights = self.chain.around_best(self.settings.chain.mean_radius_m)
+        else:
+            averaged = most_probable(self.filter.posterior, self.settings.mean_of)
+            if self.filter.flips is not None:
+                averaged = averaged[self.on_side_of(averaged[0], averaged)]
+            weights = self.filter.posterior[averaged]
+        rotations = np.asarray(self.samples.poses[averaged], dtype=np.float64)[:, 3:]
+        return mean_rotation_vectors(rotations.reshape(len(averaged), -1, 3), weights).ravel()
 
     def on_side_of(self, sample: int, others: np.ndarray) -> np.ndarray:
         """Which of ``others`` lie on ``sample``'s side of the depth ambiguity: nearer it than its flip (root-aligned
@@ -367,7 +365,7 @@ class TbfTracker(Tracker):
         self._seen[observation.frame] = (packed, placed.reference)
         estimate = self.placing.estimate(found.sample, found.pose, placed)
         if self.settings.estimate == "mean":
-            estimate[3:] = self.mean_rotations() if self.chain is None else self.chain_mean_rotations()
+            estimate[3:] = self.mean_rotations()
         self._estimate = self.estimate_of(estimate)
         result = TbfResult.of(
             self.part_names,
