@@ -106,20 +106,30 @@ def _framed_moved_sums(runs, values, width, rows, shifts):
 def test_moved_sums_read_the_windows_own_prefix_sums_with_the_bits_of_a_framed_one():
     """Cutting each moved piece at the window's edges and reading the window's prefix sums gives the bits of
     reading a prefix sum over the window framed by zeros (zeros added change no sum): shifts within and beyond the
-    window's size each way, runs that wrap over several rows, an empty silhouette."""
+    window's size each way, runs that wrap over several rows, an empty silhouette, and silhouettes that some shifts
+    keep within the window (read without cutting)."""
     rng = np.random.default_rng(17)
     height, width = 9, 7
     masks = rng.random((12, height, width)) < 0.45
     masks[3] = False
     masks[5, 2:6, :] = True  # one run over four rows
     masks[6, :, -2:], masks[6, :, :2] = True, True  # runs wrapping from each row's end into the next's start
+    masks[7], masks[8] = False, False
+    masks[7, 3:6, 2:5], masks[8, 2:7, 1:3], masks[8, 4, 4:6] = True, True, True  # within the window, one way or two
     runs = SilhouetteRuns.from_masks(masks)
+    extents = runs.extents(width)  # read without cutting: 7 and 8 where a shift keeps them in; never 3 and 6
+    np.testing.assert_array_equal(extents[[7, 8]], [[3, 5, 2, 5], [2, 6, 1, 6]])
+    assert extents[3, 1] == extents[6, 1] == -1
     values = rng.normal(size=height * width) * 10.0 ** rng.integers(-6, 6, height * width)  # rounding shows
     rows = np.array([5, 6, 0, 3, 11, 6, 5, 2, 9, 1, 4, 7, 8, 10])
     for shifts in (
         rng.integers(-3, 4, (len(rows), 2)),
         rng.integers(-2 * height, 2 * height, (len(rows), 2)),
         np.array([[width, 0], [-width, 0], [0, height], [0, -height], [width - 1, height - 1]] + [[0, 0]] * 9),
+        np.array(
+            [[0, 0], [1, -1], [-1, 2], [2, 3], [-2, -3], [1, 1], [-1, -1], [2, 0], [0, 3], [1, 0], [0, 0]]
+            + [[1, -2], [-1, 2], [0, 0]]
+        ),  # 7 and 8 moved within the window
     ):
         expected = _framed_moved_sums(runs, values, width, rows, shifts)
         assert runs.shifted_sums(values, width, rows, shifts).tobytes() == expected.tobytes()
