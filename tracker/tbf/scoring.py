@@ -102,10 +102,10 @@ class SilhouetteRuns:
         )
 
     def extents(self, width: int) -> np.ndarray:
-        """``(n, 4)`` int64: per silhouette of a window ``width`` pixels wide, its first and last row, its first
-        column and its last run's end column (exclusive, at most ``width``) over all its runs; a silhouette with no
-        runs, or with a run that goes on into the next row, has -1 for its last row. Made at the first call for a
-        width, then kept."""
+        """``(n, 4)`` int64: per silhouette of a window ``width`` pixels wide, the first and last row its runs cover,
+        the first column and the end of the last column (exclusive, at most ``width``); a silhouette with no runs,
+        or with a run that goes on into the next row, has -1 for its last row. Made at the first call for a width,
+        then kept."""
         if width not in self._extents:
             self._extents[width] = _run_extents(self.starts, self.ends, self.ptr, width)
         return self._extents[width]
