@@ -137,7 +137,7 @@ class TreeFilter:
         if spot_pixels is not None:  # the levels below score their runs moved: each silhouette's extent made here
             for stacks in self._stacks[1:]:  # (`SilhouetteRuns.extents`), not at frame 0
                 for stack in stacks:
-                    stack.runs.extents(stack.window[2] - stack.window[0])
+                    stack.runs.extents(stack.shape[1])
         self._occluded = samples.occluded(motion.occlusion_area_px)
         # Per level, each view's sigma (eq 10): its own neighbour step.
         self.level_sigmas = [
